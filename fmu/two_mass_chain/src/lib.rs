@@ -1,0 +1,2 @@
+//! The TwoMassChain FMU: this binary carries only this model.
+mbfmu::export_fmu!(mbfmu::systems::TwoMassChain);

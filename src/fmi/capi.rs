@@ -1,0 +1,633 @@
+//! The C side of the boundary: raw pointers in, checked Rust values out.
+//!
+//! Every function here is generic over the exported model and is called by a one-line
+//! `extern "C"` symbol from [`export_fmu!`](crate::export_fmu). Each one:
+//! - rejects NULL pointers and impossible lengths before touching memory,
+//! - runs its body under `catch_unwind`, so no panic crosses into the host,
+//! - turns every `Err` into fmi2Error and one line through the logger.
+
+use super::logger::CallbackFunctions;
+use super::machine;
+use super::{Export, Instance, Logger, Snapshot, Status, StepOutcome};
+use std::ffi::{c_char, c_int, c_uint, c_void, CStr};
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+pub type Component = *mut c_void;
+pub type FmuState = *mut c_void;
+
+/// fmi2Type: the only one this exporter builds.
+const FMI2_COSIMULATION: c_int = 1;
+
+/// fmi2StatusKind values this FMU answers (fmi2DoStepStatus and fmi2PendingStatus
+/// only concern asynchronous steps, which it never runs).
+const LAST_SUCCESSFUL_TIME: c_int = 2;
+const TERMINATED: c_int = 3;
+
+/// What an `fmi2FMUstate` points at. The tag and GUID let us reject a state pointer
+/// from another model instead of reading it as ours.
+struct StateBox {
+    tag: [u8; 8],
+    guid: &'static str,
+    snapshot: Snapshot,
+}
+
+const STATE_TAG: [u8; 8] = *b"mbfmuFMS";
+
+type Inst<E> = Instance<<E as Export>::Model>;
+
+fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown panic".into())
+}
+
+/// Runs `body` on the instance behind `c`: NULL check, debug log, panic guard, error log.
+fn call<E: Export>(
+    c: Component,
+    function: &str,
+    body: impl FnOnce(&mut Inst<E>) -> Result<Status, String>,
+) -> Status {
+    if c.is_null() {
+        return Status::Error;
+    }
+    let ptr = c as *mut Inst<E>;
+    let outcome = catch_unwind(AssertUnwindSafe(|| {
+        // SAFETY: `c` came from our fmi2Instantiate (a Box<Instance>) and the standard
+        // forbids using it after fmi2FreeInstance or from two threads at once.
+        let inst = unsafe { &mut *ptr };
+        if inst.logger.debug_enabled() {
+            inst.logger.debug(&format!("{function} called"));
+        }
+        body(inst)
+    }));
+    // SAFETY: as above; the body's borrow has ended.
+    let inst = unsafe { &mut *ptr };
+    match outcome {
+        Ok(Ok(status)) => status,
+        Ok(Err(message)) => {
+            inst.logger.failure(Status::Error, &message);
+            Status::Error
+        }
+        Err(payload) => {
+            inst.poison();
+            let text = panic_text(payload.as_ref());
+            let _ = catch_unwind(AssertUnwindSafe(|| {
+                inst.logger.failure(
+                    Status::Error,
+                    &format!("{function}: internal error, the instance is unusable: {text}"),
+                )
+            }));
+            Status::Error
+        }
+    }
+}
+
+/// A slice from a C array, or an error naming the NULL argument.
+///
+/// # Safety
+/// When `n > 0` and `ptr` is not NULL, `ptr` must point to `n` valid values.
+unsafe fn slice<'a, T>(
+    ptr: *const T,
+    n: usize,
+    what: &str,
+    function: &str,
+) -> Result<&'a [T], String> {
+    if n == 0 {
+        return Ok(&[]);
+    }
+    if ptr.is_null() {
+        return Err(format!("{function}: {what} is NULL but nvr = {n}"));
+    }
+    if n > isize::MAX as usize / std::mem::size_of::<T>().max(1) {
+        return Err(format!("{function}: nvr = {n} is impossibly large"));
+    }
+    Ok(std::slice::from_raw_parts(ptr, n))
+}
+
+/// # Safety
+/// As [`slice`], for writing.
+unsafe fn slice_mut<'a, T>(
+    ptr: *mut T,
+    n: usize,
+    what: &str,
+    function: &str,
+) -> Result<&'a mut [T], String> {
+    if n == 0 {
+        return Ok(&mut []);
+    }
+    if ptr.is_null() {
+        return Err(format!("{function}: {what} is NULL but nvr = {n}"));
+    }
+    if n > isize::MAX as usize / std::mem::size_of::<T>().max(1) {
+        return Err(format!("{function}: nvr = {n} is impossibly large"));
+    }
+    Ok(std::slice::from_raw_parts_mut(ptr, n))
+}
+
+fn ok(r: Result<(), String>) -> Result<Status, String> {
+    r.map(|()| Status::Ok)
+}
+
+pub fn get_types_platform() -> *const c_char {
+    c"default".as_ptr()
+}
+
+pub fn get_version() -> *const c_char {
+    c"2.0".as_ptr()
+}
+
+/// # Safety
+/// Pointers as the FMI 2.0 standard describes for fmi2Instantiate.
+pub unsafe fn instantiate<E: Export>(
+    instance_name: *const c_char,
+    fmu_type: c_int,
+    guid: *const c_char,
+    _resource_location: *const c_char,
+    functions: *const CallbackFunctions,
+    _visible: c_int,
+    logging_on: c_int,
+) -> Component {
+    let result = catch_unwind(AssertUnwindSafe(|| {
+        let (callback, env) = match functions.as_ref() {
+            Some(f) => (f.logger, f.component_environment),
+            None => return std::ptr::null_mut(),
+        };
+        let name = if instance_name.is_null() {
+            None
+        } else {
+            Some(CStr::from_ptr(instance_name).to_string_lossy().into_owned())
+        };
+        let logger = Logger::new(
+            callback,
+            env,
+            name.as_deref().unwrap_or("?"),
+            logging_on != 0,
+        );
+        let info = E::info();
+        let fail = |message: String| {
+            logger.failure(Status::Error, &format!("fmi2Instantiate: {message}"));
+            std::ptr::null_mut()
+        };
+        match name.as_deref() {
+            None | Some("") => return fail("instanceName is NULL or empty".into()),
+            Some(_) => {}
+        }
+        if fmu_type != FMI2_COSIMULATION {
+            return fail(format!(
+                "fmuType {fmu_type} requested; {} is a Co-Simulation FMU only (fmi2CoSimulation = 1)",
+                info.name
+            ));
+        }
+        if guid.is_null() {
+            return fail("fmuGUID is NULL".into());
+        }
+        let given = CStr::from_ptr(guid).to_string_lossy();
+        if given != info.guid.as_str() {
+            return fail(format!(
+                "fmuGUID {given} does not match this binary's {} (modelDescription.xml and binary from different builds?)",
+                info.guid
+            ));
+        }
+        let instance: Box<Inst<E>> = Box::new(Instance::new(info, logger));
+        Box::into_raw(instance) as Component
+    }));
+    result.unwrap_or(std::ptr::null_mut())
+}
+
+/// # Safety
+/// `c` is NULL or a live instance of this model.
+pub unsafe fn free_instance<E: Export>(c: Component) {
+    if c.is_null() {
+        return;
+    }
+    let _ = catch_unwind(AssertUnwindSafe(|| drop(Box::from_raw(c as *mut Inst<E>))));
+}
+
+/// # Safety
+/// `categories` points to `n` C strings when `n > 0`.
+pub unsafe fn set_debug_logging<E: Export>(
+    c: Component,
+    logging_on: c_int,
+    n: usize,
+    categories: *const *const c_char,
+) -> Status {
+    call::<E>(c, "fmi2SetDebugLogging", |inst| {
+        inst.require(machine::ANY, "fmi2SetDebugLogging")?;
+        let ptrs = slice(categories, n, "categories[]", "fmi2SetDebugLogging")?;
+        let mut names = Vec::with_capacity(n);
+        for &p in ptrs {
+            if p.is_null() {
+                return Err("fmi2SetDebugLogging: a category is NULL".into());
+            }
+            names.push(CStr::from_ptr(p).to_string_lossy().into_owned());
+        }
+        let names: Vec<&str> = names.iter().map(String::as_str).collect();
+        ok(inst
+            .logger
+            .set_debug_logging(logging_on != 0, &names)
+            .map_err(|e| format!("fmi2SetDebugLogging: {e}")))
+    })
+}
+
+pub fn setup_experiment<E: Export>(
+    c: Component,
+    tolerance_defined: c_int,
+    tolerance: f64,
+    start_time: f64,
+    stop_time_defined: c_int,
+    stop_time: f64,
+) -> Status {
+    call::<E>(c, "fmi2SetupExperiment", |inst| {
+        ok(inst.setup_experiment(
+            (tolerance_defined != 0).then_some(tolerance),
+            start_time,
+            (stop_time_defined != 0).then_some(stop_time),
+        ))
+    })
+}
+
+pub fn enter_initialization_mode<E: Export>(c: Component) -> Status {
+    call::<E>(c, "fmi2EnterInitializationMode", |inst| {
+        ok(inst.enter_initialization_mode())
+    })
+}
+
+pub fn exit_initialization_mode<E: Export>(c: Component) -> Status {
+    call::<E>(c, "fmi2ExitInitializationMode", |inst| {
+        ok(inst.exit_initialization_mode())
+    })
+}
+
+pub fn terminate<E: Export>(c: Component) -> Status {
+    call::<E>(c, "fmi2Terminate", |inst| ok(inst.terminate()))
+}
+
+pub fn reset<E: Export>(c: Component) -> Status {
+    call::<E>(c, "fmi2Reset", |inst| ok(inst.reset()))
+}
+
+/// # Safety
+/// `vr` and `value` point to `nvr` elements when `nvr > 0`.
+pub unsafe fn get_real<E: Export>(
+    c: Component,
+    vr: *const c_uint,
+    nvr: usize,
+    value: *mut f64,
+) -> Status {
+    call::<E>(c, "fmi2GetReal", |inst| {
+        let vr = slice(vr, nvr, "vr[]", "fmi2GetReal")?;
+        let value = slice_mut(value, nvr, "value[]", "fmi2GetReal")?;
+        ok(inst.get_real(vr, value))
+    })
+}
+
+/// # Safety
+/// As [`get_real`].
+pub unsafe fn set_real<E: Export>(
+    c: Component,
+    vr: *const c_uint,
+    nvr: usize,
+    value: *const f64,
+) -> Status {
+    call::<E>(c, "fmi2SetReal", |inst| {
+        let vr = slice(vr, nvr, "vr[]", "fmi2SetReal")?;
+        let value = slice(value, nvr, "value[]", "fmi2SetReal")?;
+        ok(inst.set_real(vr, value))
+    })
+}
+
+/// # Safety
+/// As [`get_real`].
+pub unsafe fn get_integer<E: Export>(
+    c: Component,
+    vr: *const c_uint,
+    nvr: usize,
+    value: *mut c_int,
+) -> Status {
+    call::<E>(c, "fmi2GetInteger", |inst| {
+        let vr = slice(vr, nvr, "vr[]", "fmi2GetInteger")?;
+        let value = slice_mut(value, nvr, "value[]", "fmi2GetInteger")?;
+        ok(inst.get_integer(vr, value))
+    })
+}
+
+/// # Safety
+/// As [`get_real`].
+pub unsafe fn set_integer<E: Export>(
+    c: Component,
+    vr: *const c_uint,
+    nvr: usize,
+    value: *const c_int,
+) -> Status {
+    call::<E>(c, "fmi2SetInteger", |inst| {
+        let vr = slice(vr, nvr, "vr[]", "fmi2SetInteger")?;
+        let value = slice(value, nvr, "value[]", "fmi2SetInteger")?;
+        ok(inst.set_integer(vr, value))
+    })
+}
+
+/// fmi2Get/SetBoolean and fmi2Get/SetString: the models have no such variables.
+///
+/// # Safety
+/// `vr` and `value` point to `nvr` elements when `nvr > 0`.
+pub unsafe fn no_such_type<E: Export, T>(
+    c: Component,
+    function: &str,
+    mask: u32,
+    vr: *const c_uint,
+    nvr: usize,
+    value: *const T,
+) -> Status {
+    call::<E>(c, function, |inst| {
+        let vr = slice(vr, nvr, "vr[]", function)?;
+        slice(value, nvr, "value[]", function)?;
+        ok(inst.no_variables_of_type(function, mask, vr))
+    })
+}
+
+pub const GET_MASK: u32 = machine::GET;
+pub const SET_MASK: u32 = machine::SET_INTEGER;
+
+/// Checks that `state` is an FMU state made by this model.
+///
+/// # Safety
+/// `state` is NULL or a pointer obtained from fmi2GetFMUstate / fmi2DeSerializeFMUstate.
+unsafe fn state_ref<'a, E: Export>(
+    state: FmuState,
+    function: &str,
+) -> Result<&'a mut StateBox, String> {
+    if state.is_null() {
+        return Err(format!("{function}: FMUstate is NULL"));
+    }
+    let b = &mut *(state as *mut StateBox);
+    if b.tag != STATE_TAG || b.guid != E::info().guid {
+        return Err(format!("{function}: FMUstate was not made by this model"));
+    }
+    Ok(b)
+}
+
+/// # Safety
+/// `state` points to an `fmi2FMUstate` (NULL or one of ours).
+pub unsafe fn get_fmu_state<E: Export>(c: Component, state: *mut FmuState) -> Status {
+    call::<E>(c, "fmi2GetFMUstate", |inst| {
+        inst.require(machine::FMU_STATE, "fmi2GetFMUstate")?;
+        if state.is_null() {
+            return Err("fmi2GetFMUstate: FMUstate is NULL".into());
+        }
+        let snapshot = inst.snapshot();
+        if (*state).is_null() {
+            let b = Box::new(StateBox {
+                tag: STATE_TAG,
+                guid: E::info().guid.as_str(),
+                snapshot,
+            });
+            *state = Box::into_raw(b) as FmuState;
+        } else {
+            state_ref::<E>(*state, "fmi2GetFMUstate")?.snapshot = snapshot;
+        }
+        Ok(Status::Ok)
+    })
+}
+
+/// # Safety
+/// `state` is NULL or one of ours.
+pub unsafe fn set_fmu_state<E: Export>(c: Component, state: FmuState) -> Status {
+    call::<E>(c, "fmi2SetFMUstate", |inst| {
+        let b = state_ref::<E>(state, "fmi2SetFMUstate")?;
+        ok(inst.restore(&b.snapshot))
+    })
+}
+
+/// # Safety
+/// `state` points to an `fmi2FMUstate` (NULL or one of ours).
+pub unsafe fn free_fmu_state<E: Export>(c: Component, state: *mut FmuState) -> Status {
+    call::<E>(c, "fmi2FreeFMUstate", |inst| {
+        inst.require(machine::FMU_STATE, "fmi2FreeFMUstate")?;
+        if state.is_null() {
+            return Err("fmi2FreeFMUstate: FMUstate is NULL".into());
+        }
+        if (*state).is_null() {
+            return Ok(Status::Ok);
+        }
+        state_ref::<E>(*state, "fmi2FreeFMUstate")?;
+        drop(Box::from_raw(*state as *mut StateBox));
+        *state = std::ptr::null_mut();
+        Ok(Status::Ok)
+    })
+}
+
+/// # Safety
+/// `state` is one of ours; `size` points to a writable `size_t`.
+pub unsafe fn serialized_fmu_state_size<E: Export>(
+    c: Component,
+    state: FmuState,
+    size: *mut usize,
+) -> Status {
+    call::<E>(c, "fmi2SerializedFMUstateSize", |inst| {
+        inst.require(machine::FMU_STATE, "fmi2SerializedFMUstateSize")?;
+        let b = state_ref::<E>(state, "fmi2SerializedFMUstateSize")?;
+        if size.is_null() {
+            return Err("fmi2SerializedFMUstateSize: size is NULL".into());
+        }
+        *size = inst.serialize(&b.snapshot).len();
+        Ok(Status::Ok)
+    })
+}
+
+/// # Safety
+/// `state` is one of ours; `bytes` points to `size` writable bytes.
+pub unsafe fn serialize_fmu_state<E: Export>(
+    c: Component,
+    state: FmuState,
+    bytes: *mut c_char,
+    size: usize,
+) -> Status {
+    call::<E>(c, "fmi2SerializeFMUstate", |inst| {
+        inst.require(machine::FMU_STATE, "fmi2SerializeFMUstate")?;
+        let b = state_ref::<E>(state, "fmi2SerializeFMUstate")?;
+        let blob = inst.serialize(&b.snapshot);
+        if size != blob.len() {
+            return Err(format!(
+                "fmi2SerializeFMUstate: size {size} differs from fmi2SerializedFMUstateSize = {}",
+                blob.len()
+            ));
+        }
+        let out = slice_mut(
+            bytes as *mut u8,
+            size,
+            "serializedState[]",
+            "fmi2SerializeFMUstate",
+        )?;
+        out.copy_from_slice(&blob);
+        Ok(Status::Ok)
+    })
+}
+
+/// # Safety
+/// `bytes` points to `size` bytes; `state` points to an `fmi2FMUstate` (NULL or ours).
+pub unsafe fn deserialize_fmu_state<E: Export>(
+    c: Component,
+    bytes: *const c_char,
+    size: usize,
+    state: *mut FmuState,
+) -> Status {
+    call::<E>(c, "fmi2DeSerializeFMUstate", |inst| {
+        inst.require(machine::FMU_STATE, "fmi2DeSerializeFMUstate")?;
+        if state.is_null() {
+            return Err("fmi2DeSerializeFMUstate: FMUstate is NULL".into());
+        }
+        let blob = slice(
+            bytes as *const u8,
+            size,
+            "serializedState[]",
+            "fmi2DeSerializeFMUstate",
+        )?;
+        let snapshot = inst.deserialize(blob)?;
+        if (*state).is_null() {
+            let b = Box::new(StateBox {
+                tag: STATE_TAG,
+                guid: E::info().guid.as_str(),
+                snapshot,
+            });
+            *state = Box::into_raw(b) as FmuState;
+        } else {
+            state_ref::<E>(*state, "fmi2DeSerializeFMUstate")?.snapshot = snapshot;
+        }
+        Ok(Status::Ok)
+    })
+}
+
+/// Declared unsupported (providesDirectionalDerivative = false).
+pub fn get_directional_derivative<E: Export>(c: Component) -> Status {
+    call::<E>(c, "fmi2GetDirectionalDerivative", |inst| {
+        inst.require(
+            machine::DIRECTIONAL_DERIVATIVE,
+            "fmi2GetDirectionalDerivative",
+        )?;
+        Err("fmi2GetDirectionalDerivative: not provided by this FMU (providesDirectionalDerivative = false)".into())
+    })
+}
+
+/// Declared unsupported (canInterpolateInputs = false).
+pub fn set_real_input_derivatives<E: Export>(c: Component) -> Status {
+    call::<E>(c, "fmi2SetRealInputDerivatives", |inst| {
+        inst.require(machine::INPUT_DERIVATIVES, "fmi2SetRealInputDerivatives")?;
+        Err("fmi2SetRealInputDerivatives: not supported (canInterpolateInputs = false): inputs are held constant over a step".into())
+    })
+}
+
+/// Declared unsupported (maxOutputDerivativeOrder = 0).
+pub fn get_real_output_derivatives<E: Export>(c: Component) -> Status {
+    call::<E>(c, "fmi2GetRealOutputDerivatives", |inst| {
+        inst.require(machine::OUTPUT_DERIVATIVES, "fmi2GetRealOutputDerivatives")?;
+        Err("fmi2GetRealOutputDerivatives: not supported (maxOutputDerivativeOrder = 0)".into())
+    })
+}
+
+pub fn do_step<E: Export>(c: Component, current: f64, h: f64, _no_set_prior: c_int) -> Status {
+    call::<E>(c, "fmi2DoStep", |inst| match inst.do_step(current, h)? {
+        StepOutcome::Completed => Ok(Status::Ok),
+        StepOutcome::Discarded(message) => {
+            inst.logger.failure(Status::Discard, &message);
+            Ok(Status::Discard)
+        }
+    })
+}
+
+pub fn cancel_step<E: Export>(c: Component) -> Status {
+    call::<E>(c, "fmi2CancelStep", |inst| {
+        inst.require(machine::CANCEL_STEP, "fmi2CancelStep")?;
+        Ok(Status::Ok)
+    })
+}
+
+/// Status kinds this FMU cannot report answer fmi2Discard (standard, 4.2.3).
+fn unavailable<E: Export>(inst: &Inst<E>, function: &str, kind: c_int) -> Result<Status, String> {
+    inst.require_status(function)?;
+    inst.logger.failure(
+        Status::Discard,
+        &format!(
+            "{function}: status kind {kind} is not available from this FMU (doStep is synchronous)"
+        ),
+    );
+    Ok(Status::Discard)
+}
+
+/// # Safety
+/// `value` points to a writable value of the kind's type.
+pub unsafe fn get_status<E: Export>(c: Component, kind: c_int, value: *mut c_int) -> Status {
+    call::<E>(c, "fmi2GetStatus", |inst| {
+        if value.is_null() {
+            return Err("fmi2GetStatus: value is NULL".into());
+        }
+        unavailable::<E>(inst, "fmi2GetStatus", kind)
+    })
+}
+
+/// # Safety
+/// As [`get_status`].
+pub unsafe fn get_real_status<E: Export>(c: Component, kind: c_int, value: *mut f64) -> Status {
+    call::<E>(c, "fmi2GetRealStatus", |inst| {
+        if value.is_null() {
+            return Err("fmi2GetRealStatus: value is NULL".into());
+        }
+        if kind == LAST_SUCCESSFUL_TIME {
+            *value = inst.last_successful_time()?;
+            return Ok(Status::Ok);
+        }
+        unavailable::<E>(inst, "fmi2GetRealStatus", kind)
+    })
+}
+
+/// # Safety
+/// As [`get_status`].
+pub unsafe fn get_integer_status<E: Export>(
+    c: Component,
+    kind: c_int,
+    value: *mut c_int,
+) -> Status {
+    call::<E>(c, "fmi2GetIntegerStatus", |inst| {
+        if value.is_null() {
+            return Err("fmi2GetIntegerStatus: value is NULL".into());
+        }
+        unavailable::<E>(inst, "fmi2GetIntegerStatus", kind)
+    })
+}
+
+/// # Safety
+/// As [`get_status`].
+pub unsafe fn get_boolean_status<E: Export>(
+    c: Component,
+    kind: c_int,
+    value: *mut c_int,
+) -> Status {
+    call::<E>(c, "fmi2GetBooleanStatus", |inst| {
+        if value.is_null() {
+            return Err("fmi2GetBooleanStatus: value is NULL".into());
+        }
+        if kind == TERMINATED {
+            inst.require_status("fmi2GetBooleanStatus")?;
+            // The slave never asks to end the simulation early.
+            *value = 0;
+            return Ok(Status::Ok);
+        }
+        unavailable::<E>(inst, "fmi2GetBooleanStatus", kind)
+    })
+}
+
+/// # Safety
+/// As [`get_status`].
+pub unsafe fn get_string_status<E: Export>(
+    c: Component,
+    kind: c_int,
+    value: *mut *const c_char,
+) -> Status {
+    call::<E>(c, "fmi2GetStringStatus", |inst| {
+        if value.is_null() {
+            return Err("fmi2GetStringStatus: value is NULL".into());
+        }
+        unavailable::<E>(inst, "fmi2GetStringStatus", kind)
+    })
+}

@@ -1,0 +1,448 @@
+//! One FMU instance: the FMI 2.0 state machine, argument checks, get/set, and doStep
+//! around an integrator. Safe code: pointers were checked by [`capi`](super::capi).
+//!
+//! A rejected call has no effect: every argument is checked before anything changes.
+
+use super::machine::{self, Machine};
+use super::{Logger, ModelInfo, Snapshot};
+use crate::integrators::{self, Memory, Method, Settings};
+use crate::model::{Slot, System, VarKind};
+use std::marker::PhantomData;
+
+/// How a doStep ended when it did not fail on its arguments.
+#[derive(Debug, PartialEq)]
+pub enum StepOutcome {
+    Completed,
+    /// The integration failed inside the step; the state is the last good one.
+    Discarded(String),
+}
+
+pub struct Instance<M: System> {
+    pub info: &'static ModelInfo,
+    pub logger: Logger,
+    data: Snapshot,
+    /// The values at instantiation, restored by fmi2Reset.
+    initial: Snapshot,
+    _model: PhantomData<M>,
+}
+
+type Res<T = ()> = Result<T, String>;
+
+impl<M: System> Instance<M> {
+    pub fn new(info: &'static ModelInfo, logger: Logger) -> Self {
+        let layout = &info.layout;
+        let start = |kind: VarKind| -> Vec<f64> {
+            layout
+                .vars
+                .iter()
+                .filter(|(s, _)| s.kind == kind)
+                .map(|(_, v)| v.start)
+                .collect()
+        };
+        let data = Snapshot {
+            params: start(VarKind::Parameter),
+            x: start(VarKind::State),
+            u: start(VarKind::Input),
+            method: Method::from_code(start(VarKind::SolverMethod)[0] as i32)
+                .expect("default method exists"),
+            solver_step: start(VarKind::SolverStep)[0],
+            time: 0.0,
+            start_time: 0.0,
+            stop_time: None,
+            tolerance: info.default_tolerance,
+            memory: Memory::default(),
+            machine: Machine::Instantiated,
+        };
+        Instance {
+            info,
+            logger,
+            initial: data.clone(),
+            data,
+            _model: PhantomData,
+        }
+    }
+
+    pub fn machine(&self) -> Machine {
+        self.data.machine
+    }
+
+    /// Moves to the error state (after a panic was caught: nothing can be trusted).
+    pub fn poison(&mut self) {
+        self.data.machine = Machine::Error;
+    }
+
+    pub fn time(&self) -> f64 {
+        self.data.time
+    }
+
+    pub fn stats(&self) -> integrators::Stats {
+        self.data.memory.stats
+    }
+
+    /// Fails unless the current state is in `mask`.
+    pub fn require(&self, mask: u32, function: &str) -> Res {
+        if mask & self.data.machine.code() == 0 {
+            return Err(format!(
+                "{function}: not allowed in state {:?} (allowed in: {})",
+                self.data.machine,
+                machine::describe(mask)
+            ));
+        }
+        Ok(())
+    }
+
+    pub fn setup_experiment(
+        &mut self,
+        tolerance: Option<f64>,
+        start_time: f64,
+        stop_time: Option<f64>,
+    ) -> Res {
+        self.require(machine::SETUP_EXPERIMENT, "fmi2SetupExperiment")?;
+        if let Some(tol) = tolerance {
+            if !(tol.is_finite() && tol > 0.0 && tol < 1.0) {
+                return Err(format!(
+                    "fmi2SetupExperiment: tolerance must be in (0, 1), got {tol}"
+                ));
+            }
+        }
+        if !start_time.is_finite() {
+            return Err(format!(
+                "fmi2SetupExperiment: startTime must be finite, got {start_time}"
+            ));
+        }
+        if let Some(stop) = stop_time {
+            if !(stop.is_finite() && stop >= start_time) {
+                return Err(format!(
+                    "fmi2SetupExperiment: stopTime must be finite and ≥ startTime = {start_time}, got {stop}"
+                ));
+            }
+        }
+        self.data.tolerance = tolerance.unwrap_or(self.info.default_tolerance);
+        self.data.start_time = start_time;
+        self.data.time = start_time;
+        self.data.stop_time = stop_time;
+        Ok(())
+    }
+
+    pub fn enter_initialization_mode(&mut self) -> Res {
+        self.require(machine::ENTER_INIT, "fmi2EnterInitializationMode")?;
+        self.data.machine = Machine::InitializationMode;
+        Ok(())
+    }
+
+    pub fn exit_initialization_mode(&mut self) -> Res {
+        self.require(machine::EXIT_INIT, "fmi2ExitInitializationMode")?;
+        let mut dx = vec![0.0; self.data.x.len()];
+        self.derivatives(&mut dx);
+        if let Some(i) = dx.iter().position(|v| !v.is_finite()) {
+            return Err(format!(
+                "fmi2ExitInitializationMode: the derivative of state {} is not finite at the initial point (check the parameters)",
+                self.state_name(i)
+            ));
+        }
+        self.data.memory = Memory::default();
+        self.data.machine = Machine::StepComplete;
+        Ok(())
+    }
+
+    pub fn terminate(&mut self) -> Res {
+        self.require(machine::TERMINATE, "fmi2Terminate")?;
+        self.data.machine = Machine::Terminated;
+        Ok(())
+    }
+
+    pub fn reset(&mut self) -> Res {
+        self.require(machine::RESET, "fmi2Reset")?;
+        self.data = self.initial.clone();
+        Ok(())
+    }
+
+    fn state_name(&self, i: usize) -> &str {
+        let vr = self.info.layout.vr_of_slot(VarKind::State, i);
+        &self.info.layout.vars[vr as usize].1.name
+    }
+
+    fn derivatives(&self, dx: &mut [f64]) {
+        let d = &self.data;
+        M::derivatives(d.time, &d.x, &d.u, &d.params, dx);
+    }
+
+    fn slot(&self, function: &str, vr: u32) -> Res<Slot> {
+        self.info.layout.slot(vr).ok_or_else(|| {
+            format!(
+                "{function}: unknown value reference {vr} (this model has 0 … {})",
+                self.info.layout.vars.len() - 1
+            )
+        })
+    }
+
+    fn name(&self, vr: u32) -> &str {
+        &self.info.layout.vars[vr as usize].1.name
+    }
+
+    pub fn get_real(&self, vrs: &[u32], values: &mut [f64]) -> Res {
+        self.require(machine::GET, "fmi2GetReal")?;
+        let slots = vrs
+            .iter()
+            .map(|&vr| {
+                let s = self.slot("fmi2GetReal", vr)?;
+                if s.kind == VarKind::SolverMethod {
+                    return Err(format!(
+                        "fmi2GetReal: value reference {vr} ({}) is an Enumeration, read it with fmi2GetInteger",
+                        self.name(vr)
+                    ));
+                }
+                Ok(s)
+            })
+            .collect::<Res<Vec<Slot>>>()?;
+        let d = &self.data;
+        let mut dx = Vec::new();
+        let mut y = Vec::new();
+        for (value, slot) in values.iter_mut().zip(slots) {
+            *value = match slot.kind {
+                VarKind::Parameter => d.params[slot.index],
+                VarKind::SolverStep => d.solver_step,
+                VarKind::State => d.x[slot.index],
+                VarKind::Input => d.u[slot.index],
+                VarKind::Derivative => {
+                    if dx.is_empty() {
+                        dx = vec![0.0; d.x.len()];
+                        self.derivatives(&mut dx);
+                    }
+                    dx[slot.index]
+                }
+                VarKind::Output => {
+                    if y.is_empty() {
+                        y = vec![0.0; self.info.layout.n_outputs];
+                        M::extra_outputs(d.time, &d.x, &d.u, &d.params, &mut y);
+                    }
+                    y[slot.index]
+                }
+                VarKind::SolverMethod => unreachable!("rejected above"),
+            };
+        }
+        Ok(())
+    }
+
+    pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Res {
+        self.require(machine::SET_REAL, "fmi2SetReal")?;
+        let mut slots = Vec::with_capacity(vrs.len());
+        for (&vr, &value) in vrs.iter().zip(values) {
+            let slot = self.slot("fmi2SetReal", vr)?;
+            let (_, var) = &self.info.layout.vars[vr as usize];
+            let name = &var.name;
+            match slot.kind {
+                VarKind::Derivative | VarKind::Output => {
+                    return Err(format!(
+                        "fmi2SetReal: {name} (value reference {vr}) is calculated by the model and cannot be set"
+                    ))
+                }
+                VarKind::SolverMethod => {
+                    return Err(format!(
+                        "fmi2SetReal: {name} (value reference {vr}) is an Enumeration, set it with fmi2SetInteger"
+                    ))
+                }
+                VarKind::Parameter | VarKind::SolverStep | VarKind::State => {
+                    if machine::BEFORE_INIT_DONE & self.data.machine.code() == 0 {
+                        return Err(format!(
+                            "fmi2SetReal: {name} (value reference {vr}) can only be set before fmi2ExitInitializationMode (state is {:?})",
+                            self.data.machine
+                        ));
+                    }
+                }
+                VarKind::Input => {}
+            }
+            if !value.is_finite() {
+                return Err(format!(
+                    "fmi2SetReal: value {value} for {name} (value reference {vr}) is not finite"
+                ));
+            }
+            if var.min.is_some_and(|min| value < min) || var.max.is_some_and(|max| value > max) {
+                return Err(format!(
+                    "fmi2SetReal: value {value} for {name} (value reference {vr}) is outside [{}, {}]",
+                    var.min.unwrap_or(f64::NEG_INFINITY),
+                    var.max.unwrap_or(f64::INFINITY)
+                ));
+            }
+            slots.push(slot);
+        }
+        let d = &mut self.data;
+        for (slot, &value) in slots.into_iter().zip(values) {
+            match slot.kind {
+                VarKind::Parameter => d.params[slot.index] = value,
+                VarKind::SolverStep => d.solver_step = value,
+                VarKind::State => d.x[slot.index] = value,
+                VarKind::Input => d.u[slot.index] = value,
+                _ => unreachable!("rejected above"),
+            }
+        }
+        Ok(())
+    }
+
+    pub fn get_integer(&self, vrs: &[u32], values: &mut [i32]) -> Res {
+        self.require(machine::GET, "fmi2GetInteger")?;
+        for &vr in vrs {
+            self.integer_slot("fmi2GetInteger", vr)?;
+        }
+        values.fill(self.data.method.code());
+        Ok(())
+    }
+
+    pub fn set_integer(&mut self, vrs: &[u32], values: &[i32]) -> Res {
+        self.require(machine::SET_INTEGER, "fmi2SetInteger")?;
+        let mut method = self.data.method;
+        for (&vr, &value) in vrs.iter().zip(values) {
+            self.integer_slot("fmi2SetInteger", vr)?;
+            if machine::BEFORE_INIT_DONE & self.data.machine.code() == 0 {
+                return Err(format!(
+                    "fmi2SetInteger: solver (value reference {vr}) can only be set before fmi2ExitInitializationMode"
+                ));
+            }
+            method = Method::from_code(value).ok_or_else(|| {
+                format!(
+                    "fmi2SetInteger: {value} is not a method code for solver (value reference {vr}); valid: {}",
+                    Method::ALL
+                        .iter()
+                        .map(|m| format!("{} = {}", m.code(), m.name()))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            })?;
+        }
+        self.data.method = method;
+        Ok(())
+    }
+
+    fn integer_slot(&self, function: &str, vr: u32) -> Res {
+        let slot = self.slot(function, vr)?;
+        if slot.kind != VarKind::SolverMethod {
+            return Err(format!(
+                "{function}: value reference {vr} ({}) is a Real, not an Integer/Enumeration",
+                self.name(vr)
+            ));
+        }
+        Ok(())
+    }
+
+    /// fmi2Get/SetBoolean and fmi2Get/SetString: this model has no such variables.
+    pub fn no_variables_of_type(&self, function: &str, mask: u32, vrs: &[u32]) -> Res {
+        self.require(mask, function)?;
+        if let Some(vr) = vrs.first() {
+            return Err(format!(
+                "{function}: value reference {vr} is not a variable of this type (the model has none)"
+            ));
+        }
+        Ok(())
+    }
+
+    pub fn do_step(&mut self, current: f64, h: f64) -> Res<StepOutcome> {
+        self.require(machine::DO_STEP, "fmi2DoStep")?;
+        if !(h.is_finite() && h > 0.0) {
+            return Err(format!(
+                "fmi2DoStep: communicationStepSize must be positive and finite, got {h}"
+            ));
+        }
+        let now = self.data.time;
+        let slack = 1e-9 * now.abs().max(1.0);
+        if !current.is_finite() || (current - now).abs() > slack {
+            return Err(format!(
+                "fmi2DoStep: currentCommunicationPoint {current} is not the FMU's time {now}"
+            ));
+        }
+        let t_end = current + h;
+        if let Some(stop) = self.data.stop_time {
+            if t_end > stop + 1e-9 * stop.abs().max(1.0) {
+                return Err(format!(
+                    "fmi2DoStep: the step ends at {t_end}, after stopTime {stop}"
+                ));
+            }
+        }
+        let layout = &self.info.layout;
+        let atol: Vec<f64> = (0..layout.n_states)
+            .map(|i| {
+                let vr = layout.vr_of_slot(VarKind::State, i) as usize;
+                self.data.tolerance * layout.vars[vr].1.nominal.unwrap_or(1.0)
+            })
+            .collect();
+        let d = &mut self.data;
+        let settings = Settings {
+            method: d.method,
+            rtol: d.tolerance,
+            atol,
+            step: d.solver_step,
+        };
+        let (u, p) = (&d.u, &d.params);
+        let mut rhs = |t: f64, x: &[f64], dx: &mut [f64]| M::derivatives(t, x, u, p, dx);
+        let mut t = current;
+        let mut x = d.x.clone();
+        let result =
+            integrators::advance(&mut rhs, &mut t, &mut x, t_end, &settings, &mut d.memory);
+        let mut y = vec![0.0; layout.n_outputs];
+        M::extra_outputs(t, &x, u, p, &mut y);
+        let outputs_finite = x.iter().chain(&y).all(|v| v.is_finite());
+        match result {
+            Ok(()) if outputs_finite => {
+                d.x = x;
+                d.time = t_end;
+                Ok(StepOutcome::Completed)
+            }
+            Ok(()) => {
+                d.machine = Machine::StepFailed;
+                Ok(StepOutcome::Discarded(format!(
+                    "fmi2DoStep: outputs became non-finite at t = {t_end}; state kept at t = {now}"
+                )))
+            }
+            Err(failure) if x.iter().chain(&y).all(|v| v.is_finite()) => {
+                d.x = x;
+                d.time = t;
+                d.machine = Machine::StepFailed;
+                Ok(StepOutcome::Discarded(format!(
+                    "fmi2DoStep: {failure}; integration stopped at the last good state, t = {t}"
+                )))
+            }
+            Err(failure) => {
+                d.machine = Machine::StepFailed;
+                Ok(StepOutcome::Discarded(format!(
+                    "fmi2DoStep: {failure}; state kept at t = {now}"
+                )))
+            }
+        }
+    }
+
+    /// fmi2GetRealStatus(fmi2LastSuccessfulTime).
+    pub fn last_successful_time(&self) -> Res<f64> {
+        self.require(machine::STATUS, "fmi2GetRealStatus")?;
+        Ok(self.data.time)
+    }
+
+    pub fn require_status(&self, function: &str) -> Res {
+        self.require(machine::STATUS, function)
+    }
+
+    pub fn snapshot(&self) -> Snapshot {
+        self.data.clone()
+    }
+
+    pub fn restore(&mut self, snapshot: &Snapshot) -> Res {
+        self.require(machine::FMU_STATE, "fmi2SetFMUstate")?;
+        let l = &self.info.layout;
+        if snapshot.params.len() != l.n_params
+            || snapshot.x.len() != l.n_states
+            || snapshot.u.len() != l.n_inputs
+        {
+            return Err("fmi2SetFMUstate: the FMU state belongs to another model".into());
+        }
+        self.data = snapshot.clone();
+        Ok(())
+    }
+
+    pub fn serialize(&self, snapshot: &Snapshot) -> Vec<u8> {
+        snapshot.serialize(&self.info.guid)
+    }
+
+    pub fn deserialize(&self, bytes: &[u8]) -> Res<Snapshot> {
+        let l = &self.info.layout;
+        Snapshot::deserialize(bytes, &self.info.guid, [l.n_params, l.n_states, l.n_inputs])
+            .map_err(|e| format!("fmi2DeSerializeFMUstate: {e}"))
+    }
+}

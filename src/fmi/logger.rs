@@ -1,0 +1,134 @@
+//! The logger callback of the environment, and which categories are switched on.
+
+use super::Status;
+use crate::xml::LOG_CATEGORIES;
+use std::ffi::{c_char, c_int, c_void, CString};
+
+/// `fmi2CallbackLogger`: variadic, printf-style. We always pass `"%s"` and the
+/// message as the one argument, so a `%` in a message can never be misread.
+pub type CallbackLogger = unsafe extern "C" fn(
+    env: *mut c_void,
+    instance_name: *const c_char,
+    status: c_int,
+    category: *const c_char,
+    message: *const c_char,
+    ...
+);
+
+/// `fmi2CallbackFunctions`, laid out as in fmi2FunctionTypes.h.
+#[repr(C)]
+pub struct CallbackFunctions {
+    pub logger: Option<CallbackLogger>,
+    pub allocate_memory: Option<unsafe extern "C" fn(usize, usize) -> *mut c_void>,
+    pub free_memory: Option<unsafe extern "C" fn(*mut c_void)>,
+    pub step_finished: Option<unsafe extern "C" fn(*mut c_void, c_int)>,
+    pub component_environment: *mut c_void,
+}
+
+/// Sends lines to the environment's logger.
+pub struct Logger {
+    callback: Option<CallbackLogger>,
+    env: *mut c_void,
+    instance_name: CString,
+    logging_on: bool,
+    /// Bit i set: category `LOG_CATEGORIES[i]` is on.
+    enabled: u32,
+}
+
+const ALL_CATEGORIES: u32 = (1 << LOG_CATEGORIES.len()) - 1;
+
+impl Logger {
+    pub fn new(
+        callback: Option<CallbackLogger>,
+        env: *mut c_void,
+        instance_name: &str,
+        logging_on: bool,
+    ) -> Self {
+        Logger {
+            callback,
+            env,
+            instance_name: to_cstring(instance_name),
+            logging_on,
+            enabled: ALL_CATEGORIES,
+        }
+    }
+
+    /// A logger that prints nothing, for Rust-side use of an [`Instance`](super::Instance).
+    pub fn silent(instance_name: &str) -> Self {
+        Logger::new(None, std::ptr::null_mut(), instance_name, false)
+    }
+
+    /// fmi2SetDebugLogging: an empty list switches every category.
+    pub fn set_debug_logging(&mut self, on: bool, categories: &[&str]) -> Result<(), String> {
+        let mut bits = 0;
+        for c in categories {
+            let i = LOG_CATEGORIES
+                .iter()
+                .position(|(name, _)| name == c)
+                .ok_or_else(|| format!("unknown log category \"{c}\""))?;
+            bits |= 1 << i;
+        }
+        self.logging_on = on;
+        self.enabled = if categories.is_empty() {
+            ALL_CATEGORIES
+        } else {
+            bits
+        };
+        Ok(())
+    }
+
+    fn category_on(&self, category: &str) -> bool {
+        LOG_CATEGORIES
+            .iter()
+            .position(|(name, _)| *name == category)
+            .is_some_and(|i| self.enabled & (1 << i) != 0)
+    }
+
+    /// A failure: always reported (it is not debug output), under the category of its status.
+    pub fn failure(&self, status: Status, message: &str) {
+        let category = match status {
+            Status::Warning => "logStatusWarning",
+            Status::Discard => "logStatusDiscard",
+            Status::Fatal => "logStatusFatal",
+            _ => "logStatusError",
+        };
+        self.emit(status, category, message);
+    }
+
+    /// Debug output (category logAll): only when logging is on and logAll enabled.
+    pub fn debug(&self, message: &str) {
+        if self.logging_on && self.category_on("logAll") {
+            self.emit(Status::Ok, "logAll", message);
+        }
+    }
+
+    pub fn debug_enabled(&self) -> bool {
+        self.logging_on && self.category_on("logAll")
+    }
+
+    fn emit(&self, status: Status, category: &str, message: &str) {
+        let Some(callback) = self.callback else {
+            return;
+        };
+        let category = to_cstring(category);
+        let message = to_cstring(message);
+        // SAFETY: the environment gave us this callback in fmi2Instantiate and promised
+        // it stays valid for the instance's life; every pointer passed is a live,
+        // NUL-terminated string owned by this frame.
+        unsafe {
+            callback(
+                self.env,
+                self.instance_name.as_ptr(),
+                status as c_int,
+                category.as_ptr(),
+                c"%s".as_ptr(),
+                message.as_ptr(),
+            );
+        }
+    }
+}
+
+/// A C string from text that might hold a NUL (replaced, never truncated silently).
+fn to_cstring(s: &str) -> CString {
+    CString::new(s.replace('\0', "\\0")).expect("NULs replaced")
+}

@@ -1,0 +1,169 @@
+//! The full state of an instance (FMU state): model values, time, experiment setup,
+//! integrator memory and the state machine, plus its portable byte layout.
+//!
+//! Serialized layout (little-endian): magic (8 bytes), format version (u32), GUID
+//! (u32 length + UTF-8), counts of parameters, states, inputs (u32 each), then the
+//! fields in the order of [`Snapshot::write`]. A blob from another model (GUID), another
+//! format version, or of the wrong length is rejected.
+
+use super::Machine;
+use crate::integrators::{Memory, Method, Stats};
+
+pub const SNAPSHOT_MAGIC: [u8; 8] = *b"MBFMU\0ST";
+pub const SNAPSHOT_VERSION: u32 = 1;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Snapshot {
+    pub params: Vec<f64>,
+    pub x: Vec<f64>,
+    pub u: Vec<f64>,
+    pub method: Method,
+    pub solver_step: f64,
+    pub time: f64,
+    pub start_time: f64,
+    pub stop_time: Option<f64>,
+    pub tolerance: f64,
+    pub memory: Memory,
+    pub machine: Machine,
+}
+
+struct Reader<'a> {
+    bytes: &'a [u8],
+}
+
+impl<'a> Reader<'a> {
+    fn take(&mut self, n: usize) -> Result<&'a [u8], String> {
+        if self.bytes.len() < n {
+            return Err("serialized FMU state is truncated".into());
+        }
+        let (head, rest) = self.bytes.split_at(n);
+        self.bytes = rest;
+        Ok(head)
+    }
+    fn u32(&mut self) -> Result<u32, String> {
+        Ok(u32::from_le_bytes(
+            self.take(4)?.try_into().expect("4 bytes"),
+        ))
+    }
+    fn u64(&mut self) -> Result<u64, String> {
+        Ok(u64::from_le_bytes(
+            self.take(8)?.try_into().expect("8 bytes"),
+        ))
+    }
+    fn f64(&mut self) -> Result<f64, String> {
+        Ok(f64::from_bits(self.u64()?))
+    }
+    fn f64s(&mut self, n: usize) -> Result<Vec<f64>, String> {
+        (0..n).map(|_| self.f64()).collect()
+    }
+}
+
+impl Snapshot {
+    /// The serialized bytes of this snapshot for the model with this GUID.
+    pub fn serialize(&self, guid: &str) -> Vec<u8> {
+        let mut b = Vec::with_capacity(256);
+        b.extend_from_slice(&SNAPSHOT_MAGIC);
+        b.extend_from_slice(&SNAPSHOT_VERSION.to_le_bytes());
+        b.extend_from_slice(&(guid.len() as u32).to_le_bytes());
+        b.extend_from_slice(guid.as_bytes());
+        for n in [self.params.len(), self.x.len(), self.u.len()] {
+            b.extend_from_slice(&(n as u32).to_le_bytes());
+        }
+        let f = |b: &mut Vec<u8>, v: f64| b.extend_from_slice(&v.to_bits().to_le_bytes());
+        for &v in self.params.iter().chain(&self.x).chain(&self.u) {
+            f(&mut b, v);
+        }
+        b.extend_from_slice(&(self.method.code() as u32).to_le_bytes());
+        f(&mut b, self.solver_step);
+        f(&mut b, self.time);
+        f(&mut b, self.start_time);
+        b.push(self.stop_time.is_some() as u8);
+        f(&mut b, self.stop_time.unwrap_or(0.0));
+        f(&mut b, self.tolerance);
+        f(&mut b, self.memory.h);
+        let s = self.memory.stats;
+        for v in [s.rhs_evals, s.steps, s.rejected] {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+        b.extend_from_slice(&self.machine.code().to_le_bytes());
+        b
+    }
+
+    /// Reads a blob written by [`Snapshot::serialize`] for the model `guid` with the
+    /// given counts of parameters, states and inputs.
+    pub fn deserialize(bytes: &[u8], guid: &str, counts: [usize; 3]) -> Result<Snapshot, String> {
+        let mut r = Reader { bytes };
+        if r.take(8)
+            .map_err(|_| "not an FMU state of this tool (too short)".to_string())?
+            != SNAPSHOT_MAGIC
+        {
+            return Err("not an FMU state of this tool (bad magic)".into());
+        }
+        let version = r.u32()?;
+        if version != SNAPSHOT_VERSION {
+            return Err(format!(
+                "FMU state format version {version}, this FMU reads version {SNAPSHOT_VERSION}"
+            ));
+        }
+        let n = r.u32()? as usize;
+        let blob_guid = r.take(n)?;
+        if blob_guid != guid.as_bytes() {
+            return Err(format!(
+                "FMU state belongs to another model (GUID {}), this model is {guid}",
+                String::from_utf8_lossy(blob_guid)
+            ));
+        }
+        let found = [r.u32()? as usize, r.u32()? as usize, r.u32()? as usize];
+        if found != counts {
+            return Err(format!(
+                "FMU state has {found:?} parameters/states/inputs, the model {counts:?}"
+            ));
+        }
+        let params = r.f64s(counts[0])?;
+        let x = r.f64s(counts[1])?;
+        let u = r.f64s(counts[2])?;
+        let code = r.u32()?;
+        let method = Method::from_code(code as i32)
+            .ok_or_else(|| format!("FMU state names unknown method {code}"))?;
+        let solver_step = r.f64()?;
+        let time = r.f64()?;
+        let start_time = r.f64()?;
+        let has_stop = r.take(1)?[0];
+        let stop = r.f64()?;
+        let tolerance = r.f64()?;
+        let h = r.f64()?;
+        let stats = Stats {
+            rhs_evals: r.u64()?,
+            steps: r.u64()?,
+            rejected: r.u64()?,
+        };
+        let code = r.u32()?;
+        let machine = Machine::from_code(code)
+            .ok_or_else(|| format!("FMU state names unknown machine state {code}"))?;
+        if !r.bytes.is_empty() {
+            return Err(format!("FMU state has {} trailing bytes", r.bytes.len()));
+        }
+        let all_finite = params
+            .iter()
+            .chain(&x)
+            .chain(&u)
+            .chain([&solver_step, &time, &start_time, &stop, &tolerance, &h])
+            .all(|v| v.is_finite());
+        if !all_finite || has_stop > 1 {
+            return Err("FMU state holds non-finite or invalid values".into());
+        }
+        Ok(Snapshot {
+            params,
+            x,
+            u,
+            method,
+            solver_step,
+            time,
+            start_time,
+            stop_time: (has_stop == 1).then_some(stop),
+            tolerance,
+            memory: Memory { h, stats },
+            machine,
+        })
+    }
+}

@@ -1,0 +1,263 @@
+//! The methods that advance a system's state inside `fmi2DoStep`.
+//!
+//! One entry point, [`advance`], integrates from the current time to exactly the end of the
+//! communication step. What must survive between communication steps (the step-size proposal
+//! and the work counters) lives in [`Memory`], which is part of the serialized FMU state, so a
+//! restored state continues bit for bit as the original would have.
+
+// The `rhs` parameter spells out `&mut dyn FnMut(f64, &[f64], &mut [f64])` on purpose: it is
+// the interface other modules call, and an alias would hide what it takes.
+#![allow(clippy::type_complexity)]
+
+pub mod dopri5;
+pub mod rk4;
+
+use std::fmt;
+
+/// Integration method, chosen by the FMU's `solver` parameter (these integer codes are public API).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// Classic fourth-order Runge–Kutta, fixed step: cheap and predictable.
+    Rk4 = 1,
+    /// Dormand–Prince 5(4), adaptive step: accuracy by tolerance.
+    Dopri5 = 2,
+}
+
+impl Method {
+    /// Every method, in code order (for the modelDescription enumeration).
+    pub const ALL: [Method; 2] = [Method::Rk4, Method::Dopri5];
+
+    /// The method with this `solver` code, if any.
+    pub fn from_code(code: i32) -> Option<Method> {
+        Method::ALL.into_iter().find(|m| m.code() == code)
+    }
+
+    /// The `solver` code of this method.
+    pub fn code(self) -> i32 {
+        self as i32
+    }
+
+    /// Short display name, also the enumeration item name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Rk4 => "RK4",
+            Method::Dopri5 => "DOPRI5",
+        }
+    }
+}
+
+/// What the caller chooses for one call of [`advance`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Settings {
+    pub method: Method,
+    /// Relative tolerance (adaptive methods).
+    pub rtol: f64,
+    /// Absolute tolerance per state component (adaptive methods). Must have one entry per
+    /// state for DOPRI5, and `atol[i] + rtol·|x[i]|` must stay positive.
+    pub atol: Vec<f64>,
+    /// Fixed step of RK4; upper bound on the step of DOPRI5.
+    /// A value that is not positive and finite means "no step": RK4 then takes one step over
+    /// the whole interval, DOPRI5 has no upper bound.
+    pub step: f64,
+}
+
+/// Counters: noise-free measures of work. Part of the FMU state.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Stats {
+    /// Every evaluation of the right-hand side, including those of failed steps.
+    pub rhs_evals: u64,
+    /// Accepted steps.
+    pub steps: u64,
+    /// Rejected steps (error estimate above tolerance); always 0 for RK4.
+    pub rejected: u64,
+}
+
+/// What an integrator carries from one call of `advance` to the next.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Memory {
+    /// The controller's step-size proposal carried across calls; 0 = none yet (choose an initial step).
+    /// Only DOPRI5 uses it; RK4 leaves it alone. Reset to 0 when a call fails, so a retry
+    /// starts from a fresh estimate instead of a step that has just proved hopeless.
+    pub h: f64,
+    pub stats: Stats,
+}
+
+/// Why [`advance`] stopped early. In every case the state was left at the last accepted step.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Failure {
+    /// The step attempted from `t` (the last accepted time) produced a NaN or infinity,
+    /// in a stage derivative or in the new state (or the state was already non-finite).
+    NonFinite { t: f64 },
+    /// The step-size controller asked for a step `h` below the smallest step that still
+    /// moves `t` meaningfully: typically a singularity or discontinuity near `t`.
+    StepTooSmall { t: f64, h: f64 },
+    /// The call needed more than [`MAX_STEPS`] steps (accepted + rejected; for RK4, planned).
+    TooManySteps { t: f64, steps: u64 },
+}
+
+impl fmt::Display for Failure {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            Failure::NonFinite { t } => {
+                write!(f, "state became non-finite in the step after t = {t} s")
+            }
+            Failure::StepTooSmall { t, h } => write!(
+                f,
+                "step size {h:e} s became too small at t = {t} s (singularity or discontinuity?)"
+            ),
+            Failure::TooManySteps { t, steps } => write!(
+                f,
+                "gave up at t = {t} s after {steps} steps in one communication step"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for Failure {}
+
+/// Most steps one call of [`advance`] may take before giving up: bounds the time a single
+/// `fmi2DoStep` can hang on a hopeless problem (dopri5.f uses 100 000 by default; a
+/// communication step may legitimately be long, so we allow more).
+pub const MAX_STEPS: u64 = 1_000_000;
+
+/// Advance `x` from `*t` to exactly `t_end` (> *t). On success `*t == t_end` bit for bit
+/// (the last internal step is shortened to land on t_end, never overshoots).
+/// On failure, `*t` and `x` hold the last accepted (finite) step, and the error says why.
+///
+/// `t_end == *t` is a no-op. Panics if `t_end < *t` or either is NaN: that is a caller bug,
+/// not a numerical failure.
+pub fn advance(
+    rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
+    t: &mut f64,
+    x: &mut [f64],
+    t_end: f64,
+    settings: &Settings,
+    memory: &mut Memory,
+) -> Result<(), Failure> {
+    assert!(
+        t_end >= *t,
+        "integrators::advance: t_end = {t_end} must not precede t = {}",
+        *t
+    );
+    if t_end == *t {
+        return Ok(());
+    }
+    // A non-finite start would poison every step; report it before spending work.
+    if !x.iter().all(|v| v.is_finite()) {
+        return Err(Failure::NonFinite { t: *t });
+    }
+    match settings.method {
+        Method::Rk4 => rk4::advance(rhs, t, x, t_end, settings.step, &mut memory.stats),
+        Method::Dopri5 => dopri5::advance(rhs, t, x, t_end, settings, memory),
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod test_support {
+    /// Harmonic oscillator x'' = -ω² x as the first-order system (x, v).
+    pub const OMEGA: f64 = 10.0;
+
+    pub fn oscillator(_t: f64, y: &[f64], dy: &mut [f64]) {
+        dy[0] = y[1];
+        dy[1] = -OMEGA * OMEGA * y[0];
+    }
+
+    /// Closed form from x(0) = 1, v(0) = 0.
+    pub fn oscillator_exact(t: f64) -> [f64; 2] {
+        [(OMEGA * t).cos(), -OMEGA * (OMEGA * t).sin()]
+    }
+
+    /// Error in the energy-consistent scale: position error and velocity error / ω,
+    /// so both components weigh the same for amplitude 1.
+    pub fn oscillator_error(t: f64, y: &[f64]) -> f64 {
+        let e = oscillator_exact(t);
+        (y[0] - e[0]).abs().max((y[1] - e[1]).abs() / OMEGA)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn method_codes_round_trip() {
+        assert_eq!(Method::from_code(1), Some(Method::Rk4));
+        assert_eq!(Method::from_code(2), Some(Method::Dopri5));
+        assert_eq!(Method::from_code(0), None);
+        assert_eq!(Method::from_code(3), None);
+        for m in Method::ALL {
+            assert_eq!(Method::from_code(m.code()), Some(m));
+        }
+        assert_eq!(Method::Rk4.name(), "RK4");
+        assert_eq!(Method::Dopri5.name(), "DOPRI5");
+    }
+
+    #[test]
+    fn failure_display_is_one_line() {
+        let all = [
+            Failure::NonFinite { t: 1.234 },
+            Failure::StepTooSmall { t: 0.999, h: 1e-15 },
+            Failure::TooManySteps {
+                t: 2.0,
+                steps: MAX_STEPS,
+            },
+        ];
+        for f in all {
+            let s = f.to_string();
+            assert!(!s.contains('\n') && s.contains("t = "), "{s}");
+        }
+        assert_eq!(
+            Failure::NonFinite { t: 1.234 }.to_string(),
+            "state became non-finite in the step after t = 1.234 s"
+        );
+    }
+
+    #[test]
+    fn non_finite_start_fails_without_work() {
+        for method in Method::ALL {
+            let settings = Settings {
+                method,
+                rtol: 1e-6,
+                atol: vec![1e-6],
+                step: 0.1,
+            };
+            let mut memory = Memory::default();
+            let (mut t, mut x) = (0.0, [f64::NAN]);
+            let r = advance(
+                &mut |_, _, d| d[0] = 1.0,
+                &mut t,
+                &mut x,
+                1.0,
+                &settings,
+                &mut memory,
+            );
+            assert_eq!(r, Err(Failure::NonFinite { t: 0.0 }));
+            assert_eq!(memory.stats, Stats::default());
+        }
+    }
+
+    #[test]
+    fn zero_length_interval_is_a_no_op() {
+        for method in Method::ALL {
+            let settings = Settings {
+                method,
+                rtol: 1e-6,
+                atol: vec![1e-6],
+                step: 0.1,
+            };
+            let mut memory = Memory::default();
+            let (mut t, mut x) = (1.0, [2.0]);
+            advance(
+                &mut |_, _, d| d[0] = 1.0,
+                &mut t,
+                &mut x,
+                1.0,
+                &settings,
+                &mut memory,
+            )
+            .unwrap();
+            assert_eq!((t, x[0]), (1.0, 2.0));
+            assert_eq!(memory, Memory::default());
+        }
+    }
+}

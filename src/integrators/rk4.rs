@@ -1,0 +1,241 @@
+//! Classic fourth-order Runge–Kutta with a fixed step.
+//!
+//! Fixed steps make the cost of a communication step known in advance and the result
+//! independent of tolerances; the price is that accuracy is the user's business.
+
+use super::{Failure, Stats, MAX_STEPS};
+
+/// A final remainder shorter than this fraction of a step is merged into the previous step:
+/// a sliver step (often pure rounding of `t_end - t`) would cost four RHS evaluations and
+/// change nothing but the step count.
+pub const SLIVER: f64 = 1e-10;
+
+/// Number of steps needed to cover `span` with steps of `step`, the last one shortened
+/// (or lengthened by at most a [`SLIVER`]) to land exactly.
+fn step_count(span: f64, step: f64) -> f64 {
+    if !(step > 0.0 && step.is_finite()) {
+        return 1.0;
+    }
+    let full = (span / step).floor();
+    let rest = span - full * step;
+    if rest <= SLIVER * step {
+        full.max(1.0)
+    } else {
+        full + 1.0
+    }
+}
+
+/// Advance with RK4 from `*t` to `t_end` (> `*t`, `x` finite; see [`super::advance`]).
+///
+/// Step `i` runs from `t0 + i·step` to `t0 + (i+1)·step` (the last one to `t_end`): times
+/// are computed from the start, not accumulated, so rounding does not drift.
+pub fn advance(
+    rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
+    t: &mut f64,
+    x: &mut [f64],
+    t_end: f64,
+    step: f64,
+    stats: &mut Stats,
+) -> Result<(), Failure> {
+    let t0 = *t;
+    let n = step_count(t_end - t0, step);
+    if n > MAX_STEPS as f64 {
+        // Known before any work: fail at once rather than after a million steps.
+        return Err(Failure::TooManySteps {
+            t: t0,
+            steps: n as u64,
+        });
+    }
+    let n = n as u64;
+    let dim = x.len();
+    let (mut k1, mut k2, mut k3, mut k4) = (
+        vec![0.0; dim],
+        vec![0.0; dim],
+        vec![0.0; dim],
+        vec![0.0; dim],
+    );
+    let mut y = vec![0.0; dim];
+
+    for i in 0..n {
+        let ta = *t;
+        let tb = if i + 1 == n {
+            t_end
+        } else {
+            t0 + (i + 1) as f64 * step
+        };
+        let h = tb - ta;
+        let tm = ta + 0.5 * h;
+
+        rhs(ta, x, &mut k1);
+        for j in 0..dim {
+            y[j] = x[j] + 0.5 * h * k1[j];
+        }
+        rhs(tm, &y, &mut k2);
+        for j in 0..dim {
+            y[j] = x[j] + 0.5 * h * k2[j];
+        }
+        rhs(tm, &y, &mut k3);
+        for j in 0..dim {
+            y[j] = x[j] + h * k3[j];
+        }
+        rhs(tb, &y, &mut k4);
+        stats.rhs_evals += 4;
+        for j in 0..dim {
+            y[j] = x[j] + h / 6.0 * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j]);
+        }
+        // Every stage enters the new state with a nonzero weight, so a non-finite stage always
+        // makes it non-finite (inf - inf is NaN): checking the new state suffices.
+        if !y.iter().all(|v| v.is_finite()) {
+            return Err(Failure::NonFinite { t: ta });
+        }
+        x.copy_from_slice(&y);
+        *t = tb;
+        stats.steps += 1;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::test_support::{oscillator, oscillator_error};
+    use super::super::{self as integ, Memory, Method, Settings};
+    use super::*;
+
+    fn run_rk4(step: f64, t_end: f64) -> (f64, [f64; 2], Stats) {
+        let settings = Settings {
+            method: Method::Rk4,
+            rtol: 0.0,
+            atol: vec![],
+            step,
+        };
+        let mut memory = Memory::default();
+        let (mut t, mut x) = (0.0, [1.0, 0.0]);
+        integ::advance(
+            &mut oscillator,
+            &mut t,
+            &mut x,
+            t_end,
+            &settings,
+            &mut memory,
+        )
+        .unwrap();
+        (t, x, memory.stats)
+    }
+
+    #[test]
+    fn rk4_oscillator_matches_closed_form() {
+        let (t, x, stats) = run_rk4(1e-3, 10.0);
+        assert_eq!(t.to_bits(), 10.0f64.to_bits());
+        let err = oscillator_error(10.0, &x);
+        // Measured: 7.15e-9 (phase error ≈ ωT·(ωh)⁴/120 = 8.3e-9 rad, minus the amplitude part).
+        assert!(err < 1e-8, "error {err:e}");
+        assert!(err > 1e-9, "suspiciously exact: {err:e}");
+        assert_eq!(stats.steps, 10_000);
+        assert_eq!(stats.rhs_evals, 40_000);
+        assert_eq!(stats.rejected, 0);
+    }
+
+    #[test]
+    fn rk4_is_fourth_order() {
+        let (_, x1, _) = run_rk4(2e-3, 10.0);
+        let (_, x2, _) = run_rk4(1e-3, 10.0);
+        let ratio = oscillator_error(10.0, &x1) / oscillator_error(10.0, &x2);
+        // Measured: 1.138e-7 / 7.15e-9 = 15.92 (order 4 ⇒ 2⁴).
+        assert!((ratio - 16.0).abs() < 0.5, "ratio {ratio}");
+    }
+
+    #[test]
+    fn rk4_lands_exactly_and_merges_slivers() {
+        // 10 steps and a rounding sliver: merged, 10 steps.
+        let (t, _, s) = run_rk4(0.1, 1.0 + 1e-13);
+        assert_eq!(t, 1.0 + 1e-13);
+        assert_eq!(s.steps, 10);
+        // 0.1 does not divide 0.3 exactly in binary: still 3 steps, no sliver.
+        let (t, _, s) = run_rk4(0.1, 0.3);
+        assert_eq!(t, 0.3);
+        assert_eq!(s.steps, 3);
+        // A genuine remainder gets its own, shortened step.
+        let (t, _, s) = run_rk4(0.1, 1.05);
+        assert_eq!(t, 1.05);
+        assert_eq!(s.steps, 11);
+        // Interval shorter than the step: one step.
+        let (t, _, s) = run_rk4(0.1, 0.01);
+        assert_eq!((t, s.steps), (0.01, 1));
+        // No step given: one step over the interval.
+        let (_, _, s) = run_rk4(0.0, 0.5);
+        assert_eq!(s.steps, 1);
+    }
+
+    #[test]
+    fn rk4_times_do_not_drift() {
+        // Record the times RK4 evaluates at; the step starts must be exactly t0 + i·h.
+        let settings = Settings {
+            method: Method::Rk4,
+            rtol: 0.0,
+            atol: vec![],
+            step: 0.1,
+        };
+        let mut memory = Memory::default();
+        let mut times = Vec::new();
+        let (mut t, mut x) = (3.0, [0.0]);
+        let mut f = |t: f64, _: &[f64], d: &mut [f64]| {
+            times.push(t);
+            d[0] = 1.0;
+        };
+        integ::advance(&mut f, &mut t, &mut x, 103.0, &settings, &mut memory).unwrap();
+        assert_eq!(memory.stats.steps, 1000);
+        for i in 0..1000 {
+            assert_eq!(times[4 * i], 3.0 + i as f64 * 0.1, "step {i}");
+        }
+        assert_eq!(t, 103.0);
+        assert!((x[0] - 100.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn rk4_blow_up_fails_with_finite_state() {
+        let settings = Settings {
+            method: Method::Rk4,
+            rtol: 0.0,
+            atol: vec![],
+            step: 1e-3,
+        };
+        let mut memory = Memory::default();
+        let (mut t, mut x) = (0.0, [1.0]);
+        let r = integ::advance(
+            &mut |_, y, d| d[0] = y[0] * y[0],
+            &mut t,
+            &mut x,
+            2.0,
+            &settings,
+            &mut memory,
+        );
+        // RK4 cannot see the singularity at t = 1; it overflows a few steps past it.
+        assert_eq!(r, Err(Failure::NonFinite { t }));
+        assert!(x[0].is_finite() && t < 2.0);
+    }
+
+    #[test]
+    fn rk4_refuses_absurd_step_counts_up_front() {
+        let settings = Settings {
+            method: Method::Rk4,
+            rtol: 0.0,
+            atol: vec![],
+            step: 1e-9,
+        };
+        let mut memory = Memory::default();
+        let (mut t, mut x) = (0.0, [1.0]);
+        let r = integ::advance(
+            &mut |_, _, d| d[0] = 1.0,
+            &mut t,
+            &mut x,
+            1.0,
+            &settings,
+            &mut memory,
+        );
+        assert!(
+            matches!(r, Err(Failure::TooManySteps { t: 0.0, .. })),
+            "{r:?}"
+        );
+        assert_eq!(memory.stats.rhs_evals, 0);
+    }
+}

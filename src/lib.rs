@@ -1,0 +1,15 @@
+//! mbfmu: multibody mechanics models exported as FMI 2.0 Co-Simulation FMUs.
+//!
+//! - [`model`]: how a system is declared (variables, dynamics, scenes): physics only.
+//! - [`systems`]: the textbook systems, one file each.
+//! - [`integrators`]: the methods that advance a system inside `fmi2DoStep`.
+//! - [`fmi`]: the FMI 2.0 Co-Simulation boundary (the only `unsafe` and `extern "C"`).
+//! - [`xml`]: modelDescription.xml and its ModelStructure, generated from a system.
+//! - [`package`]: the FMU archive and its documentation page.
+
+pub mod fmi;
+pub mod integrators;
+pub mod model;
+pub mod package;
+pub mod systems;
+pub mod xml;

@@ -1,0 +1,106 @@
+//! The one place a system is declared: its variables and its dynamics.
+//!
+//! A system knows nothing about FMI. It lists its parameters, inputs, states and
+//! extra outputs once ([`Var`]), writes `ẋ = f(t, x, u, p)` and `y = g(t, x, u, p)`
+//! generic over the scalar type ([`Scalar`]) so that exact derivatives come from
+//! dual numbers, and ships its scenes. Value references, modelDescription.xml,
+//! ModelStructure and the C glue are all derived from this declaration.
+
+pub mod jacobian;
+mod layout;
+mod scene;
+
+pub use layout::{Layout, Slot, VarKind};
+pub use scene::Scene;
+
+use num_dual::DualNum;
+use std::borrow::Cow;
+
+/// The scalar a right-hand side is written in: `f64` for simulation, dual numbers
+/// for exact Jacobians.
+pub trait Scalar: DualNum<Primitive = f64> + Copy {}
+impl<T: DualNum<Primitive = f64> + Copy> Scalar for T {}
+
+/// One declared variable of a system.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Var {
+    pub name: Cow<'static, str>,
+    pub description: Cow<'static, str>,
+    /// SI unit symbol, as declared in UnitDefinitions (`None` for dimensionless).
+    pub unit: Option<Cow<'static, str>>,
+    pub start: f64,
+    pub min: Option<f64>,
+    pub max: Option<f64>,
+    /// Typical magnitude; scales the integrator's absolute tolerance for states.
+    pub nominal: Option<f64>,
+}
+
+impl Var {
+    pub const fn new(
+        name: &'static str,
+        unit: Option<&'static str>,
+        start: f64,
+        description: &'static str,
+    ) -> Self {
+        let unit = match unit {
+            Some(u) => Some(Cow::Borrowed(u)),
+            None => None,
+        };
+        Var {
+            name: Cow::Borrowed(name),
+            description: Cow::Borrowed(description),
+            unit,
+            start,
+            min: None,
+            max: None,
+            nominal: None,
+        }
+    }
+
+    pub const fn min(mut self, min: f64) -> Self {
+        self.min = Some(min);
+        self
+    }
+
+    pub const fn max(mut self, max: f64) -> Self {
+        self.max = Some(max);
+        self
+    }
+
+    pub const fn nominal(mut self, nominal: f64) -> Self {
+        self.nominal = Some(nominal);
+        self
+    }
+}
+
+/// A mechanical system in state-space form `ẋ = f(t, x, u, p)`, `y = g(t, x, u, p)`.
+///
+/// The states are outputs too (FMI 2.0 co-simulation sets initial states through
+/// the start values of outputs); `outputs` lists only the extra ones (energy, …).
+pub trait System: 'static {
+    /// The FMU's modelIdentifier.
+    const NAME: &'static str;
+    /// One line: what the system is.
+    const DESCRIPTION: &'static str;
+    /// Equations and notes for the FMU's documentation (plain text, one per line).
+    const EQUATIONS: &'static [&'static str];
+
+    fn parameters() -> Vec<Var>;
+    fn inputs() -> Vec<Var>;
+    fn states() -> Vec<Var>;
+    fn outputs() -> Vec<Var>;
+
+    /// `dx = f(t, x, u, p)`.
+    fn derivatives<S: Scalar>(t: f64, x: &[S], u: &[S], p: &[S], dx: &mut [S]);
+
+    /// `y = g(t, x, u, p)`, the extra outputs only.
+    fn extra_outputs<S: Scalar>(t: f64, x: &[S], u: &[S], p: &[S], y: &mut [S]);
+
+    /// The configured experiments of this system.
+    fn scenes() -> Vec<Scene>;
+
+    /// DefaultExperiment: stop time, relative tolerance, communication step size.
+    fn default_experiment() -> (f64, f64, f64) {
+        (10.0, 1e-8, 1e-2)
+    }
+}

@@ -1,0 +1,72 @@
+//! The FMU archive: modelDescription.xml, the platform binary, and a documentation page.
+
+mod documentation;
+
+pub use documentation::index_html;
+
+use std::io::Write;
+use std::path::Path;
+use zip::write::SimpleFileOptions;
+
+/// The FMI platform folder of the machine building the FMU.
+pub fn platform() -> &'static str {
+    match (std::env::consts::OS, std::env::consts::ARCH) {
+        ("linux", "x86_64") => "linux64",
+        ("linux", "x86") => "linux32",
+        ("windows", "x86_64") => "win64",
+        ("windows", "x86") => "win32",
+        ("macos", _) => "darwin64",
+        _ => "linux64",
+    }
+}
+
+/// The shared-library file name cargo gives a cdylib crate named `crate_name`.
+pub fn library_file(crate_name: &str) -> String {
+    let stem = crate_name.replace('-', "_");
+    match std::env::consts::OS {
+        "windows" => format!("{stem}.dll"),
+        "macos" => format!("lib{stem}.dylib"),
+        _ => format!("lib{stem}.so"),
+    }
+}
+
+/// Writes `<out>`, an FMU with the model's XML, documentation and binary `library`
+/// (stored as `binaries/<platform>/<model_identifier>.<ext>`).
+pub fn write_fmu(
+    out: &Path,
+    model_identifier: &str,
+    model_description: &str,
+    documentation: &str,
+    library: &Path,
+) -> Result<(), String> {
+    let binary =
+        std::fs::read(library).map_err(|e| format!("cannot read {}: {e}", library.display()))?;
+    let ext = library.extension().and_then(|e| e.to_str()).unwrap_or("so");
+    if let Some(dir) = out.parent() {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    }
+    let file =
+        std::fs::File::create(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+    let mut zip = zip::ZipWriter::new(file);
+    // A fixed timestamp keeps the archive reproducible.
+    let options = SimpleFileOptions::default()
+        .compression_method(zip::CompressionMethod::Deflated)
+        .last_modified_time(zip::DateTime::default());
+    let entries: [(String, &[u8]); 3] = [
+        ("modelDescription.xml".into(), model_description.as_bytes()),
+        (
+            format!("binaries/{}/{model_identifier}.{ext}", platform()),
+            &binary,
+        ),
+        ("documentation/index.html".into(), documentation.as_bytes()),
+    ];
+    for (name, data) in entries {
+        zip.start_file(name.as_str(), options)
+            .and_then(|_| zip.write_all(data).map_err(Into::into))
+            .map_err(|e| format!("cannot write {name} into {}: {e}", out.display()))?;
+    }
+    zip.finish()
+        .map_err(|e| format!("cannot finish {}: {e}", out.display()))?;
+    Ok(())
+}

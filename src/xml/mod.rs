@@ -1,0 +1,275 @@
+//! modelDescription.xml, generated from a [`System`] declaration with quick-xml.
+//!
+//! Deterministic: the same model gives the same bytes, and the GUID is a UUID v5 of
+//! the document's content (with the GUID left out), so any change to the interface
+//! changes the GUID and an FMU binary rejects an XML it was not built with.
+
+mod structure;
+mod units;
+
+pub use structure::{dependencies, Dependencies};
+
+use crate::integrators::Method;
+use crate::model::{Layout, Slot, System, VarKind};
+use quick_xml::events::{BytesDecl, BytesEnd, BytesStart, Event};
+use quick_xml::Writer;
+use std::io::Cursor;
+
+/// Log categories declared in the XML and accepted by fmi2SetDebugLogging.
+pub const LOG_CATEGORIES: &[(&str, &str)] = &[
+    ("logStatusWarning", "Calls that returned fmi2Warning"),
+    (
+        "logStatusDiscard",
+        "Calls that returned fmi2Discard (a step that could not be completed)",
+    ),
+    (
+        "logStatusError",
+        "Calls that returned fmi2Error (bad arguments, illegal call sequence)",
+    ),
+    ("logStatusFatal", "Calls that returned fmi2Fatal"),
+    ("logAll", "Every FMI call, for debugging"),
+];
+
+/// Tool name written to `generationTool`.
+pub const GENERATION_TOOL: &str = concat!("mbfmu ", env!("CARGO_PKG_VERSION"));
+
+const GUID_PLACEHOLDER: &str = "{00000000-0000-0000-0000-000000000000}";
+
+/// The model description of `M`, with its content GUID.
+pub fn model_description<M: System>() -> String {
+    let body = render::<M>(GUID_PLACEHOLDER);
+    body.replace(GUID_PLACEHOLDER, &guid_of(&body))
+}
+
+/// The content GUID of `M` (what `fmi2Instantiate` checks).
+pub fn guid<M: System>() -> String {
+    guid_of(&render::<M>(GUID_PLACEHOLDER))
+}
+
+fn guid_of(body: &str) -> String {
+    // A fixed namespace for this tool: UUID v5 of the tool's name in the URL namespace.
+    let ns = uuid::Uuid::new_v5(&uuid::Uuid::NAMESPACE_URL, b"mbfmu");
+    format!("{{{}}}", uuid::Uuid::new_v5(&ns, body.as_bytes()))
+}
+
+/// Shortest text that parses back to the same f64 (xs:double syntax).
+pub fn fmt_real(v: f64) -> String {
+    let plain = format!("{v}");
+    let sci = format!("{v:e}");
+    if sci.len() < plain.len() {
+        sci
+    } else {
+        plain
+    }
+}
+
+type W = Writer<Cursor<Vec<u8>>>;
+
+fn empty(w: &mut W, tag: &str, attrs: &[(&str, String)]) {
+    let mut e = BytesStart::new(tag);
+    for (k, v) in attrs {
+        e.push_attribute((*k, v.as_str()));
+    }
+    w.write_event(Event::Empty(e)).expect("write to memory");
+}
+
+fn open(w: &mut W, tag: &str, attrs: &[(&str, String)]) {
+    let mut e = BytesStart::new(tag);
+    for (k, v) in attrs {
+        e.push_attribute((*k, v.as_str()));
+    }
+    w.write_event(Event::Start(e)).expect("write to memory");
+}
+
+fn close(w: &mut W, tag: &str) {
+    w.write_event(Event::End(BytesEnd::new(tag)))
+        .expect("write to memory");
+}
+
+fn s(v: impl ToString) -> String {
+    v.to_string()
+}
+
+fn render<M: System>(guid: &str) -> String {
+    let layout = Layout::of::<M>();
+    let deps = dependencies::<M>(&layout);
+    let (stop, tol, step) = M::default_experiment();
+    let mut w = Writer::new_with_indent(Cursor::new(Vec::new()), b' ', 2);
+    w.write_event(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)))
+        .expect("write to memory");
+
+    open(
+        &mut w,
+        "fmiModelDescription",
+        &[
+            ("fmiVersion", s("2.0")),
+            ("modelName", s(M::NAME)),
+            ("guid", s(guid)),
+            ("description", s(M::DESCRIPTION)),
+            ("generationTool", s(GENERATION_TOOL)),
+            ("numberOfEventIndicators", s(0)),
+        ],
+    );
+    empty(
+        &mut w,
+        "CoSimulation",
+        &[
+            ("modelIdentifier", s(M::NAME)),
+            ("needsExecutionTool", s(false)),
+            ("canHandleVariableCommunicationStepSize", s(true)),
+            ("canInterpolateInputs", s(false)),
+            ("maxOutputDerivativeOrder", s(0)),
+            ("canRunAsynchronuously", s(false)),
+            ("canBeInstantiatedOnlyOncePerProcess", s(false)),
+            ("canNotUseMemoryManagementFunctions", s(true)),
+            ("canGetAndSetFMUstate", s(true)),
+            ("canSerializeFMUstate", s(true)),
+            ("providesDirectionalDerivative", s(false)),
+        ],
+    );
+
+    units::write_unit_definitions(&mut w, &layout);
+
+    open(&mut w, "TypeDefinitions", &[]);
+    open(&mut w, "SimpleType", &[("name", s("Solver"))]);
+    open(&mut w, "Enumeration", &[]);
+    for m in Method::ALL {
+        empty(
+            &mut w,
+            "Item",
+            &[
+                ("name", s(m.name())),
+                ("value", s(m.code())),
+                ("description", s(method_description(m))),
+            ],
+        );
+    }
+    close(&mut w, "Enumeration");
+    close(&mut w, "SimpleType");
+    close(&mut w, "TypeDefinitions");
+
+    open(&mut w, "LogCategories", &[]);
+    for (name, description) in LOG_CATEGORIES {
+        empty(
+            &mut w,
+            "Category",
+            &[("name", s(name)), ("description", s(description))],
+        );
+    }
+    close(&mut w, "LogCategories");
+
+    empty(
+        &mut w,
+        "DefaultExperiment",
+        &[
+            ("startTime", s("0")),
+            ("stopTime", fmt_real(stop)),
+            ("tolerance", fmt_real(tol)),
+            ("stepSize", fmt_real(step)),
+        ],
+    );
+
+    open(&mut w, "ModelVariables", &[]);
+    for (vr, (slot, var)) in layout.vars.iter().enumerate() {
+        let mut attrs = vec![
+            ("name", s(&var.name)),
+            ("valueReference", s(vr)),
+            ("description", s(&var.description)),
+        ];
+        let (causality, variability, initial) = fmi_attributes(*slot);
+        attrs.push(("causality", s(causality)));
+        attrs.push(("variability", s(variability)));
+        if let Some(initial) = initial {
+            attrs.push(("initial", s(initial)));
+        }
+        open(&mut w, "ScalarVariable", &attrs);
+        if slot.kind == VarKind::SolverMethod {
+            empty(
+                &mut w,
+                "Enumeration",
+                &[
+                    ("declaredType", s("Solver")),
+                    ("start", s(var.start as i32)),
+                ],
+            );
+        } else {
+            let mut real = Vec::new();
+            if slot.kind == VarKind::Derivative {
+                let state_index = layout.vr_of_slot(VarKind::State, slot.index) + 1;
+                real.push(("derivative", s(state_index)));
+            }
+            if let Some(unit) = &var.unit {
+                real.push(("unit", s(unit)));
+                if let Some(display) = units::display_unit(unit) {
+                    real.push(("displayUnit", s(display)));
+                }
+            }
+            if let Some(min) = var.min {
+                real.push(("min", fmt_real(min)));
+            }
+            if let Some(max) = var.max {
+                real.push(("max", fmt_real(max)));
+            }
+            if let Some(nominal) = var.nominal {
+                real.push(("nominal", fmt_real(nominal)));
+            }
+            if has_start(slot.kind) {
+                real.push(("start", fmt_real(var.start)));
+            }
+            empty(&mut w, "Real", &real);
+        }
+        close(&mut w, "ScalarVariable");
+    }
+    close(&mut w, "ModelVariables");
+
+    open(&mut w, "ModelStructure", &[]);
+    for (tag, list) in [
+        ("Outputs", &deps.outputs),
+        ("Derivatives", &deps.derivatives),
+        ("InitialUnknowns", &deps.initial_unknowns),
+    ] {
+        open(&mut w, tag, &[]);
+        for (index, on) in list {
+            let on: Vec<String> = on.iter().map(|i| i.to_string()).collect();
+            empty(
+                &mut w,
+                "Unknown",
+                &[("index", s(index)), ("dependencies", on.join(" "))],
+            );
+        }
+        close(&mut w, tag);
+    }
+    close(&mut w, "ModelStructure");
+    close(&mut w, "fmiModelDescription");
+
+    let mut text = String::from_utf8(w.into_inner().into_inner()).expect("utf-8");
+    text.push('\n');
+    text
+}
+
+/// Causality, variability and initial of each kind of variable: the legal FMI 2.0
+/// combinations (standard, section 2.2.7).
+pub fn fmi_attributes(slot: Slot) -> (&'static str, &'static str, Option<&'static str>) {
+    match slot.kind {
+        VarKind::Parameter | VarKind::SolverMethod | VarKind::SolverStep => {
+            ("parameter", "fixed", Some("exact"))
+        }
+        // States are outputs whose start value is the initial state.
+        VarKind::State => ("output", "continuous", Some("exact")),
+        VarKind::Derivative => ("local", "continuous", Some("calculated")),
+        VarKind::Input => ("input", "continuous", None),
+        VarKind::Output => ("output", "continuous", Some("calculated")),
+    }
+}
+
+/// Only variables with initial = exact/approx, and inputs, may carry a start value.
+fn has_start(kind: VarKind) -> bool {
+    !matches!(kind, VarKind::Derivative | VarKind::Output)
+}
+
+fn method_description(m: Method) -> &'static str {
+    match m {
+        Method::Rk4 => "Classic Runge-Kutta of order 4, fixed step solver_step",
+        Method::Dopri5 => "Dormand-Prince 5(4), adaptive step with a PI controller",
+    }
+}

@@ -1,0 +1,143 @@
+//! ModelStructure dependencies, found from the exact Jacobian (dual numbers) rather
+//! than declared by hand: an unknown depends on a known when its partial derivative is
+//! non-zero at any of a few random points (random states, inputs, parameters and time,
+//! so a parameter that happens to be zero in a scene cannot hide a dependency).
+
+use crate::model::jacobian::{directional, Direction};
+use crate::model::{Layout, System, VarKind};
+
+/// `(ScalarVariable index, indices it depends on)`, 1-based as in the XML.
+pub type Unknowns = Vec<(usize, Vec<usize>)>;
+
+/// The three lists of `<ModelStructure>`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Dependencies {
+    pub outputs: Unknowns,
+    pub derivatives: Unknowns,
+    pub initial_unknowns: Unknowns,
+}
+
+/// A tiny deterministic generator (SplitMix64): the XML must not change between runs.
+struct SplitMix(u64);
+impl SplitMix {
+    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        lo + (hi - lo) * ((z >> 11) as f64 / (1u64 << 53) as f64)
+    }
+}
+
+/// Which of the knowns (x, u, p) each state derivative and each extra output depends on.
+struct Sparsity {
+    /// `[unknown][known]`, unknowns = derivatives then extra outputs, knowns = x, u, p.
+    nonzero: Vec<Vec<bool>>,
+}
+
+fn sparsity<M: System>(layout: &Layout) -> Sparsity {
+    let (n, m, np, ny) = (
+        layout.n_states,
+        layout.n_inputs,
+        layout.n_params,
+        layout.n_outputs,
+    );
+    let n_known = n + m + np;
+    let mut nonzero = vec![vec![false; n_known]; n + ny];
+    let mut rng = SplitMix(0x5EED);
+    for _point in 0..3 {
+        let t = rng.uniform(0.1, 10.0);
+        let x: Vec<f64> = (0..n).map(|_| rng.uniform(-1.0, 1.0)).collect();
+        let u: Vec<f64> = (0..m).map(|_| rng.uniform(-1.0, 1.0)).collect();
+        let p: Vec<f64> = (0..np).map(|_| rng.uniform(0.5, 2.0)).collect();
+        for j in 0..n_known {
+            let mut e = vec![0.0; n_known];
+            e[j] = 1.0;
+            let (dx, dy) = directional::<M>(
+                &Direction {
+                    t,
+                    x: (&x, &e[..n]),
+                    u: (&u, &e[n..n + m]),
+                    p: (&p, &e[n + m..]),
+                },
+                ny,
+            );
+            for (row, v) in nonzero.iter_mut().zip(dx.iter().chain(&dy)) {
+                if *v != 0.0 {
+                    row[j] = true;
+                }
+            }
+        }
+    }
+    Sparsity { nonzero }
+}
+
+/// The ModelStructure of `M`.
+pub fn dependencies<M: System>(layout: &Layout) -> Dependencies {
+    let (n, m) = (layout.n_states, layout.n_inputs);
+    let sp = sparsity::<M>(layout);
+    let index = |kind, i| layout.vr_of_slot(kind, i) as usize + 1;
+    // Knowns at communication points: states and inputs.
+    let run_known = |j: usize| -> Option<usize> {
+        if j < n {
+            Some(index(VarKind::State, j))
+        } else if j < n + m {
+            Some(index(VarKind::Input, j - n))
+        } else {
+            None
+        }
+    };
+    // Knowns in initialization mode: also the parameters (initial = exact).
+    let init_known = |j: usize| -> usize {
+        if j < n + m {
+            run_known(j).expect("state or input")
+        } else {
+            index(VarKind::Parameter, j - n - m)
+        }
+    };
+    let list = |row: &[bool], known: &dyn Fn(usize) -> Option<usize>| -> Vec<usize> {
+        let mut v: Vec<usize> = row
+            .iter()
+            .enumerate()
+            .filter(|(_, nz)| **nz)
+            .filter_map(|(j, _)| known(j))
+            .collect();
+        v.sort_unstable();
+        v
+    };
+    let init = |j| Some(init_known(j));
+
+    let mut outputs = Vec::new();
+    for i in 0..n {
+        // An output that is a state depends on that state alone.
+        outputs.push((index(VarKind::State, i), vec![index(VarKind::State, i)]));
+    }
+    for k in 0..layout.n_outputs {
+        outputs.push((
+            index(VarKind::Output, k),
+            list(&sp.nonzero[n + k], &run_known),
+        ));
+    }
+    let derivatives: Unknowns = (0..n)
+        .map(|i| {
+            (
+                index(VarKind::Derivative, i),
+                list(&sp.nonzero[i], &run_known),
+            )
+        })
+        .collect();
+    let mut initial_unknowns: Unknowns = (0..n)
+        .map(|i| (index(VarKind::Derivative, i), list(&sp.nonzero[i], &init)))
+        .chain(
+            (0..layout.n_outputs)
+                .map(|k| (index(VarKind::Output, k), list(&sp.nonzero[n + k], &init))),
+        )
+        .collect();
+    initial_unknowns.sort_by_key(|(i, _)| *i);
+    Dependencies {
+        outputs,
+        derivatives,
+        initial_unknowns,
+    }
+}

@@ -1,0 +1,237 @@
+//! The C API driven from Rust, through the same `extern "C"` symbols a host calls.
+
+mod common;
+use common::*;
+use mbfmu::fmi::Status;
+use std::ffi::{c_char, c_int, c_void, CString};
+
+/// Underdamped closed form from x0, v0 = 0.
+fn damped_x(t: f64, m: f64, k: f64, c: f64, x0: f64) -> f64 {
+    let wn = (k / m).sqrt();
+    let zeta = c / (2.0 * m * wn);
+    let wd = wn * (1.0 - zeta * zeta).sqrt();
+    (-zeta * wn * t).exp() * x0 * ((wd * t).cos() + zeta * wn / wd * (wd * t).sin())
+}
+
+#[test]
+fn a_run_matches_the_closed_form() {
+    let f = Fmu::new("closed_form");
+    f.init(&[]);
+    let mut t = 0.0;
+    for i in 0..200 {
+        assert_eq!(fmi2DoStep(f.c, t, 0.01, 1), Status::Ok);
+        t = (i + 1) as f64 * 0.01;
+        let err = (f.get("x") - damped_x(t, 1.0, 100.0, 2.0, 0.1)).abs();
+        // DOPRI5 at rtol 1e-10 (atol 1e-10·nominal 0.1): global error ≈ 1e-10 of 0.1 m.
+        assert!(err < 1e-9, "t = {t}: error {err}");
+    }
+    assert_eq!(f.errors(), 0);
+}
+
+/// Calls that must be rejected: each returns fmi2Error, logs one line, and changes nothing.
+#[test]
+fn bad_input_is_rejected_logged_and_harmless() {
+    let f = Fmu::new("bad_input");
+    // Wrong state: doStep before initialization.
+    assert_eq!(fmi2DoStep(f.c, 0.0, 0.01, 1), Status::Error);
+    f.init(&[]);
+    assert_eq!(fmi2DoStep(f.c, 0.0, 0.01, 1), Status::Ok);
+    let before = (f.get("x"), f.get("v"));
+    let x_vr = vr("x");
+    let out = std::cell::Cell::new(0.0);
+    let out_ptr = out.as_ptr();
+    let nan = f64::NAN;
+    type Call<'a> = Box<dyn Fn() -> Status + 'a>;
+    let cases: Vec<(&str, Call)> = vec![
+        (
+            "null vr",
+            Box::new(|| unsafe { fmi2GetReal(f.c, std::ptr::null(), 1, out_ptr) }),
+        ),
+        (
+            "null value",
+            Box::new(|| unsafe { fmi2GetReal(f.c, &x_vr, 1, std::ptr::null_mut()) }),
+        ),
+        (
+            "unknown vr",
+            Box::new(|| unsafe { fmi2GetReal(f.c, &9999, 1, out_ptr) }),
+        ),
+        ("NaN input", Box::new(|| f.set("F", nan))),
+        ("infinite input", Box::new(|| f.set("F", f64::INFINITY))),
+        ("parameter after init", Box::new(|| f.set("m", 2.0))),
+        ("state after init", Box::new(|| f.set("x", 2.0))),
+        ("calculated output", Box::new(|| f.set("E", 2.0))),
+        ("h = 0", Box::new(|| fmi2DoStep(f.c, 0.01, 0.0, 1))),
+        ("h < 0", Box::new(|| fmi2DoStep(f.c, 0.01, -0.01, 1))),
+        ("h = NaN", Box::new(|| fmi2DoStep(f.c, 0.01, nan, 1))),
+        ("wrong time", Box::new(|| fmi2DoStep(f.c, 0.5, 0.01, 1))),
+        (
+            "bad method",
+            Box::new(|| unsafe { fmi2SetInteger(f.c, &vr("solver"), 1, &7) }),
+        ),
+        ("init twice", Box::new(|| fmi2EnterInitializationMode(f.c))),
+        (
+            "real as integer",
+            Box::new(|| unsafe { fmi2GetInteger(f.c, &x_vr, 1, &mut 0) }),
+        ),
+        (
+            "boolean vr",
+            Box::new(|| unsafe { fmi2GetBoolean(f.c, &0, 1, &mut 0) }),
+        ),
+        (
+            "directional derivative",
+            Box::new(|| fmi2GetDirectionalDerivative(f.c, &x_vr, 1, &x_vr, 1, &1.0, out_ptr)),
+        ),
+        (
+            "input derivatives",
+            Box::new(|| fmi2SetRealInputDerivatives(f.c, &x_vr, 1, &1, &1.0)),
+        ),
+        ("cancel step", Box::new(|| fmi2CancelStep(f.c))),
+    ];
+    for (what, call) in cases {
+        let n = f.errors();
+        assert_eq!(call(), Status::Error, "{what}");
+        let log = log_of(&f.name);
+        assert_eq!(log.len(), n + 1, "{what}: expected one log line");
+        assert_eq!(log[n].0, Status::Error as c_int);
+        assert_eq!(log[n].1, "logStatusError", "{what}");
+        assert_eq!((f.get("x"), f.get("v")), before, "{what} changed the state");
+    }
+    // Still usable.
+    assert_eq!(fmi2DoStep(f.c, 0.01, 0.01, 1), Status::Ok);
+    assert_eq!(
+        fmi2DoStep(std::ptr::null_mut(), 0.0, 0.01, 1),
+        Status::Error
+    );
+}
+
+#[test]
+fn instantiate_rejects_wrong_guid_and_model_exchange() {
+    let name = CString::new("reject").unwrap();
+    let bad = CString::new("{not-the-guid}").unwrap();
+    let c = unsafe {
+        fmi2Instantiate(
+            name.as_ptr(),
+            1,
+            bad.as_ptr(),
+            std::ptr::null(),
+            callbacks(),
+            0,
+            0,
+        )
+    };
+    assert!(c.is_null());
+    let c = unsafe {
+        fmi2Instantiate(
+            name.as_ptr(),
+            0,
+            guid().as_ptr(),
+            std::ptr::null(),
+            callbacks(),
+            0,
+            0,
+        )
+    };
+    assert!(c.is_null());
+    let log = log_of("reject");
+    assert_eq!(log.len(), 2);
+    assert!(log[0].2.contains("GUID"), "{}", log[0].2);
+    assert!(log[1].2.contains("Co-Simulation"), "{}", log[1].2);
+}
+
+#[test]
+fn fmu_state_rollback_and_serialization_are_bit_exact() {
+    let f = Fmu::new("state");
+    f.init(&[("F", 0.5)]);
+    run_to(&f, 0.0, 1.0, 0.01);
+    let mut s: *mut c_void = std::ptr::null_mut();
+    assert_eq!(unsafe { fmi2GetFMUstate(f.c, &mut s) }, Status::Ok);
+    let first = run_to(&f, 1.0, 2.0, 0.01);
+    assert_eq!(unsafe { fmi2SetFMUstate(f.c, s) }, Status::Ok);
+    assert_eq!(run_to(&f, 1.0, 2.0, 0.01), first);
+
+    let mut size = 0usize;
+    assert_eq!(
+        unsafe { fmi2SerializedFMUstateSize(f.c, s, &mut size) },
+        Status::Ok
+    );
+    let mut blob = vec![0 as c_char; size];
+    assert_eq!(
+        unsafe { fmi2SerializeFMUstate(f.c, s, blob.as_mut_ptr(), size) },
+        Status::Ok
+    );
+    let g = Fmu::new("state2");
+    let mut s2: *mut c_void = std::ptr::null_mut();
+    assert_eq!(
+        unsafe { fmi2DeSerializeFMUstate(g.c, blob.as_ptr(), size, &mut s2) },
+        Status::Ok
+    );
+    assert_eq!(unsafe { fmi2SetFMUstate(g.c, s2) }, Status::Ok);
+    assert_eq!(run_to(&g, 1.0, 2.0, 0.01), first);
+
+    // Corrupt blobs are refused and leave the state pointer untouched.
+    let mut s3: *mut c_void = std::ptr::null_mut();
+    let mut bad = blob.clone();
+    bad[0] ^= 1;
+    assert_eq!(
+        unsafe { fmi2DeSerializeFMUstate(g.c, bad.as_ptr(), size, &mut s3) },
+        Status::Error
+    );
+    assert_eq!(
+        unsafe { fmi2DeSerializeFMUstate(g.c, blob.as_ptr(), size - 1, &mut s3) },
+        Status::Error
+    );
+    let mut other_guid = blob.clone();
+    other_guid[20] ^= 1; // inside the GUID text
+    assert_eq!(
+        unsafe { fmi2DeSerializeFMUstate(g.c, other_guid.as_ptr(), size, &mut s3) },
+        Status::Error
+    );
+    assert!(s3.is_null());
+    assert_eq!(log_of("state2").len(), 3);
+
+    for mut p in [s, s2] {
+        assert_eq!(unsafe { fmi2FreeFMUstate(f.c, &mut p) }, Status::Ok);
+        assert!(p.is_null());
+    }
+}
+
+#[test]
+fn reset_restores_the_start_values() {
+    let f = Fmu::new("reset");
+    f.init(&[("x", 0.3)]);
+    run_to(&f, 0.0, 0.5, 0.1);
+    assert_eq!(fmi2Reset(f.c), Status::Ok);
+    f.init(&[]);
+    assert_eq!(f.get("x"), 0.1);
+    assert_eq!(f.get("v"), 0.0);
+}
+
+#[test]
+fn many_instances_on_threads_agree_with_a_serial_run() {
+    let reference = {
+        let f = Fmu::new("serial");
+        f.init(&[("F", 1.0)]);
+        run_to(&f, 0.0, 1.0, 0.01)
+    };
+    let results: Vec<Vec<u64>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..8)
+            .map(|thread| {
+                scope.spawn(move || {
+                    (0..13)
+                        .map(|i| {
+                            let f = Fmu::new(&format!("thread{thread}_{i}"));
+                            f.init(&[("F", 1.0)]);
+                            run_to(&f, 0.0, 1.0, 0.01)
+                        })
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .flat_map(|h| h.join().unwrap())
+            .collect()
+    });
+    assert_eq!(results.len(), 104);
+    assert!(results.iter().all(|r| *r == reference));
+}

@@ -1,0 +1,56 @@
+//! modelDescription/ is committed so interface changes are reviewed: it must equal what
+//! the code generates. Regenerate with `cargo run --bin mbfmu -- xml`.
+
+use mbfmu::systems;
+
+#[test]
+fn committed_model_descriptions_are_current() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("modelDescription");
+    for e in systems::all() {
+        let path = dir.join(format!("{}.xml", e.name));
+        let committed = std::fs::read_to_string(&path)
+            .unwrap_or_else(|err| panic!("{}: {err}", path.display()));
+        assert!(
+            committed == (e.model_description)(),
+            "{} is out of date: run `cargo run --bin mbfmu -- xml`",
+            path.display()
+        );
+    }
+}
+
+#[test]
+fn generation_is_deterministic_and_guid_tracks_content() {
+    for e in systems::all() {
+        let a = (e.model_description)();
+        assert_eq!(a, (e.model_description)());
+        let guid = a
+            .split("guid=\"")
+            .nth(1)
+            .unwrap()
+            .split('"')
+            .next()
+            .unwrap();
+        assert_eq!(guid.len(), 38, "{guid}");
+    }
+    let xmls: Vec<String> = systems::all()
+        .iter()
+        .map(|e| (e.model_description)())
+        .collect();
+    assert_ne!(xmls[0], xmls[1]);
+}
+
+#[test]
+fn model_structure_lists_exact_dependencies() {
+    let xml = mbfmu::xml::model_description::<systems::TwoMassChain>();
+    // TwoMassChain: vr 0..4 params, 5 solver, 6 solver_step, 7..10 states (index 8..11),
+    // 11..14 derivatives (index 12..15), 15 input F (index 16), 16 E (index 17).
+    for needle in [
+        r#"<Unknown index="12" dependencies="10"/>"#,
+        r#"<Unknown index="14" dependencies="8 9 10 11 16"/>"#,
+        r#"<Unknown index="15" dependencies="8 9 10 11"/>"#,
+        r#"<Unknown index="17" dependencies="8 9 10 11"/>"#,
+        r#"<Real derivative="8" unit="m/s"/>"#,
+    ] {
+        assert!(xml.contains(needle), "missing {needle} in\n{xml}");
+    }
+}
