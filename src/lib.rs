@@ -6,9 +6,11 @@
 //! - [`fmi`]: the FMI 2.0 Co-Simulation boundary (the only `unsafe` and `extern "C"`).
 //! - [`xml`]: modelDescription.xml and its ModelStructure, generated from a system.
 //! - [`package`]: the FMU archive and its documentation page.
+//! - [`linearize`]: A, B, C, D at an operating point, exact, and their export formats.
 
 pub mod fmi;
 pub mod integrators;
+pub mod linearize;
 pub mod model;
 pub mod package;
 pub mod systems;

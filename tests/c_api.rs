@@ -78,8 +78,10 @@ fn bad_input_is_rejected_logged_and_harmless() {
             Box::new(|| unsafe { fmi2GetBoolean(f.c, &0, 1, &mut 0) }),
         ),
         (
-            "directional derivative",
-            Box::new(|| fmi2GetDirectionalDerivative(f.c, &x_vr, 1, &x_vr, 1, &1.0, out_ptr)),
+            "derivative with respect to a parameter",
+            Box::new(|| unsafe {
+                fmi2GetDirectionalDerivative(f.c, &x_vr, 1, &vr("m"), 1, &1.0, out_ptr)
+            }),
         ),
         (
             "input derivatives",
@@ -234,4 +236,37 @@ fn many_instances_on_threads_agree_with_a_serial_run() {
     });
     assert_eq!(results.len(), 104);
     assert!(results.iter().all(|r| *r == reference));
+}
+
+/// Column by column through fmi2GetDirectionalDerivative: A and C of the mass-spring-damper.
+#[test]
+fn directional_derivatives_are_the_exact_jacobian() {
+    let f = Fmu::new("jacobian");
+    f.init(&[("k", 50.0), ("c", 3.0), ("m", 2.0)]);
+    let unknowns = [vr("der(x)"), vr("der(v)"), vr("x"), vr("v"), vr("E")];
+    let knowns = [vr("x"), vr("v"), vr("F")];
+    let mut columns = Vec::new();
+    for j in 0..3 {
+        let mut seed = [0.0; 3];
+        seed[j] = 1.0;
+        let mut out = [f64::NAN; 5];
+        let status = unsafe {
+            fmi2GetDirectionalDerivative(
+                f.c,
+                unknowns.as_ptr(),
+                5,
+                knowns.as_ptr(),
+                3,
+                seed.as_ptr(),
+                out.as_mut_ptr(),
+            )
+        };
+        assert_eq!(status, Status::Ok);
+        columns.push(out);
+    }
+    let (x, v) = (f.get("x"), f.get("v"));
+    // d/dx: der(x)=0, der(v)=-k/m, x=1, v=0, E=k x; d/dv: 1, -c/m, 0, 1, m v; d/dF: 0, 1/m, 0, 0, 0.
+    assert_eq!(columns[0], [0.0, -25.0, 1.0, 0.0, 50.0 * x]);
+    assert_eq!(columns[1], [1.0, -1.5, 0.0, 1.0, 2.0 * v]);
+    assert_eq!(columns[2], [0.0, 0.5, 0.0, 0.0, 0.0]);
 }

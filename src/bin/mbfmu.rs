@@ -5,6 +5,8 @@
 //! - `mbfmu build --all | MODEL...`: compile each FMU's cdylib in release mode and
 //!   write `target/fmu/<Model>.fmu`.
 //! - `mbfmu xml [--check]`: write (or check) `modelDescription/<Model>.xml`.
+//! - `mbfmu linearize MODEL [--scene S] [--set p=v]... [--at x=v]... [--trim|--trim-inputs]
+//!   [--format json|py|csv] [--out FILE]`: exact A, B, C, D at an operating point.
 
 use mbfmu::systems::{self, Entry};
 use std::path::{Path, PathBuf};
@@ -13,7 +15,9 @@ use std::process::{Command, ExitCode};
 const USAGE: &str = "usage:
   mbfmu list
   mbfmu build (--all | MODEL...) [--out DIR]
-  mbfmu xml [--check]";
+  mbfmu xml [--check]
+  mbfmu linearize MODEL [--scene S] [--set PARAM=VALUE]... [--at STATE_OR_INPUT=VALUE]...
+                  [--trim | --trim-inputs] [--format json|py|csv] [--out FILE]";
 
 fn workspace_root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -75,12 +79,25 @@ fn build(args: &[String]) -> Result<(), String> {
             .join("release")
             .join(mbfmu::package::library_file(e.crate_name));
         let fmu = out.join(format!("{}.fmu", e.name));
+        // The linearisation at the default operating point (the start values).
+        let lin = (e.linearize)(&[], None)?;
+        let resources = [
+            (
+                "linearization.json".to_string(),
+                mbfmu::linearize::to_json(&lin),
+            ),
+            (
+                "linearized_model.py".to_string(),
+                mbfmu::linearize::to_py(&lin),
+            ),
+        ];
         mbfmu::package::write_fmu(
             &fmu,
             e.name,
             &(e.model_description)(),
             &(e.documentation)(),
             &library,
+            &resources,
         )?;
         println!("wrote {}", fmu.display());
     }
@@ -124,6 +141,83 @@ fn write(path: &Path, text: &str) -> Result<(), String> {
     std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))
 }
 
+fn parse_assignment(text: &str) -> Result<(String, f64), String> {
+    let (name, value) = text
+        .split_once('=')
+        .ok_or_else(|| format!("expected NAME=VALUE, got {text}"))?;
+    let value: f64 = value
+        .trim()
+        .parse()
+        .map_err(|_| format!("{name}: {value} is not a number"))?;
+    Ok((name.trim().to_string(), value))
+}
+
+fn linearize(args: &[String]) -> Result<(), String> {
+    use mbfmu::linearize::{to_csv, to_json, to_py, Trim};
+    let (model, rest) = args.split_first().ok_or(USAGE)?;
+    let entry = systems::all()
+        .into_iter()
+        .find(|e| e.name == model)
+        .ok_or_else(|| format!("unknown model {model}"))?;
+    let mut overrides: Vec<(String, f64)> = Vec::new();
+    let mut sets = Vec::new();
+    let mut ats = Vec::new();
+    let mut trim = None;
+    let mut format = "json".to_string();
+    let mut out = None;
+    let mut it = rest.iter();
+    while let Some(a) = it.next() {
+        let mut value = || it.next().ok_or_else(|| format!("{a} needs a value"));
+        match a.as_str() {
+            "--scene" => {
+                let name = value()?;
+                let scene = (entry.scenes)()
+                    .into_iter()
+                    .find(|s| s.name == name.as_str())
+                    .ok_or_else(|| format!("{model} has no scene {name}"))?;
+                overrides.extend(scene.start_values.iter().map(|(n, v)| (n.to_string(), *v)));
+            }
+            "--set" => sets.push(parse_assignment(value()?)?),
+            "--at" => ats.push(parse_assignment(value()?)?),
+            "--trim" => trim = Some(Trim::States),
+            "--trim-inputs" => trim = Some(Trim::Inputs),
+            "--format" => format = value()?.clone(),
+            "--out" => out = Some(PathBuf::from(value()?)),
+            other => return Err(format!("unknown option {other}\n{USAGE}")),
+        }
+    }
+    let params: Vec<String> = (entry.linearize)(&[], None)?.parameter_names;
+    for (name, _) in &sets {
+        if !params.contains(name) {
+            return Err(format!(
+                "--set {name}: not a parameter of {model} (parameters: {})",
+                params.join(", ")
+            ));
+        }
+    }
+    for (name, _) in &ats {
+        if params.contains(name) {
+            return Err(format!("--at {name}: a parameter; use --set"));
+        }
+    }
+    overrides.extend(sets);
+    overrides.extend(ats);
+    let lin = (entry.linearize)(&overrides, trim)?;
+    let text = match format.as_str() {
+        "json" => to_json(&lin),
+        "py" => to_py(&lin),
+        "csv" => to_csv(&lin),
+        other => return Err(format!("unknown format {other} (json, py, csv)")),
+    };
+    match out {
+        Some(path) => write(&path, &text),
+        None => {
+            print!("{text}");
+            Ok(())
+        }
+    }
+}
+
 fn list() {
     for e in systems::all() {
         println!("{}: {}", e.name, e.description);
@@ -142,6 +236,7 @@ fn main() -> ExitCode {
         }
         Some("build") => build(&args[1..]),
         Some("xml") => xml(&args[1..]),
+        Some("linearize") => linearize(&args[1..]),
         Some("-h" | "--help" | "help") => {
             println!("{USAGE}");
             Ok(())

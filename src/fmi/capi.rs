@@ -499,14 +499,24 @@ pub unsafe fn deserialize_fmu_state<E: Export>(
     })
 }
 
-/// Declared unsupported (providesDirectionalDerivative = false).
-pub fn get_directional_derivative<E: Export>(c: Component) -> Status {
-    call::<E>(c, "fmi2GetDirectionalDerivative", |inst| {
-        inst.require(
-            machine::DIRECTIONAL_DERIVATIVE,
-            "fmi2GetDirectionalDerivative",
-        )?;
-        Err("fmi2GetDirectionalDerivative: not provided by this FMU (providesDirectionalDerivative = false)".into())
+/// # Safety
+/// The arrays hold `n_unknown` / `n_known` elements when those are positive.
+pub unsafe fn get_directional_derivative<E: Export>(
+    c: Component,
+    unknown: *const c_uint,
+    n_unknown: usize,
+    known: *const c_uint,
+    n_known: usize,
+    dv_known: *const f64,
+    dv_unknown: *mut f64,
+) -> Status {
+    const F: &str = "fmi2GetDirectionalDerivative";
+    call::<E>(c, F, |inst| {
+        let unknown = slice(unknown, n_unknown, "vUnknown_ref[]", F)?;
+        let known = slice(known, n_known, "vKnown_ref[]", F)?;
+        let dv_known = slice(dv_known, n_known, "dvKnown[]", F)?;
+        let dv_unknown = slice_mut(dv_unknown, n_unknown, "dvUnknown[]", F)?;
+        ok(inst.directional_derivative(unknown, known, dv_known, dv_unknown))
     })
 }
 

@@ -200,16 +200,18 @@ macro_rules! export_fmu {
                 capi::deserialize_fmu_state::<E>(c, bytes, size, s)
             }
             #[no_mangle]
-            pub extern "C" fn fmi2GetDirectionalDerivative(
+            pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
                 c: Component,
-                _unknown: *const c_uint,
-                _n_unknown: usize,
-                _known: *const c_uint,
-                _n_known: usize,
-                _dv_known: *const f64,
-                _dv_unknown: *mut f64,
+                unknown: *const c_uint,
+                n_unknown: usize,
+                known: *const c_uint,
+                n_known: usize,
+                dv_known: *const f64,
+                dv_unknown: *mut f64,
             ) -> Status {
-                capi::get_directional_derivative::<E>(c)
+                capi::get_directional_derivative::<E>(
+                    c, unknown, n_unknown, known, n_known, dv_known, dv_unknown,
+                )
             }
             #[no_mangle]
             pub extern "C" fn fmi2SetRealInputDerivatives(

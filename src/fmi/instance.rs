@@ -6,6 +6,7 @@
 use super::machine::{self, Machine};
 use super::{Logger, ModelInfo, Snapshot};
 use crate::integrators::{self, Memory, Method, Settings};
+use crate::model::jacobian::{directional, Direction};
 use crate::model::{Slot, System, VarKind};
 use std::marker::PhantomData;
 
@@ -369,7 +370,12 @@ impl<M: System> Instance<M> {
             method: d.method,
             rtol: d.tolerance,
             atol,
-            step: d.solver_step,
+            // The step parameter is the fixed step of fixed-step methods; adaptive ones
+            // are bounded only by the communication interval.
+            step: match d.method {
+                Method::Rk4 => d.solver_step,
+                Method::Dopri5 => f64::INFINITY,
+            },
         };
         let (u, p) = (&d.u, &d.params);
         let mut rhs = |t: f64, x: &[f64], dx: &mut [f64]| M::derivatives(t, x, u, p, dx);
@@ -407,6 +413,73 @@ impl<M: System> Instance<M> {
                 )))
             }
         }
+    }
+
+    /// fmi2GetDirectionalDerivative: `dv_unknown = J · dv_known`, exact (dual numbers).
+    /// Unknowns: state derivatives and outputs (an output that is a state gives the seed
+    /// of that state); knowns: states and inputs (standard, 2.1.9).
+    pub fn directional_derivative(
+        &self,
+        unknowns: &[u32],
+        knowns: &[u32],
+        dv_known: &[f64],
+        dv_unknown: &mut [f64],
+    ) -> Res {
+        const F: &str = "fmi2GetDirectionalDerivative";
+        self.require(machine::DIRECTIONAL_DERIVATIVE, F)?;
+        let d = &self.data;
+        let mut dx = vec![0.0; d.x.len()];
+        let mut du = vec![0.0; d.u.len()];
+        for (&vr, &dv) in knowns.iter().zip(dv_known) {
+            let slot = self.slot(F, vr)?;
+            if !dv.is_finite() {
+                return Err(format!(
+                    "{F}: seed {dv} for {} is not finite",
+                    self.name(vr)
+                ));
+            }
+            match slot.kind {
+                VarKind::State => dx[slot.index] += dv,
+                VarKind::Input => du[slot.index] += dv,
+                _ => {
+                    return Err(format!(
+                        "{F}: {} (value reference {vr}) is not a known: use states or inputs",
+                        self.name(vr)
+                    ))
+                }
+            }
+        }
+        let slots = unknowns
+            .iter()
+            .map(|&vr| {
+                let slot = self.slot(F, vr)?;
+                match slot.kind {
+                    VarKind::State | VarKind::Derivative | VarKind::Output => Ok(slot),
+                    _ => Err(format!(
+                        "{F}: {} (value reference {vr}) is not an unknown: use outputs or state derivatives",
+                        self.name(vr)
+                    )),
+                }
+            })
+            .collect::<Res<Vec<Slot>>>()?;
+        let zeros_p = vec![0.0; d.params.len()];
+        let (df, dg) = directional::<M>(
+            &Direction {
+                t: d.time,
+                x: (&d.x, &dx),
+                u: (&d.u, &du),
+                p: (&d.params, &zeros_p),
+            },
+            self.info.layout.n_outputs,
+        );
+        for (out, slot) in dv_unknown.iter_mut().zip(slots) {
+            *out = match slot.kind {
+                VarKind::State => dx[slot.index],
+                VarKind::Derivative => df[slot.index],
+                _ => dg[slot.index],
+            };
+        }
+        Ok(())
     }
 
     /// fmi2GetRealStatus(fmi2LastSuccessfulTime).

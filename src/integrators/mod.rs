@@ -55,7 +55,7 @@ pub struct Settings {
     /// Absolute tolerance per state component (adaptive methods). Must have one entry per
     /// state for DOPRI5, and `atol[i] + rtol·|x[i]|` must stay positive.
     pub atol: Vec<f64>,
-    /// Fixed step of RK4; upper bound on the step of DOPRI5.
+    /// Fixed step of RK4; upper bound on the step of DOPRI5 (infinite: no bound).
     /// A value that is not positive and finite means "no step": RK4 then takes one step over
     /// the whole interval, DOPRI5 has no upper bound.
     pub step: f64,

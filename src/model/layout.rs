@@ -15,7 +15,7 @@ pub enum VarKind {
     Output,
     /// The integration method (Enumeration `Solver`), read with fmi2Get/SetInteger.
     SolverMethod,
-    /// The fixed step of fixed-step methods and the step cap of adaptive ones.
+    /// The fixed step of fixed-step methods (adaptive ones choose their own).
     SolverStep,
 }
 
@@ -67,7 +67,7 @@ impl Layout {
                 "solver_step",
                 Some("s"),
                 DEFAULT_SOLVER_STEP,
-                "Step of fixed-step methods; upper bound on the step of adaptive ones",
+                "Step of fixed-step methods (RK4); adaptive methods choose their own",
             )
             .min(1e-12)],
         );

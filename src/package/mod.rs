@@ -30,14 +30,16 @@ pub fn library_file(crate_name: &str) -> String {
     }
 }
 
-/// Writes `<out>`, an FMU with the model's XML, documentation and binary `library`
-/// (stored as `binaries/<platform>/<model_identifier>.<ext>`).
+/// Writes `<out>`, an FMU with the model's XML, documentation, binary `library`
+/// (stored as `binaries/<platform>/<model_identifier>.<ext>`) and `resources`
+/// (`(file name, content)` pairs under `resources/`).
 pub fn write_fmu(
     out: &Path,
     model_identifier: &str,
     model_description: &str,
     documentation: &str,
     library: &Path,
+    resources: &[(String, String)],
 ) -> Result<(), String> {
     let binary =
         std::fs::read(library).map_err(|e| format!("cannot read {}: {e}", library.display()))?;
@@ -53,7 +55,7 @@ pub fn write_fmu(
     let options = SimpleFileOptions::default()
         .compression_method(zip::CompressionMethod::Deflated)
         .last_modified_time(zip::DateTime::default());
-    let entries: [(String, &[u8]); 3] = [
+    let mut entries: Vec<(String, &[u8])> = vec![
         ("modelDescription.xml".into(), model_description.as_bytes()),
         (
             format!("binaries/{}/{model_identifier}.{ext}", platform()),
@@ -61,6 +63,9 @@ pub fn write_fmu(
         ),
         ("documentation/index.html".into(), documentation.as_bytes()),
     ];
+    for (name, text) in resources {
+        entries.push((format!("resources/{name}"), text.as_bytes()));
+    }
     for (name, data) in entries {
         zip.start_file(name.as_str(), options)
             .and_then(|_| zip.write_all(data).map_err(Into::into))

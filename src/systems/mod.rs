@@ -6,7 +6,11 @@ mod two_mass_chain;
 pub use mass_spring_damper::MassSpringDamper;
 pub use two_mass_chain::TwoMassChain;
 
+use crate::linearize::{self, Linearization, OperatingPoint, Trim};
 use crate::model::{Scene, System};
+
+/// Linearise at the start values with these `name = value` overrides, after an optional trim.
+pub type LinearizeFn = fn(&[(String, f64)], Option<Trim>) -> Result<Linearization, String>;
 
 /// What the CLI needs of one system, without knowing its type.
 pub struct Entry {
@@ -17,6 +21,18 @@ pub struct Entry {
     pub model_description: fn() -> String,
     pub documentation: fn() -> String,
     pub scenes: fn() -> Vec<Scene>,
+    pub linearize: LinearizeFn,
+}
+
+fn linearize_at<M: System>(
+    overrides: &[(String, f64)],
+    trim: Option<Trim>,
+) -> Result<Linearization, String> {
+    let mut op = OperatingPoint::from_start_values::<M>(overrides)?;
+    if let Some(what) = trim {
+        linearize::trim::<M>(&mut op, what)?;
+    }
+    Ok(linearize::linearize::<M>(&op))
 }
 
 fn entry<M: System>(crate_name: &'static str) -> Entry {
@@ -27,6 +43,7 @@ fn entry<M: System>(crate_name: &'static str) -> Entry {
         model_description: crate::xml::model_description::<M>,
         documentation: crate::package::index_html::<M>,
         scenes: M::scenes,
+        linearize: linearize_at::<M>,
     }
 }
 

@@ -124,7 +124,7 @@ fn render<M: System>(guid: &str) -> String {
             ("canNotUseMemoryManagementFunctions", s(true)),
             ("canGetAndSetFMUstate", s(true)),
             ("canSerializeFMUstate", s(true)),
-            ("providesDirectionalDerivative", s(false)),
+            ("providesDirectionalDerivative", s(true)),
         ],
     );
 

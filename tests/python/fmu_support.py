@@ -51,6 +51,12 @@ HERE = pathlib.Path(__file__).resolve().parent
 REPO = HERE.parents[1]
 MODELS = ("MassSpringDamper", "TwoMassChain")
 
+# The contract these tests were written against: providesDirectionalDerivative = false and
+# fmi2GetDirectionalDerivative -> fmi2Error.  test_directional_derivative.py checks the
+# function against whatever the FMU declares; test_validate checks the declaration
+# against this constant.
+CONTRACT_PROVIDES_DIRECTIONAL_DERIVATIVE = True
+
 STATUS_NAMES = {0: "OK", 1: "Warning", 2: "Discard", 3: "Error", 4: "Fatal", 5: "Pending"}
 
 # ---------------------------------------------------------------------------------------

@@ -110,8 +110,6 @@ def _cases_step_mode(model):
     # unsupported capabilities
     c["SetRealInputDerivatives"] = lambda i: i.call("fmi2SetRealInputDerivatives", vrs(F), 1, ints(1), reals(1.0))
     c["GetRealOutputDerivatives"] = lambda i: i.call("fmi2GetRealOutputDerivatives", vrs(X), 1, ints(1), reals(0.0))
-    c["GetDirectionalDerivative"] = lambda i: i.call(
-        "fmi2GetDirectionalDerivative", vrs(X), 1, vrs(F), 1, reals(1.0), reals(0.0))
     # status queries with null value pointers
     c["GetRealStatus null value"] = lambda i: i.call("fmi2GetRealStatus", fs.fmi2LastSuccessfulTime, None)
     c["GetStatus null value"] = lambda i: i.call("fmi2GetStatus", fs.fmi2DoStepStatus, None)
@@ -446,9 +444,6 @@ def test_fmpy_high_level_api_raises_with_status(model, logs):
         assert e.value.status == fmi2Error
         with pytest.raises(FMICallException) as e:
             fmu.setReal([model.vr["F"]], [NAN])
-        assert e.value.status == fmi2Error
-        with pytest.raises(FMICallException) as e:
-            fmu.getDirectionalDerivative([model.vr[model.state_names[0]]], [model.vr["F"]], [1.0])
         assert e.value.status == fmi2Error
         fmu.doStep(currentCommunicationPoint=0.01, communicationStepSize=0.01)
         assert fmu.getRealStatus(fs.fmi2LastSuccessfulTime) == 0.01 + 0.01
