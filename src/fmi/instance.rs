@@ -133,14 +133,18 @@ impl<M: System> Instance<M> {
 
     pub fn exit_initialization_mode(&mut self) -> Res {
         self.require(machine::EXIT_INIT, "fmi2ExitInitializationMode")?;
-        let mut dx = vec![0.0; self.data.x.len()];
-        self.derivatives(&mut dx);
-        if let Some(i) = dx.iter().position(|v| !v.is_finite()) {
+        let d = &self.data;
+        let mut x = d.x.clone();
+        M::project(d.time, &d.params, &mut x);
+        let mut dx = vec![0.0; x.len()];
+        M::derivatives(d.time, &x, &d.u, &d.params, &mut dx);
+        if let Some(i) = x.iter().chain(&dx).position(|v| !v.is_finite()) {
             return Err(format!(
-                "fmi2ExitInitializationMode: the derivative of state {} is not finite at the initial point (check the parameters)",
-                self.state_name(i)
+                "fmi2ExitInitializationMode: {} is not finite at the initial point (check the parameters and start values)",
+                if i < x.len() { self.state_name(i).to_string() } else { format!("der({})", self.state_name(i - x.len())) }
             ));
         }
+        self.data.x = x;
         self.data.memory = Memory::default();
         self.data.machine = Machine::StepComplete;
         Ok(())
@@ -383,6 +387,9 @@ impl<M: System> Instance<M> {
         let mut x = d.x.clone();
         let result =
             integrators::advance(&mut rhs, &mut t, &mut x, t_end, &settings, &mut d.memory);
+        if result.is_ok() {
+            M::project(t, p, &mut x);
+        }
         let mut y = vec![0.0; layout.n_outputs];
         M::extra_outputs(t, &x, u, p, &mut y);
         let outputs_finite = x.iter().chain(&y).all(|v| v.is_finite());

@@ -103,4 +103,11 @@ pub trait System: 'static {
     fn default_experiment() -> (f64, f64, f64) {
         (10.0, 1e-8, 1e-2)
     }
+
+    /// Puts `x` back on the constraint manifold (position and velocity constraints),
+    /// for systems that integrate surplus coordinates with multipliers. Called on the
+    /// initial state at fmi2ExitInitializationMode and after every doStep, so drift
+    /// cannot accumulate across communication steps. Unconstrained systems keep the
+    /// default, which does nothing.
+    fn project(_t: f64, _p: &[f64], _x: &mut [f64]) {}
 }
