@@ -19,21 +19,20 @@ impl Machine {
     }
 
     pub fn from_code(code: u32) -> Option<Machine> {
-        use Machine::*;
-        [
-            Instantiated,
-            InitializationMode,
-            StepComplete,
-            StepFailed,
-            Terminated,
-            Error,
-        ]
-        .into_iter()
-        .find(|m| m.code() == code)
+        ALL_STATES.into_iter().find(|m| m.code() == code)
     }
 }
 
 use Machine::*;
+
+const ALL_STATES: [Machine; 6] = [
+    Instantiated,
+    InitializationMode,
+    StepComplete,
+    StepFailed,
+    Terminated,
+    Error,
+];
 
 const fn mask(states: &[Machine]) -> u32 {
     let mut m = 0;
@@ -45,14 +44,7 @@ const fn mask(states: &[Machine]) -> u32 {
     m
 }
 
-pub const ANY: u32 = mask(&[
-    Instantiated,
-    InitializationMode,
-    StepComplete,
-    StepFailed,
-    Terminated,
-    Error,
-]);
+pub const ANY: u32 = mask(&ALL_STATES);
 pub const SETUP_EXPERIMENT: u32 = mask(&[Instantiated]);
 pub const ENTER_INIT: u32 = mask(&[Instantiated]);
 pub const EXIT_INIT: u32 = mask(&[InitializationMode]);
@@ -79,18 +71,11 @@ pub const BEFORE_INIT_DONE: u32 = mask(&[Instantiated, InitializationMode]);
 
 /// Names of the states a mask admits, for error messages.
 pub fn describe(mask: u32) -> String {
-    let names: Vec<String> = [
-        Instantiated,
-        InitializationMode,
-        StepComplete,
-        StepFailed,
-        Terminated,
-        Error,
-    ]
-    .into_iter()
-    .filter(|m| mask & m.code() != 0)
-    .map(|m| format!("{m:?}"))
-    .collect();
+    let names: Vec<String> = ALL_STATES
+        .into_iter()
+        .filter(|m| mask & m.code() != 0)
+        .map(|m| format!("{m:?}"))
+        .collect();
     if names.is_empty() {
         "none".into()
     } else {
