@@ -2,9 +2,11 @@
 
 mod mass_spring_damper;
 mod two_mass_chain;
+mod whipple_bicycle;
 
 pub use mass_spring_damper::MassSpringDamper;
 pub use two_mass_chain::TwoMassChain;
+pub use whipple_bicycle::WhippleBicycle;
 
 use crate::linearize::{self, Linearization, OperatingPoint, Trim};
 use crate::model::{Scene, System};
@@ -52,5 +54,6 @@ pub fn all() -> Vec<Entry> {
     vec![
         entry::<MassSpringDamper>("mass_spring_damper"),
         entry::<TwoMassChain>("two_mass_chain"),
+        entry::<WhippleBicycle>("whipple_bicycle"),
     ]
 }

@@ -1,0 +1,2 @@
+//! The WhippleBicycle FMU: this binary carries only this model.
+mbfmu::export_fmu!(mbfmu::systems::WhippleBicycle);
