@@ -1,7 +1,7 @@
 //! `mbfmu`: build and package the FMUs, list the systems, keep modelDescription/ current.
 //!
 //! Subcommands are a stable interface (outside tools script them):
-//! - `mbfmu list`: the systems and their scenes.
+//! - `mbfmu list [--json]`: the systems and their scenes (JSON: with start values and stop times).
 //! - `mbfmu build --all | MODEL...`: compile each FMU's cdylib in release mode and
 //!   write `target/fmu/<Model>.fmu`.
 //! - `mbfmu xml [--check]`: write (or check) `modelDescription/<Model>.xml`.
@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
 const USAGE: &str = "usage:
-  mbfmu list
+  mbfmu list [--json]
   mbfmu build (--all | MODEL...) [--out DIR]
   mbfmu xml [--check]
   mbfmu linearize MODEL [--scene S] [--set PARAM=VALUE]... [--at STATE_OR_INPUT=VALUE]...
@@ -218,22 +218,60 @@ fn linearize(args: &[String]) -> Result<(), String> {
     }
 }
 
-fn list() {
-    for e in systems::all() {
-        println!("{}: {}", e.name, e.description);
-        for s in (e.scenes)() {
-            println!("  {:<12} {}", s.name, s.description);
+fn list(args: &[String]) -> Result<(), String> {
+    match args {
+        [] => {
+            for e in systems::all() {
+                println!("{}: {}", e.name, e.description);
+                for s in (e.scenes)() {
+                    println!("  {:<18} {}", s.name, s.description);
+                }
+            }
         }
+        [flag] if flag == "--json" => print!("{}", list_json()),
+        _ => return Err(USAGE.into()),
     }
+    Ok(())
+}
+
+/// `mbfmu list --json`: every system and its scenes (start values, stop time), for scripts.
+fn list_json() -> String {
+    let q = |s: &str| format!("\"{}\"", s.replace('\\', "\\\\").replace('"', "\\\""));
+    let models: Vec<String> = systems::all()
+        .iter()
+        .map(|e| {
+            let scenes: Vec<String> = (e.scenes)()
+                .iter()
+                .map(|s| {
+                    let values: Vec<String> = s
+                        .start_values
+                        .iter()
+                        .map(|(n, v)| format!("{}: {v:?}", q(n)))
+                        .collect();
+                    format!(
+                        "{{\"name\": {}, \"description\": {}, \"stop_time\": {:?}, \"start_values\": {{{}}}}}",
+                        q(s.name),
+                        q(s.description),
+                        s.stop_time,
+                        values.join(", ")
+                    )
+                })
+                .collect();
+            format!(
+                "  {{\"name\": {}, \"description\": {}, \"scenes\": [{}]}}",
+                q(e.name),
+                q(e.description),
+                scenes.join(", ")
+            )
+        })
+        .collect();
+    format!("[\n{}\n]\n", models.join(",\n"))
 }
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let result = match args.first().map(String::as_str) {
-        Some("list") => {
-            list();
-            Ok(())
-        }
+        Some("list") => list(&args[1..]),
         Some("build") => build(&args[1..]),
         Some("xml") => xml(&args[1..]),
         Some("linearize") => linearize(&args[1..]),
