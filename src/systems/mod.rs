@@ -1,10 +1,12 @@
 //! The textbook systems, one file each: physics only, no FMI.
 
 mod mass_spring_damper;
+mod rigid_body;
 mod two_mass_chain;
 mod whipple_bicycle;
 
 pub use mass_spring_damper::MassSpringDamper;
+pub use rigid_body::RigidBody;
 pub use two_mass_chain::TwoMassChain;
 pub use whipple_bicycle::WhippleBicycle;
 
@@ -55,5 +57,6 @@ pub fn all() -> Vec<Entry> {
         entry::<MassSpringDamper>("mass_spring_damper"),
         entry::<TwoMassChain>("two_mass_chain"),
         entry::<WhippleBicycle>("whipple_bicycle"),
+        entry::<RigidBody>("rigid_body"),
     ]
 }
