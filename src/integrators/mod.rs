@@ -9,8 +9,15 @@
 // the interface other modules call, and an alias would hide what it takes.
 #![allow(clippy::type_complexity)]
 
+pub mod dop853;
 pub mod dopri5;
+pub mod euler;
+pub mod exact_linear;
+pub mod gauss;
+pub mod problem;
+pub mod radau5;
 pub mod rk4;
+pub mod verlet;
 
 use std::fmt;
 

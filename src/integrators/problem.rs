@@ -1,0 +1,234 @@
+//! What the methods beyond [`super::advance`] need to know about a problem, and the loop the
+//! fixed-step ones share.
+//!
+//! [`super::advance`] only needs `f`. Implicit methods also need the Jacobian `∂f/∂x` (exact,
+//! e.g. from dual numbers as in [`crate::model::jacobian`]), and the symplectic methods need to
+//! know which components are positions. [`Problem`] carries all three; each method states what
+//! it requires and panics (a caller bug, as for `t_end < t` in `advance`) when it is missing.
+//!
+//! Conventions shared with `advance`: every method advances from `*t` to exactly `t_end`; on
+//! failure `*t` and `x` hold the last accepted (finite) step; `Stats` counts every evaluation of
+//! `f` (not of the Jacobian: wrap the closure to count those).
+
+use super::rk4::SLIVER;
+use super::{Failure, Stats, MAX_STEPS};
+use std::fmt;
+
+/// The right-hand side and what some methods need besides it.
+pub struct Problem<'a> {
+    pub rhs: &'a mut dyn FnMut(f64, &[f64], &mut [f64]),
+    /// Exact Jacobian ∂f/∂x at (t, x), written row-major into an n×n slice (implicit methods).
+    pub jacobian: Option<&'a mut dyn FnMut(f64, &[f64], &mut [f64])>,
+    /// Some(nq) when the state is (q, q̇) with dq/dt = q̇ (the first nq components are
+    /// positions): needed by the symplectic Euler and Störmer–Verlet methods.
+    pub second_order: Option<usize>,
+}
+
+impl<'a> Problem<'a> {
+    /// A problem with only a right-hand side.
+    pub fn new(rhs: &'a mut dyn FnMut(f64, &[f64], &mut [f64])) -> Self {
+        Problem {
+            rhs,
+            jacobian: None,
+            second_order: None,
+        }
+    }
+
+    /// One evaluation of f, counted; `false` if the derivative is not finite.
+    pub(crate) fn eval(&mut self, t: f64, x: &[f64], dx: &mut [f64], stats: &mut Stats) -> bool {
+        stats.rhs_evals += 1;
+        (self.rhs)(t, x, dx);
+        dx.iter().all(|v| v.is_finite())
+    }
+
+    /// The Jacobian at (t, x) into `jac` (row-major n×n); panics if the problem has none.
+    pub(crate) fn eval_jacobian(&mut self, method: &str, t: f64, x: &[f64], jac: &mut [f64]) {
+        let jacobian = self
+            .jacobian
+            .as_mut()
+            .unwrap_or_else(|| panic!("{method} needs the exact Jacobian (Problem::jacobian)"));
+        jacobian(t, x, jac);
+    }
+
+    /// Number of position components; panics unless the problem is second order with
+    /// `2·nq == x.len()`.
+    pub(crate) fn positions(&self, method: &str, dim: usize) -> usize {
+        match self.second_order {
+            Some(nq) if 2 * nq == dim => nq,
+            Some(nq) => panic!("{method}: second_order = {nq} does not split {dim} states"),
+            None => panic!("{method} needs a second-order problem (Problem::second_order)"),
+        }
+    }
+}
+
+/// Why an implicit fixed-step method (implicit midpoint, Gauss) stopped early. The state was
+/// left at the last accepted step in every case.
+///
+/// A fixed-step method cannot answer a Newton failure by shrinking its step, and mapping it to
+/// [`Failure::StepTooSmall`] would say the opposite of the truth (the step is too *large* for
+/// Newton), so it gets a variant of its own; everything `advance` can report is wrapped as is.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ImplicitFailure {
+    /// One of the failures of [`super::advance`].
+    Integration(Failure),
+    /// The simplified Newton iteration of the step of size `h` from `t` did not converge:
+    /// it diverged (an increment did not shrink), or hit the iteration cap after
+    /// `iterations` iterations; `iterations == 0` means the Newton matrix was singular.
+    NewtonFailed { t: f64, h: f64, iterations: u32 },
+}
+
+impl From<Failure> for ImplicitFailure {
+    fn from(f: Failure) -> Self {
+        ImplicitFailure::Integration(f)
+    }
+}
+
+impl fmt::Display for ImplicitFailure {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ImplicitFailure::Integration(e) => e.fmt(f),
+            ImplicitFailure::NewtonFailed {
+                t,
+                h,
+                iterations: 0,
+            } => write!(
+                f,
+                "singular Newton matrix in the step of {h:e} s after t = {t} s (step too large?)"
+            ),
+            ImplicitFailure::NewtonFailed { t, h, iterations } => write!(
+                f,
+                "Newton did not converge in {iterations} iterations in the step of {h:e} s \
+                 after t = {t} s (step too large?)"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for ImplicitFailure {}
+
+/// The checks `advance` makes before any work: `Ok(false)` for the no-op `t_end == t`,
+/// `Err(NonFinite)` for a non-finite start; panics if `t_end < t` (caller bug).
+pub(crate) fn start(method: &str, t: f64, x: &[f64], t_end: f64) -> Result<bool, Failure> {
+    assert!(
+        t_end >= t,
+        "{method}: t_end = {t_end} must not precede t = {t}"
+    );
+    if t_end == t {
+        return Ok(false);
+    }
+    if !x.iter().all(|v| v.is_finite()) {
+        return Err(Failure::NonFinite { t });
+    }
+    Ok(true)
+}
+
+/// Number of steps covering `span` with steps of `step`, as RK4 counts them: the last one
+/// shortened, or lengthened by at most a [`SLIVER`] of a step; one step if `step` is not
+/// positive and finite.
+pub(crate) fn step_count(span: f64, step: f64) -> f64 {
+    if !(step > 0.0 && step.is_finite()) {
+        return 1.0;
+    }
+    let full = (span / step).floor();
+    let rest = span - full * step;
+    if rest <= SLIVER * step {
+        full.max(1.0)
+    } else {
+        full + 1.0
+    }
+}
+
+/// The fixed-step loop: step `i` runs from `t0 + i·step` to `t0 + (i+1)·step` (the last one
+/// to `t_end`), times computed from the start so rounding does not drift. `one_step(stats, ta,
+/// tb, x, y)` writes the state at `tb` into `y`; a non-finite `y` stops the loop with
+/// `NonFinite` at the last good state, as does an error of `one_step`.
+pub(crate) fn fixed_steps<E: From<Failure>>(
+    method: &str,
+    t: &mut f64,
+    x: &mut [f64],
+    t_end: f64,
+    step: f64,
+    stats: &mut Stats,
+    mut one_step: impl FnMut(&mut Stats, f64, f64, &[f64], &mut [f64]) -> Result<(), E>,
+) -> Result<(), E> {
+    if !start(method, *t, x, t_end)? {
+        return Ok(());
+    }
+    let t0 = *t;
+    let n = step_count(t_end - t0, step);
+    if n > MAX_STEPS as f64 {
+        return Err(Failure::TooManySteps {
+            t: t0,
+            steps: n as u64,
+        }
+        .into());
+    }
+    let n = n as u64;
+    let mut y = vec![0.0; x.len()];
+    for i in 0..n {
+        let ta = *t;
+        let tb = if i + 1 == n {
+            t_end
+        } else {
+            t0 + (i + 1) as f64 * step
+        };
+        one_step(stats, ta, tb, x, &mut y)?;
+        if !y.iter().all(|v| v.is_finite()) {
+            return Err(Failure::NonFinite { t: ta }.into());
+        }
+        x.copy_from_slice(&y);
+        *t = tb;
+        stats.steps += 1;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+pub(crate) mod test_support {
+    use super::super::test_support::OMEGA;
+
+    /// Energy of the oscillator in the scale where it is 1 at x = 1, v = 0.
+    pub fn energy(y: &[f64]) -> f64 {
+        y[0] * y[0] + y[1] * y[1] / (OMEGA * OMEGA)
+    }
+
+    /// Jacobian of [`super::super::test_support::oscillator`].
+    pub fn oscillator_jacobian(_t: f64, _y: &[f64], j: &mut [f64]) {
+        j.copy_from_slice(&[0.0, 1.0, -OMEGA * OMEGA, 0.0]);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn step_count_matches_rk4_rules() {
+        assert_eq!(step_count(1.0 + 1e-13, 0.1), 10.0);
+        assert_eq!(step_count(0.3, 0.1), 3.0);
+        assert_eq!(step_count(1.05, 0.1), 11.0);
+        assert_eq!(step_count(0.01, 0.1), 1.0);
+        assert_eq!(step_count(0.5, 0.0), 1.0);
+        assert_eq!(step_count(0.5, f64::INFINITY), 1.0);
+    }
+
+    #[test]
+    fn implicit_failure_display_is_one_line() {
+        for f in [
+            ImplicitFailure::Integration(Failure::NonFinite { t: 1.0 }),
+            ImplicitFailure::NewtonFailed {
+                t: 1.0,
+                h: 0.1,
+                iterations: 0,
+            },
+            ImplicitFailure::NewtonFailed {
+                t: 1.0,
+                h: 0.1,
+                iterations: 50,
+            },
+        ] {
+            let s = f.to_string();
+            assert!(!s.contains('\n') && s.contains("t = "), "{s}");
+        }
+    }
+}
