@@ -5,6 +5,7 @@
 
 use super::machine::{self, Machine};
 use super::{Logger, ModelInfo, Snapshot};
+use crate::integrators::problem::Problem;
 use crate::integrators::{self, Memory, Method, Settings};
 use crate::model::jacobian::{directional, Direction};
 use crate::model::{Slot, System, VarKind};
@@ -314,6 +315,13 @@ impl<M: System> Instance<M> {
                 )
             })?;
         }
+        if method.needs_second_order() && !M::SECOND_ORDER {
+            return Err(format!(
+                "fmi2SetInteger: solver {} needs states of the form (q, q̇); {} has none",
+                method.name(),
+                M::NAME
+            ));
+        }
         self.data.method = method;
         Ok(())
     }
@@ -376,17 +384,51 @@ impl<M: System> Instance<M> {
             atol,
             // The step parameter is the fixed step of fixed-step methods; adaptive ones
             // are bounded only by the communication interval.
-            step: match d.method {
-                Method::Rk4 => d.solver_step,
-                Method::Dopri5 => f64::INFINITY,
+            step: if d.method.is_adaptive() {
+                f64::INFINITY
+            } else {
+                d.solver_step
             },
         };
         let (u, p) = (&d.u, &d.params);
+        let n = d.x.len();
         let mut rhs = |t: f64, x: &[f64], dx: &mut [f64]| M::derivatives(t, x, u, p, dx);
+        // ∂f/∂x column by column with dual numbers (exact), row-major for the methods.
+        let mut jacobian = |t: f64, x: &[f64], jac: &mut [f64]| {
+            let (zero_u, zero_p) = (vec![0.0; u.len()], vec![0.0; p.len()]);
+            let mut e = vec![0.0; n];
+            for j in 0..n {
+                e.fill(0.0);
+                e[j] = 1.0;
+                let (column, _) = directional::<M>(
+                    &Direction {
+                        t,
+                        x: (x, &e),
+                        u: (u, &zero_u),
+                        p: (p, &zero_p),
+                    },
+                    0,
+                );
+                for (i, v) in column.iter().enumerate() {
+                    jac[i * n + j] = *v;
+                }
+            }
+        };
+        let mut problem = Problem {
+            rhs: &mut rhs,
+            jacobian: Some(&mut jacobian),
+            second_order: M::SECOND_ORDER.then_some(n / 2),
+        };
         let mut t = current;
         let mut x = d.x.clone();
-        let result =
-            integrators::advance(&mut rhs, &mut t, &mut x, t_end, &settings, &mut d.memory);
+        let result = integrators::advance_with(
+            &mut problem,
+            &mut t,
+            &mut x,
+            t_end,
+            &settings,
+            &mut d.memory,
+        );
         if result.is_ok() {
             M::project(t, p, &mut x);
         }

@@ -28,11 +28,38 @@ pub enum Method {
     Rk4 = 1,
     /// Dormand–Prince 5(4), adaptive step: accuracy by tolerance.
     Dopri5 = 2,
+    /// Explicit Euler, fixed step: the textbook baseline (energy grows by 1 + h²ω²).
+    ExplicitEuler = 3,
+    /// Symplectic Euler (kick-drift), fixed step; needs a second-order system.
+    SymplecticEuler = 4,
+    /// Störmer–Verlet (velocity Verlet), fixed step; needs a second-order system.
+    Verlet = 5,
+    /// Implicit midpoint, fixed step, Newton with the exact Jacobian: keeps quadratic invariants.
+    ImplicitMidpoint = 6,
+    /// Gauss–Legendre order 4, fixed step, Newton with the exact Jacobian: symplectic.
+    Gauss4 = 7,
+    /// Gauss–Legendre order 6, fixed step, Newton with the exact Jacobian: symplectic.
+    Gauss6 = 8,
+    /// Dormand–Prince 8(5,3), adaptive step: for tight tolerances.
+    Dop853 = 9,
+    /// Radau IIA order 5, adaptive step, exact Jacobian: for stiff systems.
+    Radau5 = 10,
 }
 
 impl Method {
     /// Every method, in code order (for the modelDescription enumeration).
-    pub const ALL: [Method; 2] = [Method::Rk4, Method::Dopri5];
+    pub const ALL: [Method; 10] = [
+        Method::Rk4,
+        Method::Dopri5,
+        Method::ExplicitEuler,
+        Method::SymplecticEuler,
+        Method::Verlet,
+        Method::ImplicitMidpoint,
+        Method::Gauss4,
+        Method::Gauss6,
+        Method::Dop853,
+        Method::Radau5,
+    ];
 
     /// The method with this `solver` code, if any.
     pub fn from_code(code: i32) -> Option<Method> {
@@ -49,6 +76,91 @@ impl Method {
         match self {
             Method::Rk4 => "RK4",
             Method::Dopri5 => "DOPRI5",
+            Method::ExplicitEuler => "ExplicitEuler",
+            Method::SymplecticEuler => "SymplecticEuler",
+            Method::Verlet => "Verlet",
+            Method::ImplicitMidpoint => "ImplicitMidpoint",
+            Method::Gauss4 => "Gauss4",
+            Method::Gauss6 => "Gauss6",
+            Method::Dop853 => "DOP853",
+            Method::Radau5 => "RADAU5",
+        }
+    }
+
+    /// One line for the modelDescription's enumeration item.
+    pub fn description(self) -> &'static str {
+        match self {
+            Method::Rk4 => "Classic Runge-Kutta of order 4, fixed step solver_step",
+            Method::Dopri5 => "Dormand-Prince 5(4), adaptive step with a PI controller",
+            Method::ExplicitEuler => "Explicit Euler, fixed step solver_step (order 1)",
+            Method::SymplecticEuler => {
+                "Symplectic Euler, fixed step solver_step (second-order systems)"
+            }
+            Method::Verlet => "Stormer-Verlet, fixed step solver_step (second-order systems)",
+            Method::ImplicitMidpoint => "Implicit midpoint, fixed step solver_step, exact Jacobian",
+            Method::Gauss4 => "Gauss-Legendre order 4, fixed step solver_step, exact Jacobian",
+            Method::Gauss6 => "Gauss-Legendre order 6, fixed step solver_step, exact Jacobian",
+            Method::Dop853 => "Dormand-Prince 8(5,3), adaptive step",
+            Method::Radau5 => "Radau IIA order 5, adaptive step, exact Jacobian (stiff systems)",
+        }
+    }
+
+    /// Whether the step size comes from a tolerance (else it is `solver_step`).
+    pub fn is_adaptive(self) -> bool {
+        matches!(self, Method::Dopri5 | Method::Dop853 | Method::Radau5)
+    }
+
+    /// Whether the method needs states of the form (q, q̇) with dq/dt = q̇.
+    pub fn needs_second_order(self) -> bool {
+        matches!(self, Method::SymplecticEuler | Method::Verlet)
+    }
+
+    /// Whether the method needs the Jacobian ∂f/∂x.
+    pub fn needs_jacobian(self) -> bool {
+        matches!(
+            self,
+            Method::ImplicitMidpoint | Method::Gauss4 | Method::Gauss6 | Method::Radau5
+        )
+    }
+}
+
+/// Advances with any [`Method`] (RK4 and DOPRI5 through [`advance`], the others through
+/// [`Problem`]): the one entry point the FMU uses. Same landing and failure conventions;
+/// the error is one line saying why.
+pub fn advance_with(
+    problem: &mut problem::Problem,
+    t: &mut f64,
+    x: &mut [f64],
+    t_end: f64,
+    settings: &Settings,
+    memory: &mut Memory,
+) -> Result<(), String> {
+    let h = settings.step;
+    let stats = &mut memory.stats;
+    let text = |e: &dyn fmt::Display| e.to_string();
+    match settings.method {
+        Method::Rk4 | Method::Dopri5 => {
+            advance(problem.rhs, t, x, t_end, settings, memory).map_err(|e| text(&e))
+        }
+        Method::ExplicitEuler => {
+            euler::explicit_euler(problem, t, x, t_end, h, stats).map_err(|e| text(&e))
+        }
+        Method::SymplecticEuler => {
+            euler::symplectic_euler(problem, t, x, t_end, h, stats).map_err(|e| text(&e))
+        }
+        Method::Verlet => {
+            verlet::velocity_verlet(problem, t, x, t_end, h, stats).map_err(|e| text(&e))
+        }
+        Method::ImplicitMidpoint => {
+            gauss::implicit_midpoint(problem, t, x, t_end, h, stats).map_err(|e| text(&e))
+        }
+        Method::Gauss4 => gauss::gauss4(problem, t, x, t_end, h, stats).map_err(|e| text(&e)),
+        Method::Gauss6 => gauss::gauss6(problem, t, x, t_end, h, stats).map_err(|e| text(&e)),
+        Method::Dop853 => {
+            dop853::advance(problem, t, x, t_end, settings, memory).map_err(|e| text(&e))
+        }
+        Method::Radau5 => {
+            radau5::advance(problem, t, x, t_end, settings, memory).map_err(|e| text(&e))
         }
     }
 }
@@ -156,6 +268,10 @@ pub fn advance(
     match settings.method {
         Method::Rk4 => rk4::advance(rhs, t, x, t_end, settings.step, &mut memory.stats),
         Method::Dopri5 => dopri5::advance(rhs, t, x, t_end, settings, memory),
+        other => panic!(
+            "integrators::advance runs RK4 and DOPRI5; {} needs advance_with and a Problem",
+            other.name()
+        ),
     }
 }
 
@@ -191,7 +307,8 @@ mod tests {
         assert_eq!(Method::from_code(1), Some(Method::Rk4));
         assert_eq!(Method::from_code(2), Some(Method::Dopri5));
         assert_eq!(Method::from_code(0), None);
-        assert_eq!(Method::from_code(3), None);
+        assert_eq!(Method::from_code(11), None);
+        assert_eq!(Method::from_code(10), Some(Method::Radau5));
         for m in Method::ALL {
             assert_eq!(Method::from_code(m.code()), Some(m));
         }

@@ -13,7 +13,7 @@ pub struct Direction<'a> {
 }
 
 /// `(∂f/∂(x,u,p)·δ, ∂g/∂(x,u,p)·δ)`: the change of the state derivatives and of the
-/// extra outputs along the direction.
+/// extra outputs along the direction. With `n_outputs == 0` only f is evaluated.
 pub fn directional<M: System>(d: &Direction, n_outputs: usize) -> (Vec<f64>, Vec<f64>) {
     let seed = |(v, dv): (&[f64], &[f64])| -> Vec<Dual64> {
         v.iter()
@@ -25,7 +25,9 @@ pub fn directional<M: System>(d: &Direction, n_outputs: usize) -> (Vec<f64>, Vec
     let mut dx = vec![Dual64::from(0.0); x.len()];
     let mut y = vec![Dual64::from(0.0); n_outputs];
     M::derivatives(d.t, &x, &u, &p, &mut dx);
-    M::extra_outputs(d.t, &x, &u, &p, &mut y);
+    if n_outputs > 0 {
+        M::extra_outputs(d.t, &x, &u, &p, &mut y);
+    }
     (
         dx.iter().map(|v| v.eps).collect(),
         y.iter().map(|v| v.eps).collect(),

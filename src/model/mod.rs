@@ -99,6 +99,10 @@ pub trait System: 'static {
     /// The configured experiments of this system.
     fn scenes() -> Vec<Scene>;
 
+    /// True when the states are (q, q̇) halves with dq/dt = q̇: the symplectic fixed-step
+    /// methods (symplectic Euler, Verlet) need that split.
+    const SECOND_ORDER: bool = false;
+
     /// DefaultExperiment: stop time, relative tolerance, communication step size.
     fn default_experiment() -> (f64, f64, f64) {
         (10.0, 1e-8, 1e-2)

@@ -8,6 +8,8 @@ impl System for MassSpringDamper {
     const NAME: &'static str = "MassSpringDamper";
     const DESCRIPTION: &'static str =
         "A mass on a linear spring and viscous damper, driven by an external force";
+    /// States are (positions, velocities).
+    const SECOND_ORDER: bool = true;
     const EQUATIONS: &'static [&'static str] = &[
         "m ẍ + c ẋ + k x = F + F_amp sin(F_omega t)",
         "ωn = √(k/m), ζ = c / (2 m ωn)",

@@ -140,7 +140,7 @@ fn render<M: System>(guid: &str) -> String {
             &[
                 ("name", s(m.name())),
                 ("value", s(m.code())),
-                ("description", s(method_description(m))),
+                ("description", s(m.description())),
             ],
         );
     }
@@ -265,11 +265,4 @@ pub fn fmi_attributes(slot: Slot) -> (&'static str, &'static str, Option<&'stati
 /// Only variables with initial = exact/approx, and inputs, may carry a start value.
 fn has_start(kind: VarKind) -> bool {
     !matches!(kind, VarKind::Derivative | VarKind::Output)
-}
-
-fn method_description(m: Method) -> &'static str {
-    match m {
-        Method::Rk4 => "Classic Runge-Kutta of order 4, fixed step solver_step",
-        Method::Dopri5 => "Dormand-Prince 5(4), adaptive step with a PI controller",
-    }
 }
