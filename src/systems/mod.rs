@@ -2,11 +2,15 @@
 
 mod mass_spring_damper;
 mod rigid_body;
+mod rolling_disk;
+mod rolling_hoop;
 mod two_mass_chain;
 mod whipple_bicycle;
 
 pub use mass_spring_damper::MassSpringDamper;
 pub use rigid_body::RigidBody;
+pub use rolling_disk::RollingDisk;
+pub use rolling_hoop::RollingHoop;
 pub use two_mass_chain::TwoMassChain;
 pub use whipple_bicycle::WhippleBicycle;
 
@@ -58,5 +62,7 @@ pub fn all() -> Vec<Entry> {
         entry::<TwoMassChain>("two_mass_chain"),
         entry::<WhippleBicycle>("whipple_bicycle"),
         entry::<RigidBody>("rigid_body"),
+        entry::<RollingHoop>("rolling_hoop"),
+        entry::<RollingDisk>("rolling_disk"),
     ]
 }
