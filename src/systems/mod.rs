@@ -1,16 +1,20 @@
 //! The textbook systems, one file each: physics only, no FMI.
 
 mod mass_spring_damper;
+mod projectile;
 mod rigid_body;
 mod rolling_disk;
 mod rolling_hoop;
+pub mod springy_pendulum;
 mod two_mass_chain;
 mod whipple_bicycle;
 
 pub use mass_spring_damper::MassSpringDamper;
+pub use projectile::Projectile;
 pub use rigid_body::RigidBody;
 pub use rolling_disk::RollingDisk;
 pub use rolling_hoop::RollingHoop;
+pub use springy_pendulum::SpringyPendulum;
 pub use two_mass_chain::TwoMassChain;
 pub use whipple_bicycle::WhippleBicycle;
 
@@ -64,5 +68,7 @@ pub fn all() -> Vec<Entry> {
         entry::<RigidBody>("rigid_body"),
         entry::<RollingHoop>("rolling_hoop"),
         entry::<RollingDisk>("rolling_disk"),
+        entry::<Projectile>("projectile"),
+        entry::<SpringyPendulum>("springy_pendulum"),
     ]
 }

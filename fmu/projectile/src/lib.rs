@@ -1,0 +1,2 @@
+//! The Projectile FMU: this binary carries only this model.
+mbfmu::export_fmu!(mbfmu::systems::Projectile);
