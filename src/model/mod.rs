@@ -7,6 +7,7 @@
 //! ModelStructure and the C glue are all derived from this declaration.
 
 pub mod jacobian;
+pub mod lagrangian;
 mod layout;
 mod scene;
 

@@ -1,5 +1,7 @@
 //! The textbook systems, one file each: physics only, no FMI.
 
+mod compound_pendulum;
+mod double_pendulum;
 mod mass_spring_damper;
 mod projectile;
 mod rigid_body;
@@ -9,6 +11,8 @@ pub mod springy_pendulum;
 mod two_mass_chain;
 mod whipple_bicycle;
 
+pub use compound_pendulum::CompoundPendulum;
+pub use double_pendulum::DoublePendulum;
 pub use mass_spring_damper::MassSpringDamper;
 pub use projectile::Projectile;
 pub use rigid_body::RigidBody;
@@ -70,5 +74,7 @@ pub fn all() -> Vec<Entry> {
         entry::<RollingDisk>("rolling_disk"),
         entry::<Projectile>("projectile"),
         entry::<SpringyPendulum>("springy_pendulum"),
+        entry::<DoublePendulum>("double_pendulum"),
+        entry::<CompoundPendulum>("compound_pendulum"),
     ]
 }

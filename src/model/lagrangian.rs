@@ -1,0 +1,279 @@
+//! Lagrangian systems: write the energies, get the equations of motion.
+//!
+//! A [`Lagrangian`] declares generalised coordinates `q`, the kinetic energy
+//! `T(q, q̇, p)`, the potential `V(q, p)` and the generalised forces `Q(t, q, q̇, u, p)`,
+//! all generic over the scalar type. The Euler–Lagrange equations
+//!
+//! ```text
+//! d/dt ∂L/∂q̇ − ∂L/∂q = Q,   L = T − V
+//! ⇔  M(q, q̇) q̈ = Q + ∂L/∂q − (∂²L/∂q̇∂q) q̇,   M = ∂²T/∂q̇²
+//! ```
+//!
+//! are then formed exactly, by automatic differentiation, at every evaluation: no
+//! hand-derived equations to get wrong. Every `Lagrangian` is a [`System`] (blanket
+//! implementation below) with the states `(q, q̇)` and `ẋ = (q̇, q̈)`.
+//!
+//! # Why nested dual numbers
+//!
+//! The derivatives `∂²T/∂q̇ᵢ∂q̇ⱼ`, `∂L/∂qᵢ` and `Σⱼ ∂²L/∂q̇ᵢ∂qⱼ q̇ⱼ` are taken with
+//! hyper-dual numbers (`HyperDual<S>`, second derivatives) and dual numbers (`Dual<S>`,
+//! first derivatives) whose components are themselves of the caller's scalar type `S`.
+//! With `S = f64` that is plain forward-mode AD. With `S = Dual64` (what
+//! [`jacobian`](super::jacobian), the ModelStructure, the implicit integrators and
+//! linearisation use) the nesting carries the outer derivative through the inner
+//! one, so the Jacobian of `q̈` with respect to states, inputs and parameters is still
+//! exact: the right-hand side is one generic function of `S`, like a hand-written one.
+//!
+//! # Why a hand-written linear solve
+//!
+//! `M q̈ = rhs` is solved by Gaussian elimination with partial pivoting written over
+//! `S` ([`solve`]): nalgebra's decompositions need `ComplexField`, which num-dual only
+//! provides with its `nalgebra` feature (off here), and for n ≤ 6 a dozen lines are
+//! clearer anyway. Pivots are chosen by the real part, so a dual-number evaluation takes
+//! the same pivot sequence as the `f64` one and differentiates the same formula.
+
+use super::{Scalar, Scene, System, Var};
+use num_dual::{Dual, HyperDual};
+
+/// A mechanical system given by its energies in generalised coordinates.
+///
+/// `coordinates()` and `velocities()` must have the same length n; the states of the
+/// resulting [`System`] are the coordinates then the velocities.
+///
+/// Because every `Lagrangian` is also a `System`, the associated items with the same
+/// names (`NAME`, `parameters`, `scenes`, …) exist twice on the type; they agree. With
+/// both traits imported, name the one meant: `<CompoundPendulum as System>::scenes()`.
+pub trait Lagrangian: 'static {
+    /// The FMU's modelIdentifier.
+    const NAME: &'static str;
+    /// One line: what the system is.
+    const DESCRIPTION: &'static str;
+    /// Equations and notes for the FMU's documentation (plain text, one per line).
+    const EQUATIONS: &'static [&'static str];
+
+    fn parameters() -> Vec<Var>;
+    fn inputs() -> Vec<Var>;
+    /// The generalised coordinates q (their start values are the initial state).
+    fn coordinates() -> Vec<Var>;
+    /// The generalised velocities q̇, in the order of `coordinates` (e.g. `theta_dot`).
+    fn velocities() -> Vec<Var>;
+    /// Extra outputs (energy, constraint forces, …), beyond the states.
+    fn outputs() -> Vec<Var>;
+
+    /// Kinetic energy `T(q, q̇, p)`.
+    fn kinetic<S: Scalar>(q: &[S], qd: &[S], p: &[S]) -> S;
+
+    /// Potential energy `V(q, p)`.
+    fn potential<S: Scalar>(q: &[S], p: &[S]) -> S;
+
+    /// Generalised forces `Q(t, q, q̇, u, p)` (non-conservative: inputs, damping).
+    /// Default: none.
+    fn forces<S: Scalar>(_t: f64, _q: &[S], _qd: &[S], _u: &[S], _p: &[S], out: &mut [S]) {
+        out.fill(S::from(0.0));
+    }
+
+    /// The extra outputs `y`. [`accelerations`] gives q̈ when an output needs it.
+    fn extra_outputs<S: Scalar>(t: f64, q: &[S], qd: &[S], u: &[S], p: &[S], y: &mut [S]);
+
+    /// The configured experiments of this system.
+    fn scenes() -> Vec<Scene>;
+
+    /// DefaultExperiment: stop time, relative tolerance, communication step size.
+    fn default_experiment() -> (f64, f64, f64) {
+        (10.0, 1e-8, 1e-2)
+    }
+}
+
+/// `L = T − V` at a point of any scalar type.
+fn lagrangian<L: Lagrangian, S: Scalar>(q: &[S], qd: &[S], p: &[S]) -> S {
+    L::kinetic(q, qd, p) - L::potential(q, p)
+}
+
+fn lift_hyper<S: Scalar>(v: &[S]) -> Vec<HyperDual<S>> {
+    v.iter().map(|&x| HyperDual::from_re(x)).collect()
+}
+
+fn lift_dual<S: Scalar>(v: &[S]) -> Vec<Dual<S>> {
+    v.iter().map(|&x| Dual::from_re(x)).collect()
+}
+
+/// The mass matrix `M = ∂²T/∂q̇²` (n × n, symmetric), one hyper-dual evaluation of T
+/// per entry of the upper triangle. It may depend on q̇ for a general T; for the usual
+/// T quadratic in q̇ it does not.
+pub fn mass_matrix<L: Lagrangian, S: Scalar>(q: &[S], qd: &[S], p: &[S]) -> Vec<Vec<S>> {
+    let n = q.len();
+    let (qh, ph) = (lift_hyper(q), lift_hyper(p));
+    let mut m = vec![vec![S::from(0.0); n]; n];
+    for i in 0..n {
+        for j in i..n {
+            let mut qdh = lift_hyper(qd);
+            qdh[i].eps1 = S::from(1.0);
+            qdh[j].eps2 = S::from(1.0);
+            let mij = L::kinetic(&qh, &qdh, &ph).eps1eps2;
+            m[i][j] = mij;
+            m[j][i] = mij;
+        }
+    }
+    m
+}
+
+/// The right-hand side `Q + ∂L/∂q − (∂²L/∂q̇∂q) q̇` of `M q̈ = …`.
+///
+/// `∂L/∂qᵢ`: one dual evaluation with `qᵢ + ε`. The mixed term, contracted with q̇ so it
+/// costs n evaluations rather than n²: one hyper-dual evaluation with `q̇ᵢ + ε₁` and
+/// `q + ε₂ q̇` gives `Σⱼ ∂²L/∂q̇ᵢ∂qⱼ q̇ⱼ` in its ε₁ε₂ part.
+pub fn generalized_rhs<L: Lagrangian, S: Scalar>(
+    t: f64,
+    q: &[S],
+    qd: &[S],
+    u: &[S],
+    p: &[S],
+) -> Vec<S> {
+    let n = q.len();
+    let mut rhs = vec![S::from(0.0); n];
+    L::forces(t, q, qd, u, p, &mut rhs);
+    let (qdd, pd) = (lift_dual(qd), lift_dual(p));
+    let ph = lift_hyper(p);
+    for i in 0..n {
+        // ∂L/∂qᵢ
+        let mut qdual = lift_dual(q);
+        qdual[i].eps = S::from(1.0);
+        rhs[i] += lagrangian::<L, _>(&qdual, &qdd, &pd).eps;
+        // Σⱼ ∂²L/∂q̇ᵢ∂qⱼ q̇ⱼ
+        let qh: Vec<HyperDual<S>> = q
+            .iter()
+            .zip(qd)
+            .map(|(&qj, &vj)| HyperDual::new(qj, S::from(0.0), vj, S::from(0.0)))
+            .collect();
+        let mut qdh = lift_hyper(qd);
+        qdh[i].eps1 = S::from(1.0);
+        rhs[i] -= lagrangian::<L, _>(&qh, &qdh, &ph).eps1eps2;
+    }
+    rhs
+}
+
+/// The accelerations q̈ of the Euler–Lagrange equations: `M q̈ = Q + ∂L/∂q − (∂²L/∂q̇∂q) q̇`.
+pub fn accelerations<L: Lagrangian, S: Scalar>(
+    t: f64,
+    q: &[S],
+    qd: &[S],
+    u: &[S],
+    p: &[S],
+) -> Vec<S> {
+    let mut m = mass_matrix::<L, S>(q, qd, p);
+    let mut rhs = generalized_rhs::<L, S>(t, q, qd, u, p);
+    solve(&mut m, &mut rhs);
+    rhs
+}
+
+/// Mechanical energy `E = T + V`.
+pub fn energy<L: Lagrangian, S: Scalar>(q: &[S], qd: &[S], p: &[S]) -> S {
+    L::kinetic(q, qd, p) + L::potential(q, p)
+}
+
+/// Solves `a x = b` in place (`b` becomes x) by Gaussian elimination with partial
+/// pivoting, for small dense systems over any scalar. The pivot is the largest entry by
+/// the absolute value of its real part, so dual-number evaluations follow the `f64`
+/// path. A singular matrix (zero pivot) gives non-finite results, which the integrators
+/// report as a failed step.
+pub fn solve<S: Scalar>(a: &mut [Vec<S>], b: &mut [S]) {
+    let n = b.len();
+    for k in 0..n {
+        let pivot = (k..n)
+            .max_by(|&i, &j| a[i][k].re().abs().total_cmp(&a[j][k].re().abs()))
+            .expect("k < n");
+        a.swap(k, pivot);
+        b.swap(k, pivot);
+        let (upper, lower) = a.split_at_mut(k + 1);
+        let row_k = &upper[k];
+        let bk = b[k];
+        for (row, bi) in lower.iter_mut().zip(&mut b[k + 1..]) {
+            let f = row[k] / row_k[k];
+            for (aij, &akj) in row[k + 1..].iter_mut().zip(&row_k[k + 1..]) {
+                *aij -= f * akj;
+            }
+            *bi -= f * bk;
+        }
+    }
+    for k in (0..n).rev() {
+        let s = a[k][k + 1..]
+            .iter()
+            .zip(&b[k + 1..])
+            .fold(b[k], |s, (&akj, &xj)| s - akj * xj);
+        b[k] = s / a[k][k];
+    }
+}
+
+/// Every Lagrangian is a second-order [`System`] with states `(q, q̇)`.
+impl<L: Lagrangian> System for L {
+    const NAME: &'static str = <L as Lagrangian>::NAME;
+    const DESCRIPTION: &'static str = <L as Lagrangian>::DESCRIPTION;
+    const EQUATIONS: &'static [&'static str] = <L as Lagrangian>::EQUATIONS;
+    const SECOND_ORDER: bool = true;
+
+    fn parameters() -> Vec<Var> {
+        <L as Lagrangian>::parameters()
+    }
+
+    fn inputs() -> Vec<Var> {
+        <L as Lagrangian>::inputs()
+    }
+
+    fn states() -> Vec<Var> {
+        let (q, qd) = (L::coordinates(), L::velocities());
+        assert_eq!(
+            q.len(),
+            qd.len(),
+            "{}: as many velocities as coordinates",
+            <L as Lagrangian>::NAME
+        );
+        q.into_iter().chain(qd).collect()
+    }
+
+    fn outputs() -> Vec<Var> {
+        <L as Lagrangian>::outputs()
+    }
+
+    fn derivatives<S: Scalar>(t: f64, x: &[S], u: &[S], p: &[S], dx: &mut [S]) {
+        let n = x.len() / 2;
+        let (q, qd) = x.split_at(n);
+        dx[..n].copy_from_slice(qd);
+        dx[n..].copy_from_slice(&accelerations::<L, S>(t, q, qd, u, p));
+    }
+
+    fn extra_outputs<S: Scalar>(t: f64, x: &[S], u: &[S], p: &[S], y: &mut [S]) {
+        let (q, qd) = x.split_at(x.len() / 2);
+        <L as Lagrangian>::extra_outputs(t, q, qd, u, p, y);
+    }
+
+    fn scenes() -> Vec<Scene> {
+        <L as Lagrangian>::scenes()
+    }
+
+    fn default_experiment() -> (f64, f64, f64) {
+        <L as Lagrangian>::default_experiment()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use num_dual::Dual64;
+
+    #[test]
+    fn solve_pivots_and_differentiates() {
+        // [[0, 2], [3, 1]] x = [4, 5] needs a row swap: x = (1, 2).
+        let mut a = vec![vec![0.0, 2.0], vec![3.0, 1.0]];
+        let mut b = vec![4.0f64, 5.0];
+        solve(&mut a, &mut b);
+        assert!((b[0] - 1.0).abs() < 1e-15 && (b[1] - 2.0).abs() < 1e-15);
+        // d/ds of the solution of [[s, 1], [1, 2]] x = [1, 0] at s = 1:
+        // x = (2, −1)/(2s − 1), dx/ds = −2 (2, −1)/(2s − 1)² = (−4, 2).
+        let s = Dual64::new(1.0, 1.0);
+        let one = Dual64::from(1.0);
+        let mut a = vec![vec![s, one], vec![one, Dual64::from(2.0)]];
+        let mut b = vec![one, Dual64::from(0.0)];
+        solve(&mut a, &mut b);
+        assert!((b[0].eps + 4.0).abs() < 1e-14 && (b[1].eps - 2.0).abs() < 1e-14);
+    }
+}
