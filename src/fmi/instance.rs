@@ -421,13 +421,14 @@ impl<M: System> Instance<M> {
         };
         let mut t = current;
         let mut x = d.x.clone();
-        let result = integrators::advance_with(
+        let result = advance_locating_events::<M>(
             &mut problem,
             &mut t,
             &mut x,
             t_end,
             &settings,
             &mut d.memory,
+            (u, p),
         );
         if result.is_ok() {
             M::project(t, p, &mut x);
@@ -567,4 +568,76 @@ impl<M: System> Instance<M> {
         Snapshot::deserialize(bytes, &self.info.guid, [l.n_params, l.n_states, l.n_inputs])
             .map_err(|e| format!("fmi2DeSerializeFMUstate: {e}"))
     }
+}
+
+/// Most events handled inside one doStep before it gives up (a chattering model).
+const MAX_EVENTS_PER_STEP: usize = 100;
+
+/// Bisection halvings of the interval that holds an event: stops earlier when the
+/// midpoint can no longer be told from an end point in floating point.
+const MAX_BISECTIONS: usize = 200;
+
+fn crossed(before: Option<f64>, after: Option<f64>) -> bool {
+    matches!((before, after), (Some(a), Some(b)) if (a > 0.0 && b <= 0.0) || (a < 0.0 && b >= 0.0))
+}
+
+/// Integrates to `t_end`, stopping at every sign change of the system's event indicator:
+/// the crossing is located by bisection on re-integrations from the start of the piece
+/// (deterministic, and as exact as the integration itself), [`System::on_event`] is
+/// applied there, and the integration continues. Work spent on bisection is counted in
+/// the statistics.
+fn advance_locating_events<M: System>(
+    problem: &mut Problem,
+    t: &mut f64,
+    x: &mut Vec<f64>,
+    t_end: f64,
+    settings: &Settings,
+    memory: &mut Memory,
+    (u, p): (&[f64], &[f64]),
+) -> Result<(), String> {
+    let indicator = |t: f64, x: &[f64]| M::event_indicator(t, x, u, p);
+    for _ in 0..MAX_EVENTS_PER_STEP {
+        let (t0, x0, m0) = (*t, x.clone(), memory.clone());
+        let g0 = indicator(t0, &x0);
+        integrators::advance_with(problem, t, x, t_end, settings, memory)?;
+        if !crossed(g0, indicator(*t, x)) {
+            return Ok(());
+        }
+        // Work already spent past the event; the bisection adds to it.
+        let mut extra_evals = memory.stats.rhs_evals - m0.stats.rhs_evals;
+        let mut rerun = |to: f64, extra: &mut u64| -> Result<(Vec<f64>, Memory), String> {
+            let (mut tt, mut xx, mut mm) = (t0, x0.clone(), m0.clone());
+            let result =
+                integrators::advance_with(problem, &mut tt, &mut xx, to, settings, &mut mm);
+            *extra += mm.stats.rhs_evals - m0.stats.rhs_evals;
+            result.map(|()| (xx, mm))
+        };
+        // The event lies in (lo, hi]: bisect on re-integrations from (t0, x0).
+        let (mut lo, mut hi) = (t0, *t);
+        for _ in 0..MAX_BISECTIONS {
+            let mid = 0.5 * (lo + hi);
+            if mid <= lo || mid >= hi {
+                break;
+            }
+            let (xm, _) = rerun(mid, &mut extra_evals)?;
+            if crossed(g0, indicator(mid, &xm)) {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        let mut counted = 0;
+        let (mut xx, mut mm) = rerun(hi, &mut counted)?;
+        mm.stats.rhs_evals += extra_evals;
+        *memory = mm;
+        M::on_event(hi, &mut xx, p);
+        *t = hi;
+        *x = xx;
+        if *t >= t_end {
+            return Ok(());
+        }
+    }
+    Err(format!(
+        "more than {MAX_EVENTS_PER_STEP} events in one communication step"
+    ))
 }

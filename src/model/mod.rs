@@ -115,4 +115,17 @@ pub trait System: 'static {
     /// cannot accumulate across communication steps. Unconstrained systems keep the
     /// default, which does nothing.
     fn project(_t: f64, _p: &[f64], _x: &mut [f64]) {}
+
+    /// An event indicator: a function of the state whose sign change is an event (a
+    /// one-sided constraint letting go, an impact). `None` (the default): no events.
+    /// The FMU locates a sign change inside doStep to the time resolution of the
+    /// integration (bisection on re-integrations from the step start), calls
+    /// [`System::on_event`] there and continues: an event is never stepped over.
+    fn event_indicator(_t: f64, _x: &[f64], _u: &[f64], _p: &[f64]) -> Option<f64> {
+        None
+    }
+
+    /// Applies an event at time `t`: changes the discrete part of the state (a mode
+    /// variable the dynamics hold constant) or the state itself (an impact).
+    fn on_event(_t: f64, _x: &mut [f64], _p: &[f64]) {}
 }
