@@ -8,6 +8,7 @@
 //! - [`package`]: the FMU archive and its documentation page.
 //! - [`linearize`]: A, B, C, D at an operating point, exact, and their export formats.
 
+pub mod bench;
 pub mod fmi;
 pub mod integrators;
 pub mod linearize;

@@ -7,6 +7,8 @@
 //! - `mbfmu xml [--check]`: write (or check) `modelDescription/<Model>.xml`.
 //! - `mbfmu linearize MODEL [--scene S] [--set p=v]... [--at x=v]... [--trim|--trim-inputs]
 //!   [--format json|py|csv] [--out FILE]`: exact A, B, C, D at an operating point.
+//! - `mbfmu bench [--quick] [--out DIR]`: work–precision of every method on every scene
+//!   (`results.csv`, default DIR docs/bench); see `benches/` for the peers and the charts.
 
 use mbfmu::systems::{self, Entry};
 use std::path::{Path, PathBuf};
@@ -17,7 +19,8 @@ const USAGE: &str = "usage:
   mbfmu build (--all | MODEL...) [--out DIR]
   mbfmu xml [--check]
   mbfmu linearize MODEL [--scene S] [--set PARAM=VALUE]... [--at STATE_OR_INPUT=VALUE]...
-                  [--trim | --trim-inputs] [--format json|py|csv] [--out FILE]";
+                  [--trim | --trim-inputs] [--format json|py|csv] [--out FILE]
+  mbfmu bench [--quick] [--out DIR] [--system MODEL]... [--scene S]... [--reps N] [--no-energy]";
 
 fn workspace_root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -275,6 +278,7 @@ fn main() -> ExitCode {
         Some("build") => build(&args[1..]),
         Some("xml") => xml(&args[1..]),
         Some("linearize") => linearize(&args[1..]),
+        Some("bench") => mbfmu::bench::cli(&args[1..], &workspace_root().join("docs/bench")),
         Some("-h" | "--help" | "help") => {
             println!("{USAGE}");
             Ok(())

@@ -38,6 +38,8 @@ pub struct Entry {
     pub documentation: fn() -> String,
     pub scenes: fn() -> Vec<Scene>,
     pub linearize: LinearizeFn,
+    /// Work–precision runs of every scene and method (`mbfmu bench`).
+    pub bench: fn(&crate::bench::BenchConfig) -> Vec<crate::bench::BenchRow>,
 }
 
 fn linearize_at<M: System>(
@@ -60,6 +62,7 @@ fn entry<M: System>(crate_name: &'static str) -> Entry {
         documentation: crate::package::index_html::<M>,
         scenes: M::scenes,
         linearize: linearize_at::<M>,
+        bench: crate::bench::bench_system::<M>,
     }
 }
 

@@ -1,0 +1,668 @@
+//! `mbfmu bench`: work–precision measurements of every method on every scene.
+//!
+//! Each run goes through the safe [`Instance`] API exactly as an importer drives the FMU:
+//! start values of the scene, `solver` and `solver_step`, `fmi2SetupExperiment` with the
+//! tolerance, then `fmi2DoStep` with a communication step of [`BenchConfig::comm_step`] up to
+//! the scene's stop time, reading the states and `E` at every communication point.
+//!
+//! The error is measured against a reference run of the same scene with DOP853 at
+//! [`REFERENCE_TOL`] (same `Instance` path). The reference's own error is estimated by a
+//! second run with DOP853 at [`CHECK_TOL`]: `ref_error` is their difference in the same norm.
+//! Closed forms (e^{At} for the linear systems) are not used here yet; `benches/peers.py`
+//! checks the linear references against `expm`.
+//!
+//! Error norm: state `i` is scaled by `scale_i = max_t |x_ref,i(t)|` over the communication
+//! grid (its `nominal`, else 1, when the reference stays at 0). `error` is the largest scaled
+//! deviation over the whole grid, `error_final` the one at the stop time (the number the peers
+//! are compared on, since scipy and CVODE land exactly on the stop time too).
+//!
+//! Timing is wall-clock time (`Instant`) of instantiation + initialisation + the doStep loop
+//! (with the reads), the minimum of [`BenchConfig::reps`] repetitions; it is measured, never
+//! asserted. RHS evaluations, steps and rejections come from `Instance::stats()`.
+
+use crate::fmi::{Instance, Logger, ModelInfo, StepOutcome};
+use crate::integrators::Method;
+use crate::model::{Scene, System, VarKind};
+use std::fmt::Write as _;
+use std::path::Path;
+use std::time::Instant;
+
+/// Tolerance of the reference run (DOP853).
+pub const REFERENCE_TOL: f64 = 1e-13;
+/// Tolerance of the run that estimates the reference's error (DOP853).
+pub const CHECK_TOL: f64 = 1e-12;
+/// Communication steps of the reference per benchmark communication step.
+pub const REFERENCE_SUBSTEPS: usize = 8;
+/// Same, for the check run (another step sequence than the reference's).
+pub const CHECK_SUBSTEPS: usize = 5;
+
+/// What to measure.
+#[derive(Clone, Debug)]
+pub struct BenchConfig {
+    /// `solver_step` values of the fixed-step methods.
+    pub steps: Vec<f64>,
+    /// Tolerances of the adaptive methods.
+    pub tolerances: Vec<f64>,
+    /// Repetitions per run; the time reported is the minimum.
+    pub reps: usize,
+    /// Communication step of the doStep loop (s).
+    pub comm_step: f64,
+    /// Only these methods (all when empty).
+    pub methods: Vec<Method>,
+    /// Only these scenes (all when empty).
+    pub scenes: Vec<String>,
+    /// Also run the adaptive methods with one doStep over the whole scene (comm_step = stop
+    /// time): the integrator alone, unconstrained by the communication grid, as the peers run.
+    pub free_run: bool,
+}
+
+impl BenchConfig {
+    /// The full sweep.
+    pub fn full() -> Self {
+        BenchConfig {
+            steps: vec![1e-2, 3e-3, 1e-3, 3e-4, 1e-4],
+            tolerances: (3..=12).map(|k| 10f64.powi(-k)).collect(),
+            reps: 3,
+            comm_step: 0.01,
+            methods: Vec::new(),
+            scenes: Vec::new(),
+            free_run: true,
+        }
+    }
+
+    /// Two settings per method: a smoke test.
+    pub fn quick() -> Self {
+        BenchConfig {
+            steps: vec![1e-2, 1e-3],
+            tolerances: vec![1e-4, 1e-8],
+            ..BenchConfig::full()
+        }
+    }
+}
+
+/// One run of one method at one setting on one scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BenchRow {
+    pub system: &'static str,
+    pub scene: &'static str,
+    pub method: &'static str,
+    /// "tol" (adaptive) or "step" (fixed step).
+    pub setting_kind: &'static str,
+    pub setting: f64,
+    /// Communication step of the run (s): the configured one, or the stop time for a free run.
+    pub comm_step: f64,
+    /// "ok", "failed" (Discard/Error during the run) or "refused" (setup rejected, e.g. a
+    /// symplectic method on a system without (q, q̇)).
+    pub status: &'static str,
+    /// Why it failed; empty when ok.
+    pub message: String,
+    /// Largest scaled state error over the communication grid (None when failed).
+    pub error: Option<f64>,
+    /// Scaled state error at the stop time (None when failed).
+    pub error_final: Option<f64>,
+    /// Wall-clock seconds, minimum over the repetitions.
+    pub cpu_s: f64,
+    pub rhs_evals: u64,
+    pub steps: u64,
+    pub rejected: u64,
+    /// max_t |E(t) − E(0)| / |E(0)| when E is an invariant of the scene (see
+    /// [`energy_is_invariant`]), else None.
+    pub invariant_error: Option<f64>,
+    /// Estimated error of the reference (DOP853 1e-13 vs 1e-12), same norm as `error`.
+    pub ref_error: f64,
+}
+
+/// The states and `E` of one run at every communication point.
+struct Trajectory {
+    t: Vec<f64>,
+    x: Vec<Vec<f64>>,
+    energy: Vec<f64>,
+}
+
+struct Run {
+    trajectory: Trajectory,
+    /// None when every doStep completed.
+    failure: Option<String>,
+    stats: crate::integrators::Stats,
+}
+
+/// What a run needs to know of its system.
+struct Model {
+    info: &'static ModelInfo,
+    state_vrs: Vec<u32>,
+    nominal: Vec<f64>,
+    energy_vr: Option<u32>,
+}
+
+impl Model {
+    fn of<M: System>() -> Model {
+        // One leak per system and call: the instance wants a 'static ModelInfo, as in the FMU.
+        let info: &'static ModelInfo = Box::leak(Box::new(ModelInfo::of::<M>()));
+        let layout = &info.layout;
+        let state_vrs: Vec<u32> = (0..layout.n_states)
+            .map(|i| layout.vr_of_slot(VarKind::State, i))
+            .collect();
+        let nominal = state_vrs
+            .iter()
+            .map(|&vr| layout.vars[vr as usize].1.nominal.unwrap_or(1.0))
+            .collect();
+        let energy_vr = layout
+            .vars
+            .iter()
+            .position(|(s, v)| s.kind == VarKind::Output && v.name == "E")
+            .map(|i| i as u32);
+        Model {
+            info,
+            state_vrs,
+            nominal,
+            energy_vr,
+        }
+    }
+}
+
+/// Integrates `scene` with `method` (`tol` for adaptive methods, `step` for fixed ones) up to
+/// `stop` through the Instance API. Setup errors are returned as `Err` (the run was refused).
+fn run<M: System>(
+    model: &Model,
+    scene: &Scene,
+    method: Method,
+    tol: f64,
+    step: f64,
+    comm_step: f64,
+    stop: f64,
+) -> Result<Run, String> {
+    let layout = &model.info.layout;
+    let mut fmu = Instance::<M>::new(model.info, Logger::silent("bench"));
+    for (name, value) in &scene.start_values {
+        let vr = layout
+            .vr_of(name)
+            .ok_or_else(|| format!("scene {}: unknown variable {name}", scene.name))?;
+        fmu.set_real(&[vr], &[*value])?;
+    }
+    let solver = layout.vr_of("solver").expect("every FMU has solver");
+    let solver_step = layout
+        .vr_of("solver_step")
+        .expect("every FMU has solver_step");
+    fmu.set_integer(&[solver], &[method.code()])?;
+    if !method.is_adaptive() {
+        fmu.set_real(&[solver_step], &[step])?;
+    }
+    fmu.setup_experiment(Some(tol), 0.0, Some(stop))?;
+    fmu.enter_initialization_mode()?;
+    fmu.exit_initialization_mode()?;
+    let n_comm = (stop / comm_step).round().max(1.0) as usize;
+    let n = model.state_vrs.len();
+    let mut trajectory = Trajectory {
+        t: Vec::with_capacity(n_comm + 1),
+        x: Vec::with_capacity(n_comm + 1),
+        energy: Vec::with_capacity(n_comm + 1),
+    };
+    let mut record = |fmu: &Instance<M>| -> Result<(), String> {
+        let mut x = vec![0.0; n];
+        fmu.get_real(&model.state_vrs, &mut x)?;
+        let mut e = [f64::NAN];
+        if let Some(vr) = model.energy_vr {
+            fmu.get_real(&[vr], &mut e)?;
+        }
+        trajectory.t.push(fmu.time());
+        trajectory.x.push(x);
+        trajectory.energy.push(e[0]);
+        Ok(())
+    };
+    record(&fmu)?;
+    let mut failure = None;
+    for k in 0..n_comm {
+        let now = fmu.time();
+        // The last step lands on the stop time exactly.
+        let h = if k + 1 == n_comm {
+            stop - now
+        } else {
+            comm_step
+        };
+        match fmu.do_step(now, h) {
+            Ok(StepOutcome::Completed) => record(&fmu)?,
+            Ok(StepOutcome::Discarded(why)) => {
+                failure = Some(why);
+                break;
+            }
+            Err(why) => {
+                failure = Some(why);
+                break;
+            }
+        }
+    }
+    Ok(Run {
+        trajectory,
+        failure,
+        stats: fmu.stats(),
+    })
+}
+
+/// A reference run: DOP853 at `tol` with a communication step `comm_step / substeps`, so its
+/// step sequence differs from every benchmarked run (with the benchmark's grid, DOP853 would
+/// take the very steps of the runs it judges), kept at the benchmark's grid points.
+fn reference_run<M: System>(
+    model: &Model,
+    scene: &Scene,
+    tol: f64,
+    substeps: usize,
+    config: &BenchConfig,
+) -> Result<Run, String> {
+    let stop = scene.stop_time;
+    let fine = config.comm_step / substeps as f64;
+    let mut r = run::<M>(model, scene, Method::Dop853, tol, 0.0, fine, stop)?;
+    fn keep<T>(v: &mut Vec<T>, substeps: usize) {
+        let last = v.len() - 1;
+        let mut k = 0;
+        v.retain(|_| {
+            let keep = k % substeps == 0 || k == last;
+            k += 1;
+            keep
+        });
+    }
+    if r.failure.is_none() {
+        let n = r.trajectory.t.len();
+        let expected = (stop / config.comm_step).round().max(1.0) as usize + 1;
+        keep(&mut r.trajectory.t, substeps);
+        keep(&mut r.trajectory.x, substeps);
+        keep(&mut r.trajectory.energy, substeps);
+        if r.trajectory.t.len() != expected {
+            return Err(format!(
+                "reference grid of {n} points does not refine the benchmark grid"
+            ));
+        }
+    }
+    Ok(r)
+}
+
+/// Scale of each state: its largest magnitude along the reference (nominal, else 1, if 0).
+fn scales(reference: &Trajectory, nominal: &[f64]) -> Vec<f64> {
+    (0..nominal.len())
+        .map(|i| {
+            let m = reference.x.iter().map(|x| x[i].abs()).fold(0.0, f64::max);
+            if m > 0.0 {
+                m
+            } else {
+                nominal[i]
+            }
+        })
+        .collect()
+}
+
+fn scaled_error(a: &[f64], b: &[f64], scale: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .zip(scale)
+        .map(|((a, b), s)| (a - b).abs() / s)
+        .fold(0.0, f64::max)
+}
+
+/// (grid error, final error) of a complete run against the reference; a run on another
+/// grid (a free run) is compared at the stop time only.
+fn errors(run: &Trajectory, reference: &Trajectory, scale: &[f64]) -> (f64, f64) {
+    let last = scaled_error(
+        run.x.last().expect("recorded"),
+        reference.x.last().expect("recorded"),
+        scale,
+    );
+    if run.x.len() != reference.x.len() {
+        return (last, last);
+    }
+    let grid = run
+        .x
+        .iter()
+        .zip(&reference.x)
+        .map(|(a, b)| scaled_error(a, b, scale))
+        .fold(0.0, f64::max);
+    (grid, last)
+}
+
+/// max_t |E(t) − E(0)| / |E(0)|.
+fn energy_drift(t: &Trajectory) -> f64 {
+    let e0 = t.energy[0];
+    t.energy
+        .iter()
+        .map(|e| (e - e0).abs() / e0.abs())
+        .fold(0.0, f64::max)
+}
+
+/// `E` is treated as an invariant of a scene when the model has an output `E`, it is not
+/// zero at the start, and the reference conserves it to 1e-9 (relative): this excludes
+/// damping, inputs and built-in forcing without a per-system list.
+pub fn energy_is_invariant(reference_drift: f64) -> bool {
+    reference_drift.is_finite() && reference_drift < 1e-9
+}
+
+/// Every scene of `M`, every method, every setting of `config`.
+pub fn bench_system<M: System>(config: &BenchConfig) -> Vec<BenchRow> {
+    let model = Model::of::<M>();
+    let mut rows = Vec::new();
+    for scene in M::scenes() {
+        if !config.scenes.is_empty() && !config.scenes.iter().any(|s| s == scene.name) {
+            continue;
+        }
+        let stop = scene.stop_time;
+        let (reference, check) = match (
+            reference_run::<M>(&model, &scene, REFERENCE_TOL, REFERENCE_SUBSTEPS, config),
+            reference_run::<M>(&model, &scene, CHECK_TOL, CHECK_SUBSTEPS, config),
+        ) {
+            (Ok(r), Ok(c)) if r.failure.is_none() && c.failure.is_none() => (r, c),
+            (r, c) => {
+                let why = |x: Result<Run, String>| match x {
+                    Ok(run) => run.failure.unwrap_or_default(),
+                    Err(e) => e,
+                };
+                eprintln!(
+                    "bench: {}/{}: no reference ({} {}), scene skipped",
+                    M::NAME,
+                    scene.name,
+                    why(r),
+                    why(c)
+                );
+                continue;
+            }
+        };
+        let scale = scales(&reference.trajectory, &model.nominal);
+        let ref_error = errors(&check.trajectory, &reference.trajectory, &scale).0;
+        let invariant =
+            model.energy_vr.is_some() && energy_is_invariant(energy_drift(&reference.trajectory));
+        let methods: Vec<Method> = if config.methods.is_empty() {
+            Method::ALL.to_vec()
+        } else {
+            config.methods.clone()
+        };
+        for method in methods {
+            let (kind, settings) = if method.is_adaptive() {
+                ("tol", &config.tolerances)
+            } else {
+                ("step", &config.steps)
+            };
+            let comms = if method.is_adaptive() && config.free_run {
+                vec![config.comm_step, stop]
+            } else {
+                vec![config.comm_step]
+            };
+            for (&setting, &comm) in settings
+                .iter()
+                .flat_map(|s| comms.iter().map(move |c| (s, c)))
+            {
+                let (tol, step) = if method.is_adaptive() {
+                    (setting, 0.0)
+                } else {
+                    // The tolerance is unused by fixed-step methods.
+                    (M::default_experiment().1, setting)
+                };
+                let mut best = f64::INFINITY;
+                let mut outcome = None;
+                for _ in 0..config.reps.max(1) {
+                    let start = Instant::now();
+                    let r = run::<M>(&model, &scene, method, tol, step, comm, stop);
+                    best = best.min(start.elapsed().as_secs_f64());
+                    let failed = !matches!(&r, Ok(run) if run.failure.is_none());
+                    outcome = Some(r);
+                    if failed {
+                        break; // a failure is not timed further
+                    }
+                }
+                let mut row = BenchRow {
+                    system: M::NAME,
+                    scene: scene.name,
+                    method: method.name(),
+                    setting_kind: kind,
+                    setting,
+                    comm_step: comm,
+                    status: "ok",
+                    message: String::new(),
+                    error: None,
+                    error_final: None,
+                    cpu_s: best,
+                    rhs_evals: 0,
+                    steps: 0,
+                    rejected: 0,
+                    invariant_error: None,
+                    ref_error,
+                };
+                match outcome.expect("at least one repetition") {
+                    Err(why) => {
+                        row.status = "refused";
+                        row.message = why;
+                    }
+                    Ok(r) => {
+                        row.rhs_evals = r.stats.rhs_evals;
+                        row.steps = r.stats.steps;
+                        row.rejected = r.stats.rejected;
+                        if let Some(why) = r.failure {
+                            row.status = "failed";
+                            row.message = why;
+                        } else {
+                            let (grid, last) = errors(&r.trajectory, &reference.trajectory, &scale);
+                            row.error = Some(grid);
+                            row.error_final = Some(last);
+                            if invariant && r.trajectory.t.len() == reference.trajectory.t.len() {
+                                row.invariant_error = Some(energy_drift(&r.trajectory));
+                            }
+                        }
+                    }
+                }
+                rows.push(row);
+            }
+        }
+    }
+    rows
+}
+
+/// Relative energy error |E(t) − E(0)| / |E(0)| of one method on one scene over a long
+/// horizon, sampled every `every` seconds: rows (method, setting, t, error).
+pub fn energy_history<M: System>(
+    scene: &str,
+    runs: &[(Method, f64)],
+    horizon: f64,
+    comm_step: f64,
+    every: f64,
+) -> Result<Vec<(&'static str, f64, f64, f64)>, String> {
+    let model = Model::of::<M>();
+    let mut scene = M::scenes()
+        .into_iter()
+        .find(|s| s.name == scene)
+        .ok_or_else(|| format!("{} has no scene {scene}", M::NAME))?;
+    scene.stop_time = horizon;
+    let mut rows = Vec::new();
+    for &(method, setting) in runs {
+        let (tol, step) = if method.is_adaptive() {
+            (setting, 0.0)
+        } else {
+            (M::default_experiment().1, setting)
+        };
+        let r = run::<M>(&model, &scene, method, tol, step, comm_step, horizon)?;
+        let traj = &r.trajectory;
+        let e0 = traj.energy[0];
+        let stride = (every / comm_step).round().max(1.0) as usize;
+        for k in (0..traj.t.len()).step_by(stride) {
+            rows.push((
+                method.name(),
+                setting,
+                traj.t[k],
+                (traj.energy[k] - e0).abs() / e0.abs(),
+            ));
+        }
+    }
+    Ok(rows)
+}
+
+fn opt(v: Option<f64>) -> String {
+    v.map(|v| format!("{v:e}")).unwrap_or_default()
+}
+
+/// The rows as CSV (header included). Messages are quoted.
+pub fn to_csv(rows: &[BenchRow]) -> String {
+    let mut s = String::from(
+        "system,scene,method,setting_kind,setting,comm_step,status,error,error_final,cpu_s,rhs_evals,steps,rejected,invariant_error,ref_error,message\n",
+    );
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{:e},{:?},{},{},{},{:e},{},{},{},{},{:e},\"{}\"",
+            r.system,
+            r.scene,
+            r.method,
+            r.setting_kind,
+            r.setting,
+            r.comm_step,
+            r.status,
+            opt(r.error),
+            opt(r.error_final),
+            r.cpu_s,
+            r.rhs_evals,
+            r.steps,
+            r.rejected,
+            opt(r.invariant_error),
+            r.ref_error,
+            r.message.replace('"', "'")
+        );
+    }
+    s
+}
+
+/// The reference at the stop time of each scene, for `benches/peers.py`: one row per state
+/// with its final value and its scale.
+fn reference_csv<M: System>(config: &BenchConfig) -> String {
+    let model = Model::of::<M>();
+    let layout = &model.info.layout;
+    let mut s = String::new();
+    for scene in M::scenes() {
+        if !config.scenes.is_empty() && !config.scenes.iter().any(|s| s == scene.name) {
+            continue;
+        }
+        let Ok(r) = reference_run::<M>(&model, &scene, REFERENCE_TOL, REFERENCE_SUBSTEPS, config)
+        else {
+            continue;
+        };
+        if r.failure.is_some() {
+            continue;
+        }
+        let scale = scales(&r.trajectory, &model.nominal);
+        let last = r.trajectory.x.last().expect("recorded");
+        for (i, &vr) in model.state_vrs.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                "{},{},{:?},{},{:?},{:?},{:?}",
+                M::NAME,
+                scene.name,
+                scene.stop_time,
+                layout.vars[vr as usize].1.name,
+                last[i],
+                scale[i],
+                model.nominal[i]
+            );
+        }
+    }
+    s
+}
+
+/// `mbfmu bench [--quick] [--out DIR] [--system NAME]... [--scene NAME]... [--reps N]
+/// [--no-energy]`; `default_out` is docs/bench of the workspace.
+pub fn cli(args: &[String], default_out: &Path) -> Result<(), String> {
+    let mut quick = false;
+    let mut out = default_out.to_path_buf();
+    let mut only = Vec::new();
+    let mut scenes = Vec::new();
+    let mut reps = None;
+    let mut energy = true;
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        let mut value = || it.next().ok_or_else(|| format!("{a} needs a value"));
+        match a.as_str() {
+            "--quick" => quick = true,
+            "--out" => out = value()?.into(),
+            "--system" => only.push(value()?.clone()),
+            "--scene" => scenes.push(value()?.clone()),
+            "--reps" => {
+                reps = Some(
+                    value()?
+                        .parse::<usize>()
+                        .map_err(|_| "--reps needs a positive integer".to_string())?,
+                )
+            }
+            "--no-energy" => energy = false,
+            other => return Err(format!("bench: unknown option {other}")),
+        }
+    }
+    let mut config = if quick {
+        BenchConfig::quick()
+    } else {
+        BenchConfig::full()
+    };
+    if let Some(r) = reps {
+        config.reps = r.max(1);
+    }
+    config.scenes = scenes;
+    if quick && only.is_empty() {
+        only = vec!["MassSpringDamper".into(), "TwoMassChain".into()];
+    }
+    let entries: Vec<_> = crate::systems::all()
+        .into_iter()
+        .filter(|e| only.is_empty() || only.iter().any(|n| n == e.name))
+        .collect();
+    if entries.is_empty() {
+        return Err(format!("bench: no system matches {}", only.join(", ")));
+    }
+    std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let mut rows = Vec::new();
+    let mut reference = String::from("system,scene,stop_time,state,value,scale,nominal\n");
+    for e in &entries {
+        let start = Instant::now();
+        let mine = (e.bench)(&config);
+        // The peers (benches/peers.py) integrate these two linear systems themselves.
+        match e.name {
+            "MassSpringDamper" => {
+                reference.push_str(&reference_csv::<crate::systems::MassSpringDamper>(&config))
+            }
+            "TwoMassChain" => {
+                reference.push_str(&reference_csv::<crate::systems::TwoMassChain>(&config))
+            }
+            _ => {}
+        }
+        let failed = mine.iter().filter(|r| r.status != "ok").count();
+        eprintln!(
+            "bench: {:<18} {:>4} runs ({failed} failed or refused) in {:.1} s",
+            e.name,
+            mine.len(),
+            start.elapsed().as_secs_f64()
+        );
+        rows.extend(mine);
+    }
+    let write = |name: &str, text: &str| {
+        let path = out.join(name);
+        std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+        eprintln!("wrote {}", path.display());
+        Ok::<(), String>(())
+    };
+    write("results.csv", &to_csv(&rows))?;
+    write("reference.csv", &reference)?;
+    if energy && entries.iter().any(|e| e.name == "MassSpringDamper") {
+        let runs = [
+            (Method::Rk4, 1e-2),
+            (Method::Verlet, 1e-2),
+            (Method::Gauss4, 1e-2),
+            (Method::Dopri5, 1e-6),
+        ];
+        let horizon = if quick { 100.0 } else { 1000.0 };
+        let history = energy_history::<crate::systems::MassSpringDamper>(
+            "free",
+            &runs,
+            horizon,
+            config.comm_step,
+            1.0,
+        )?;
+        let mut text = String::from("system,scene,method,setting,t,energy_error\n");
+        for (m, s, t, e) in history {
+            let _ = writeln!(text, "MassSpringDamper,free,{m},{s:e},{t:?},{e:e}");
+        }
+        write("energy.csv", &text)?;
+    }
+    eprintln!(
+        "next: python benches/peers.py --out {0} && python benches/plot.py --out {0}",
+        out.display()
+    );
+    Ok(())
+}
