@@ -7,6 +7,7 @@ mod projectile;
 mod rigid_body;
 mod rolling_disk;
 mod rolling_hoop;
+mod spring_rod_pendulum;
 pub mod springy_pendulum;
 mod two_mass_chain;
 mod whipple_bicycle;
@@ -18,6 +19,7 @@ pub use projectile::Projectile;
 pub use rigid_body::RigidBody;
 pub use rolling_disk::RollingDisk;
 pub use rolling_hoop::RollingHoop;
+pub use spring_rod_pendulum::SpringRodPendulum;
 pub use springy_pendulum::SpringyPendulum;
 pub use two_mass_chain::TwoMassChain;
 pub use whipple_bicycle::WhippleBicycle;
@@ -79,5 +81,6 @@ pub fn all() -> Vec<Entry> {
         entry::<SpringyPendulum>("springy_pendulum"),
         entry::<DoublePendulum>("double_pendulum"),
         entry::<CompoundPendulum>("compound_pendulum"),
+        entry::<SpringRodPendulum>("spring_rod_pendulum"),
     ]
 }
