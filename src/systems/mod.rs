@@ -7,8 +7,9 @@ mod projectile;
 mod rigid_body;
 mod rolling_disk;
 mod rolling_hoop;
-mod spring_rod_pendulum;
 pub mod springy_pendulum;
+mod sphere_slide;
+mod spring_rod_pendulum;
 mod two_mass_chain;
 mod whipple_bicycle;
 
@@ -19,6 +20,7 @@ pub use projectile::Projectile;
 pub use rigid_body::RigidBody;
 pub use rolling_disk::RollingDisk;
 pub use rolling_hoop::RollingHoop;
+pub use sphere_slide::SphereSlide;
 pub use spring_rod_pendulum::SpringRodPendulum;
 pub use springy_pendulum::SpringyPendulum;
 pub use two_mass_chain::TwoMassChain;
@@ -81,6 +83,7 @@ pub fn all() -> Vec<Entry> {
         entry::<SpringyPendulum>("springy_pendulum"),
         entry::<DoublePendulum>("double_pendulum"),
         entry::<CompoundPendulum>("compound_pendulum"),
+        entry::<SphereSlide>("sphere_slide"),
         entry::<SpringRodPendulum>("spring_rod_pendulum"),
     ]
 }

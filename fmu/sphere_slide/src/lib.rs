@@ -1,0 +1,2 @@
+//! The SphereSlide FMU: this binary carries only this model.
+mbfmu::export_fmu!(mbfmu::systems::SphereSlide);
