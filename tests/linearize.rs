@@ -82,3 +82,37 @@ fn exports_keep_shapes_and_round_trip_floats() {
     let py = to_py(&l);
     assert!(py.contains("return (n, m, p, x0, u0, A, B, C, D, stateVars, inputVars, outputVars)"));
 }
+
+/// Spin Ω about each principal axis (I = 1, 2, 3): about the largest and the smallest
+/// axis the linearisation has a purely imaginary pair ±iω with
+/// ω² = Ω² (Ia − Ib)(Ia − Ic)/(Ib Ic) (a the spin axis); about the intermediate axis a real
+/// pair ±λ, λ² = Ω² (I2 − I1)(I3 − I2)/(I1 I3) (systems.md §8).
+#[test]
+fn rigid_body_spins_about_each_principal_axis() {
+    use mbfmu::systems::RigidBody;
+    let (i, spin): ([f64; 3], f64) = ([1.0, 2.0, 3.0], 5.0);
+    for axis in 0..3 {
+        let names = ["omega1", "omega2", "omega3"];
+        let mut overrides: Vec<(&str, f64)> = names.iter().map(|n| (*n, 0.0)).collect();
+        overrides[axis].1 = spin;
+        let l = linearize::<RigidBody>(&at::<RigidBody>(&overrides));
+        let eig = l.a.clone().complex_eigenvalues();
+        let (b, c) = ((axis + 1) % 3, (axis + 2) % 3);
+        let k = (i[axis] - i[b]) * (i[axis] - i[c]) / (i[b] * i[c]);
+        let rate = spin * k.abs().sqrt();
+        let found = if k > 0.0 {
+            // Stable: ±iω, no eigenvalue with a positive real part.
+            assert!(eig.iter().all(|e| e.re.abs() < 1e-12), "axis {axis}: {eig}");
+            eig.iter().map(|e| e.im).fold(0.0, f64::max)
+        } else {
+            eig.iter().map(|e| e.re).fold(0.0, f64::max)
+        };
+        let rel = (found - rate).abs() / rate;
+        println!(
+            "axis {}: {} {found:.15} vs {rate:.15} (rel. {rel:.1e})",
+            axis + 1,
+            if k > 0.0 { "ω" } else { "λ" }
+        );
+        assert!(rel < 1e-12, "axis {axis}: {found} vs {rate}");
+    }
+}
