@@ -7,9 +7,9 @@ mod projectile;
 mod rigid_body;
 mod rolling_disk;
 mod rolling_hoop;
-pub mod springy_pendulum;
 mod sphere_slide;
 mod spring_rod_pendulum;
+pub mod springy_pendulum;
 mod two_mass_chain;
 mod whipple_bicycle;
 
