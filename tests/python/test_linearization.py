@@ -55,17 +55,29 @@ def fmu_jacobian(inst: fs.Instance, unknowns, knowns):
     return J
 
 
+def bounds(model: fs.Model, name: str) -> tuple[float, float]:
+    var = next(v for v in model.md.modelVariables if v.name == name)
+    lo = float(var.min) if var.min is not None else -np.inf
+    hi = float(var.max) if var.max is not None else np.inf
+    return lo, hi
+
+
 def central_differences(inst: fs.Instance, unknowns, knowns, delta=1e-5):
+    """Central differences, one-sided at a min/max bound (the FMU rightly rejects a
+    value outside [min, max], e.g. a mode state sitting at its max of 1)."""
     base = dict(zip(knowns, inst.get_reals(knowns)))
     J = np.zeros((len(unknowns), len(knowns)))
     for j, name in enumerate(knowns):
         h = delta * max(1.0, abs(base[name]))
-        inst.set(**{name: base[name] + h})
+        lo, hi = bounds(inst.model, name)
+        plus = min(base[name] + h, hi)
+        minus = max(base[name] - h, lo)
+        inst.set(**{name: plus})
         up = np.array(inst.get_reals(unknowns))
-        inst.set(**{name: base[name] - h})
+        inst.set(**{name: minus})
         down = np.array(inst.get_reals(unknowns))
         inst.set(**{name: base[name]})
-        J[:, j] = (up - down) / (2 * h)
+        J[:, j] = (up - down) / (plus - minus)
     return J
 
 
