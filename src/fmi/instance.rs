@@ -6,7 +6,7 @@
 use super::machine::{self, Machine};
 use super::{Logger, ModelInfo, Snapshot};
 use crate::integrators::problem::Problem;
-use crate::integrators::{self, Memory, Method, Settings};
+use crate::integrators::{self, dopri5, dopri5::Ahead, Memory, Method, Settings};
 use crate::model::jacobian::{directional, Direction};
 use crate::model::{Slot, System, VarKind};
 use std::marker::PhantomData;
@@ -278,7 +278,14 @@ impl<M: System> Instance<M> {
                 VarKind::Parameter => d.params[slot.index] = value,
                 VarKind::SolverStep => d.solver_step = value,
                 VarKind::State => d.x[slot.index] = value,
-                VarKind::Input => d.u[slot.index] = value,
+                VarKind::Input => {
+                    // A new input value changes f: the integrator's point ahead of the
+                    // communication time no longer holds. The same value keeps it.
+                    if d.u[slot.index].to_bits() != value.to_bits() {
+                        d.memory.ahead = None;
+                    }
+                    d.u[slot.index] = value
+                }
                 _ => unreachable!("rejected above"),
             }
         }
@@ -421,15 +428,33 @@ impl<M: System> Instance<M> {
         };
         let mut t = current;
         let mut x = d.x.clone();
-        let result = advance_locating_events::<M>(
-            &mut problem,
-            &mut t,
-            &mut x,
-            t_end,
-            &settings,
-            &mut d.memory,
-            (u, p),
-        );
+        // DOPRI5 runs ahead of the communication points with dense output, unless an event
+        // may come (events are located on landing steps).
+        let dense = d.method == Method::Dopri5 && M::event_indicator(t, &x, u, p).is_none();
+        let result = if dense {
+            // Never step past the stop time (f may not be defined beyond it).
+            let t_limit = d.stop_time.map_or(f64::INFINITY, |stop| stop.max(t_end));
+            let mut project = |t: f64, x: &mut [f64]| M::project(t, p, x);
+            advance_dense(
+                problem.rhs,
+                &mut project,
+                (&mut t, &mut x),
+                (t_end, t_limit),
+                &settings,
+                &mut d.memory,
+            )
+        } else {
+            d.memory.ahead = None;
+            advance_locating_events::<M>(
+                &mut problem,
+                &mut t,
+                &mut x,
+                t_end,
+                &settings,
+                &mut d.memory,
+                (u, p),
+            )
+        };
         if result.is_ok() {
             M::project(t, p, &mut x);
         }
@@ -567,6 +592,43 @@ impl<M: System> Instance<M> {
         let l = &self.info.layout;
         Snapshot::deserialize(bytes, &self.info.guid, [l.n_params, l.n_states, l.n_inputs])
             .map_err(|e| format!("fmi2DeSerializeFMUstate: {e}"))
+    }
+}
+
+/// DOPRI5 with dense output (see [`dopri5::Ahead`]): continues from the integrator's own
+/// point ahead of `*t` when there is one (else starts one at `(*t, x)`), steps until the
+/// last step covers `t_end`, and writes x(`t_end`) from the continuous extension. On
+/// failure `(*t, x)` is the last accepted step and the point ahead is dropped.
+#[allow(clippy::type_complexity)] // the integrators' own closure types, spelled out
+fn advance_dense(
+    rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
+    project: &mut dyn FnMut(f64, &mut [f64]),
+    (t, x): (&mut f64, &mut Vec<f64>),
+    (t_end, t_limit): (f64, f64),
+    settings: &Settings,
+    memory: &mut Memory,
+) -> Result<(), String> {
+    let mut ahead = match memory.ahead.take() {
+        Some(a) if a.t0 <= *t && *t <= a.t => a,
+        _ => Ahead::start(rhs, *t, x, &mut memory.stats).map_err(|e| e.to_string())?,
+    };
+    let mut out = vec![0.0; x.len()];
+    match dopri5::advance_dense(
+        rhs, project, &mut ahead, t_end, t_limit, settings, memory, &mut out,
+    ) {
+        Ok(()) => {
+            *x = out;
+            *t = t_end;
+            memory.ahead = Some(ahead);
+            Ok(())
+        }
+        Err(e) => {
+            if ahead.t > *t {
+                *t = ahead.t;
+                x.copy_from_slice(&ahead.x);
+            }
+            Err(e.to_string())
+        }
     }
 }
 

@@ -7,10 +7,11 @@
 //! format version, or of the wrong length is rejected.
 
 use super::Machine;
-use crate::integrators::{Memory, Method, Stats};
+use crate::integrators::{dopri5::Ahead, Memory, Method, Stats};
 
 pub const SNAPSHOT_MAGIC: [u8; 8] = *b"MBFMU\0ST";
-pub const SNAPSHOT_VERSION: u32 = 1;
+/// 2: adds DOPRI5's dense-output point ([`crate::integrators::dopri5::Ahead`]).
+pub const SNAPSHOT_VERSION: u32 = 2;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Snapshot {
@@ -85,6 +86,15 @@ impl Snapshot {
         for v in [s.rhs_evals, s.steps, s.rejected] {
             b.extend_from_slice(&v.to_le_bytes());
         }
+        b.push(self.memory.ahead.is_some() as u8);
+        if let Some(a) = &self.memory.ahead {
+            for v in [a.t, a.t0, a.err_prev] {
+                f(&mut b, v);
+            }
+            for &v in a.x.iter().chain(&a.f).chain(&a.rcont) {
+                f(&mut b, v);
+            }
+        }
         b.extend_from_slice(&self.machine.code().to_le_bytes());
         b
     }
@@ -137,6 +147,32 @@ impl Snapshot {
             steps: r.u64()?,
             rejected: r.u64()?,
         };
+        let ahead = match r.take(1)?[0] {
+            0 => None,
+            1 => {
+                let n = counts[1];
+                let (t, t0, err_prev) = (r.f64()?, r.f64()?, r.f64()?);
+                let (x, f, rcont) = (r.f64s(n)?, r.f64s(n)?, r.f64s(5 * n)?);
+                let finite = [t, t0, err_prev]
+                    .iter()
+                    .chain(&x)
+                    .chain(&f)
+                    .chain(&rcont)
+                    .all(|v| v.is_finite());
+                if !finite || t0 > t {
+                    return Err("FMU state holds an invalid integrator point".into());
+                }
+                Some(Ahead {
+                    t,
+                    x,
+                    f,
+                    t0,
+                    rcont,
+                    err_prev,
+                })
+            }
+            other => return Err(format!("FMU state has invalid flag {other}")),
+        };
         let code = r.u32()?;
         let machine = Machine::from_code(code)
             .ok_or_else(|| format!("FMU state names unknown machine state {code}"))?;
@@ -162,7 +198,7 @@ impl Snapshot {
             start_time,
             stop_time: (has_stop == 1).then_some(stop),
             tolerance,
-            memory: Memory { h, stats },
+            memory: Memory { h, stats, ahead },
             machine,
         })
     }

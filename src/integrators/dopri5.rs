@@ -163,21 +163,183 @@ pub fn advance(
     settings: &Settings,
     memory: &mut Memory,
 ) -> Result<(), Failure> {
-    let result = run(rhs, t, x, t_end, settings, memory);
+    let mut k1 = vec![0.0; x.len()];
+    if !eval(rhs, *t, x, &mut k1, &mut memory.stats) {
+        memory.h = 0.0;
+        return Err(Failure::NonFinite { t: *t });
+    }
+    let goal = Goal::Land(t_end);
+    let result = run(rhs, t, x, &mut k1, goal, None, None, settings, memory);
     if result.is_err() {
         memory.h = 0.0;
     }
-    result
+    result.map(|_| ())
 }
 
+/// Dense-output mode: integration that runs ahead of the communication points.
+///
+/// The integrator keeps its own point `(t, x, f(t, x))` at the end of its last accepted
+/// step, and takes the steps its controller wants, never shortened for a communication
+/// point; a communication point inside the last step is read from the continuous
+/// extension of order 4 (Hairer, ODE I, II.6; dopri5.f CONTD5), which costs no evaluation
+/// of f. So the work of a run does not depend on the communication grid. Valid only while
+/// f is unchanged (same inputs and parameters): the FMU drops it when an input changes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Ahead {
+    /// End of the last accepted step: the integrator's own time.
+    pub t: f64,
+    /// State at `t`.
+    pub x: Vec<f64>,
+    /// f(t, x): the first stage of the next step (FSAL).
+    pub f: Vec<f64>,
+    /// Start of the last accepted step (= `t` before the first step).
+    pub t0: f64,
+    /// Continuous extension of the last step, 5 blocks of n (dopri5.f RCONT).
+    pub rcont: Vec<f64>,
+    /// The PI controller's previous error (0 before the first step), carried so the step
+    /// sequence is the same however many calls it is cut into.
+    pub err_prev: f64,
+}
+
+impl Ahead {
+    /// The integrator's point at `(t, x)` before any step; evaluates f once.
+    pub fn start(
+        rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
+        t: f64,
+        x: &[f64],
+        stats: &mut Stats,
+    ) -> Result<Ahead, Failure> {
+        let n = x.len();
+        let mut f = vec![0.0; n];
+        if !x.iter().all(|v| v.is_finite()) || !eval(rhs, t, x, &mut f, stats) {
+            return Err(Failure::NonFinite { t });
+        }
+        let mut rcont = vec![0.0; 5 * n];
+        rcont[..n].copy_from_slice(x);
+        Ok(Ahead {
+            t,
+            x: x.to_vec(),
+            f,
+            t0: t,
+            rcont,
+            err_prev: 0.0,
+        })
+    }
+
+    /// x(`t`) for `t` in [`t0`, `t`] of the last step: the continuous extension (CONTD5).
+    pub fn interpolate(&self, t: f64, out: &mut [f64]) {
+        let n = self.x.len();
+        if t == self.t {
+            out.copy_from_slice(&self.x);
+            return;
+        }
+        let h = self.t - self.t0;
+        let theta = if h > 0.0 { (t - self.t0) / h } else { 0.0 };
+        let theta1 = 1.0 - theta;
+        let r = |j: usize, i: usize| self.rcont[j * n + i];
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = r(0, i)
+                + theta * (r(1, i) + theta1 * (r(2, i) + theta * (r(3, i) + theta1 * r(4, i))));
+        }
+    }
+}
+
+/// Dense-output coefficients d_i of dopri5.f (the order-4 continuous extension).
+const D1: f64 = -12715105075.0 / 11282082432.0;
+const D3: f64 = 87487479700.0 / 32700410799.0;
+const D4: f64 = -10690763975.0 / 1880347072.0;
+const D5: f64 = 701980252875.0 / 199316789632.0;
+const D6: f64 = -1453857185.0 / 822651844.0;
+const D7: f64 = 69997945.0 / 29380423.0;
+
+/// Dense mode (see [`Ahead`]): steps `ahead` until its last step covers `t_out`, then
+/// writes x(`t_out`) into `out`. Steps are cut only to land on `t_limit` (the experiment's
+/// stop time, or +∞), which the integrator never passes. `t_out` must lie in
+/// [`ahead.t0`, `t_limit`].
+///
+/// `project` maps a state back onto the system's constraints (or leaves it alone); it is
+/// applied after every accepted step, so the steps do not depend on the communication
+/// grid either, and f is evaluated again where it changed the state.
+///
+/// Counts: 6 evaluations of f per attempted step, one more for [`hinit`] if
+/// `memory.h == 0`, one per step the projection changed, none for a `t_out` already
+/// covered. On failure `ahead` holds the last accepted step and `memory.h` is reset.
+#[allow(clippy::too_many_arguments)]
+pub fn advance_dense(
+    rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
+    project: &mut dyn FnMut(f64, &mut [f64]),
+    ahead: &mut Ahead,
+    t_out: f64,
+    t_limit: f64,
+    settings: &Settings,
+    memory: &mut Memory,
+    out: &mut [f64],
+) -> Result<(), Failure> {
+    assert!(
+        t_out >= ahead.t0 && t_out <= t_limit,
+        "dopri5::advance_dense: t_out = {t_out} outside [{}, {t_limit}]",
+        ahead.t0
+    );
+    if t_out > ahead.t {
+        let Ahead {
+            t,
+            x,
+            f,
+            t0,
+            rcont,
+            err_prev,
+        } = ahead;
+        let goal = Goal::Pass { t_out, t_limit };
+        let known = (*err_prev > 0.0).then_some(*err_prev);
+        match run(rhs, t, x, f, goal, known, Some(project), settings, memory) {
+            Ok(dense) => {
+                *t0 = dense.t0;
+                *rcont = dense.rcont;
+                *err_prev = dense.err_prev;
+            }
+            Err(e) => {
+                memory.h = 0.0;
+                return Err(e);
+            }
+        }
+    }
+    ahead.interpolate(t_out, out);
+    Ok(())
+}
+
+/// Where a call of [`run`] stops.
+#[derive(Clone, Copy)]
+enum Goal {
+    /// Exactly at this time: the last step is shortened (or stretched ≤ 1 %) to land on it.
+    Land(f64),
+    /// After the first accepted step that reaches `t_out`; steps are cut only at `t_limit`.
+    Pass { t_out: f64, t_limit: f64 },
+}
+
+/// The last accepted step's continuous extension, as [`Ahead`] stores it.
+struct Dense {
+    t0: f64,
+    rcont: Vec<f64>,
+    /// The PI controller's error memory after the step.
+    err_prev: f64,
+}
+
+/// The stepping loop shared by both modes. `k1` holds f(t, x) on entry and f at the
+/// final point on success (FSAL). `err_prev`: the PI controller's previous error when the
+/// caller kept it; `project` is applied after every accepted step (see [`advance_dense`]).
+/// Returns the continuous extension of the last step.
+#[allow(clippy::too_many_arguments)]
 fn run(
     rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
     t: &mut f64,
     x: &mut [f64],
-    t_end: f64,
+    k1: &mut Vec<f64>,
+    goal: Goal,
+    err_prev: Option<f64>,
+    mut project: Option<&mut dyn FnMut(f64, &mut [f64])>,
     settings: &Settings,
     memory: &mut Memory,
-) -> Result<(), Failure> {
+) -> Result<Dense, Failure> {
     let n = x.len();
     assert_eq!(
         settings.atol.len(),
@@ -190,23 +352,24 @@ fn run(
         f64::INFINITY
     };
     let stats = &mut memory.stats;
-    let [mut k1, mut k2, mut k3, mut k4, mut k5, mut k6, mut k7, mut y] =
+    let [mut k2, mut k3, mut k4, mut k5, mut k6, mut k7, mut y] =
         std::array::from_fn(|_| vec![0.0; n]);
 
-    if !eval(rhs, *t, x, &mut k1, stats) {
-        return Err(Failure::NonFinite { t: *t });
-    }
     let carried = memory.h > 0.0 && memory.h.is_finite();
     let mut h = if carried {
         memory.h.min(h_max)
     } else {
-        hinit(rhs, *t, x, &k1, settings, h_max, &mut y, &mut k2, stats)
+        hinit(rhs, *t, x, k1, settings, h_max, &mut y, &mut k2, stats)
     };
     // Previous error for the PI term. A cold start uses Hairer's FACOLD_MIN, which damps the
     // first growth (~30 %). A call continuing with a carried step does not know the previous
     // error (it is not part of the FMU state); assuming it was at tolerance (1) makes the first
     // update a plain I-controller instead of shrinking the proposal at every call.
-    let mut facold = if carried { 1.0 } else { FACOLD_MIN };
+    let mut facold = match err_prev {
+        Some(e) if carried => e,
+        _ if carried => 1.0,
+        _ => FACOLD_MIN,
+    };
     let mut after_reject = false;
     let mut attempts: u64 = 0;
 
@@ -222,25 +385,29 @@ fn run(
         }
         attempts += 1;
         // `h` stays the controller's proposal; `hs` is the step actually taken (shortened or
-        // stretched to land on t_end).
-        let last = *t + LANDING_STRETCH * h >= t_end;
-        let (hs, t_new) = if last {
-            (t_end - *t, t_end)
+        // stretched to land on the end or the limit).
+        let land_on = match goal {
+            Goal::Land(t_end) => t_end,
+            Goal::Pass { t_limit, .. } => t_limit,
+        };
+        let landing = *t + LANDING_STRETCH * h >= land_on;
+        let (hs, t_new) = if landing {
+            (land_on - *t, land_on)
         } else {
             (h, *t + h)
         };
         let t0 = *t;
         let bad = || Failure::NonFinite { t: t0 };
 
-        stage(&mut y, x, hs, &[(A21, &k1)]);
+        stage(&mut y, x, hs, &[(A21, k1)]);
         if !eval(rhs, t0 + C2 * hs, &y, &mut k2, stats) {
             return Err(bad());
         }
-        stage(&mut y, x, hs, &[(A31, &k1), (A32, &k2)]);
+        stage(&mut y, x, hs, &[(A31, k1), (A32, &k2)]);
         if !eval(rhs, t0 + C3 * hs, &y, &mut k3, stats) {
             return Err(bad());
         }
-        stage(&mut y, x, hs, &[(A41, &k1), (A42, &k2), (A43, &k3)]);
+        stage(&mut y, x, hs, &[(A41, k1), (A42, &k2), (A43, &k3)]);
         if !eval(rhs, t0 + C4 * hs, &y, &mut k4, stats) {
             return Err(bad());
         }
@@ -248,7 +415,7 @@ fn run(
             &mut y,
             x,
             hs,
-            &[(A51, &k1), (A52, &k2), (A53, &k3), (A54, &k4)],
+            &[(A51, k1), (A52, &k2), (A53, &k3), (A54, &k4)],
         );
         if !eval(rhs, t0 + C5 * hs, &y, &mut k5, stats) {
             return Err(bad());
@@ -291,35 +458,73 @@ fn run(
         }
 
         let fac11 = err.powf(EXPO1);
-        if err <= 1.0 {
-            // Accepted. PI controller: h_new/h = SAFETY / (err^EXPO1 / errold^BETA), in bounds.
-            let fac = fac11 / facold.powf(BETA);
-            let mut h_new = hs / (fac / SAFETY).clamp(1.0 / FAC_MAX, 1.0 / FAC_MIN);
-            h_new = h_new.min(h_max);
-            if after_reject {
-                // Just failed with a larger step: growing again would likely fail again.
-                h_new = h_new.min(hs);
-            }
-            facold = err.max(FACOLD_MIN);
-            after_reject = false;
-            stats.steps += 1;
-            x.copy_from_slice(&y);
-            std::mem::swap(&mut k1, &mut k7); // FSAL
-            *t = t_new;
-            if last {
-                // The landing step may have been cut short; its easy error must not shrink the
-                // proposal for the next call. Keep the planned step unless asked to reduce.
-                memory.h = if h_new < hs { h_new } else { h_new.max(h) };
-                return Ok(());
-            }
-            h = h_new;
-        } else {
+        if err > 1.0 {
             // Rejected: shrink by the error model alone (no PI term), at most 1/FAC_MIN.
             stats.rejected += 1;
             after_reject = true;
             h = hs / (fac11 / SAFETY).min(1.0 / FAC_MIN);
+            continue;
         }
+        // Accepted. PI controller: h_new/h = SAFETY / (err^EXPO1 / errold^BETA), in bounds.
+        let fac = fac11 / facold.powf(BETA);
+        let mut h_new = hs / (fac / SAFETY).clamp(1.0 / FAC_MAX, 1.0 / FAC_MIN);
+        h_new = h_new.min(h_max);
+        if after_reject {
+            // Just failed with a larger step: growing again would likely fail again.
+            h_new = h_new.min(hs);
+        }
+        facold = err.max(FACOLD_MIN);
+        after_reject = false;
+        stats.steps += 1;
+        let done = match goal {
+            Goal::Land(_) => landing,
+            Goal::Pass { t_out, .. } => t_new >= t_out,
+        };
+        let dense = done.then(|| continuous_extension(x, &y, hs, [k1, &k3, &k4, &k5, &k6, &k7]));
+        x.copy_from_slice(&y);
+        std::mem::swap(k1, &mut k7); // FSAL
+        *t = t_new;
+        if let Some(project) = project.as_mut() {
+            y.copy_from_slice(x);
+            project(t_new, x);
+            if x != &y[..] && !eval(rhs, t_new, x, k1, stats) {
+                return Err(Failure::NonFinite { t: t_new });
+            }
+        }
+        if let Some(rcont) = dense {
+            // A landing step may have been cut short; its easy error must not shrink the
+            // proposal for the next call. Keep the planned step unless asked to reduce.
+            memory.h = if !landing || h_new < hs {
+                h_new
+            } else {
+                h_new.max(h)
+            };
+            return Ok(Dense {
+                t0,
+                rcont,
+                err_prev: facold,
+            });
+        }
+        h = h_new;
     }
+}
+
+/// dopri5.f's RCONT for the step x → y of size h with stages k1, k3 … k7 (k7 = f(y)).
+fn continuous_extension(x: &[f64], y: &[f64], h: f64, k: [&[f64]; 6]) -> Vec<f64> {
+    let n = x.len();
+    let [k1, k3, k4, k5, k6, k7] = k;
+    let mut r = vec![0.0; 5 * n];
+    for i in 0..n {
+        let ydiff = y[i] - x[i];
+        let bspl = h * k1[i] - ydiff;
+        r[i] = x[i];
+        r[n + i] = ydiff;
+        r[2 * n + i] = bspl;
+        r[3 * n + i] = ydiff - h * k7[i] - bspl;
+        r[4 * n + i] =
+            h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7[i]);
+    }
+    r
 }
 
 #[cfg(test)]
@@ -703,6 +908,86 @@ mod tests {
         // Measured errors 8.9e-10, 2.6e-11, 7.7e-13: ratios 34.8, 33.4 (order 5 ⇒ 2⁵ = 32).
         for ratio in [e1 / e2, e2 / e3] {
             assert!((28.0..38.0).contains(&ratio), "ratio {ratio}");
+        }
+    }
+
+    /// Dense mode on the oscillator: reads x at every point of a grid `dt` up to 10 s.
+    /// Returns the worst error on the grid, the work, and the integrator's own end point.
+    fn dense_run(tol: f64, dt: f64) -> (f64, Stats, Ahead) {
+        let mut memory = Memory::default();
+        let s = settings(tol, 2, f64::INFINITY);
+        let mut ahead = Ahead::start(&mut oscillator, 0.0, &[1.0, 0.0], &mut memory.stats).unwrap();
+        let (mut worst, mut out) = (0.0f64, [0.0; 2]);
+        let steps = (10.0 / dt).round() as usize;
+        for i in 1..=steps {
+            let t_out = i as f64 * dt;
+            advance_dense(
+                &mut oscillator,
+                &mut |_, _| {},
+                &mut ahead,
+                t_out,
+                10.0,
+                &s,
+                &mut memory,
+                &mut out,
+            )
+            .unwrap();
+            worst = worst.max(oscillator_error(t_out, &out));
+        }
+        (worst, memory.stats, ahead)
+    }
+
+    #[test]
+    fn dense_output_work_does_not_depend_on_the_output_grid() {
+        // The steps are the controller's alone: a grid 1000× finer costs no evaluation
+        // more, and the integrator ends at the same point bit for bit.
+        let (e_coarse, s_coarse, a_coarse) = dense_run(1e-8, 0.1);
+        let (e_fine, s_fine, a_fine) = dense_run(1e-8, 1e-4);
+        assert_eq!(s_coarse, s_fine);
+        assert_eq!(a_coarse, a_fine);
+        assert_eq!(a_fine.t, 10.0, "lands on the limit");
+        // 1 start + 1 hinit + 6 per attempt.
+        assert_eq!(s_fine.rhs_evals, 2 + 6 * (s_fine.steps + s_fine.rejected));
+        // Interpolated values are as accurate as the steps: order-4 extension of an
+        // order-5 method, error at the level of the global error (measured 1.9e-7 worst
+        // on the 1e-4 grid, 1.5e-7 at the end of a run landing on 10 s: tol 1e-8 over
+        // 16 periods).
+        let (e_steps, _) = oscillator_run(1e-8);
+        let e_steps = oscillator_error(10.0, &e_steps);
+        println!("METRIC dense grid error {e_fine:.2e} (coarse {e_coarse:.2e}), end {e_steps:.2e}");
+        assert!(
+            e_fine < 5.0 * e_steps.max(1e-8),
+            "{e_fine:e} vs {e_steps:e}"
+        );
+    }
+
+    #[test]
+    fn continuous_extension_hits_both_ends_of_a_step() {
+        let mut memory = Memory::default();
+        let s = settings(1e-6, 2, f64::INFINITY);
+        let x0 = [1.0, 0.0];
+        let mut ahead = Ahead::start(&mut oscillator, 0.0, &x0, &mut memory.stats).unwrap();
+        let mut out = [0.0; 2];
+        advance_dense(
+            &mut oscillator,
+            &mut |_, _| {},
+            &mut ahead,
+            1e-9,
+            1.0,
+            &s,
+            &mut memory,
+            &mut out,
+        )
+        .unwrap();
+        assert_eq!(memory.stats.steps, 1);
+        let mut at = [0.0; 2];
+        ahead.interpolate(ahead.t0, &mut at);
+        assert_eq!(at, x0);
+        // θ = 1 reproduces the step's end value up to rounding of the polynomial.
+        let h = ahead.t - ahead.t0;
+        ahead.interpolate(ahead.t0 + h * (1.0 - 1e-16), &mut at);
+        for (a, x) in at.iter().zip(&ahead.x) {
+            assert!((a - x).abs() <= 1e-14 * (1.0 + x.abs()));
         }
     }
 }

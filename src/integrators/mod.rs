@@ -199,6 +199,9 @@ pub struct Memory {
     /// starts from a fresh estimate instead of a step that has just proved hopeless.
     pub h: f64,
     pub stats: Stats,
+    /// DOPRI5's own point ahead of the communication time, in dense-output mode (see
+    /// [`dopri5::Ahead`]); `None` in every other mode and whenever f has changed.
+    pub ahead: Option<dopri5::Ahead>,
 }
 
 /// Why [`advance`] stopped early. In every case the state was left at the last accepted step.
