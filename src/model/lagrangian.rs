@@ -78,6 +78,17 @@ pub trait Lagrangian: 'static {
     /// The configured experiments of this system.
     fn scenes() -> Vec<Scene>;
 
+    /// How many holonomic constraints `Φ(q) = 0` [`constraints`](Lagrangian::constraints)
+    /// returns: 0 (the default) for minimal coordinates. With m > 0 the coordinates are
+    /// surplus and the equations of motion carry m multipliers λ (the λ-method):
+    /// `M q̈ + Gᵀ λ = Q + ∂L/∂q − (∂²L/∂q̇∂q) q̇`, `G q̈ = −q̇ᵀ ∇²Φ q̇`, `G = ∂Φ/∂q`;
+    /// `−Gᵀ λ` is the constraint force. The states are projected back onto `Φ = 0`,
+    /// `G q̇ = 0` after every step (see [`project`]).
+    const CONSTRAINTS: usize = 0;
+
+    /// The constraint functions `Φ(q, p)` (length [`CONSTRAINTS`](Lagrangian::CONSTRAINTS)).
+    fn constraints<S: Scalar>(_q: &[S], _p: &[S], _phi: &mut [S]) {}
+
     /// DefaultExperiment: stop time, relative tolerance, communication step size.
     fn default_experiment() -> (f64, f64, f64) {
         (10.0, 1e-8, 1e-2)
@@ -152,7 +163,8 @@ pub fn generalized_rhs<L: Lagrangian, S: Scalar>(
     rhs
 }
 
-/// The accelerations q̈ of the Euler–Lagrange equations: `M q̈ = Q + ∂L/∂q − (∂²L/∂q̇∂q) q̇`.
+/// The accelerations q̈ of the Euler–Lagrange equations: `M q̈ = Q + ∂L/∂q − (∂²L/∂q̇∂q) q̇`
+/// (with constraints, of the λ-method: see [`accelerations_and_multipliers`]).
 pub fn accelerations<L: Lagrangian, S: Scalar>(
     t: f64,
     q: &[S],
@@ -160,10 +172,137 @@ pub fn accelerations<L: Lagrangian, S: Scalar>(
     u: &[S],
     p: &[S],
 ) -> Vec<S> {
+    let (mut qdd, _) = accelerations_and_multipliers::<L, S>(t, q, qd, u, p);
+    qdd.truncate(q.len());
+    qdd
+}
+
+/// `(q̈, λ)` of the λ-method: one solve of the augmented system
+///
+/// ```text
+/// [ M  Gᵀ ] [ q̈ ]   [ Q + ∂L/∂q − (∂²L/∂q̇∂q) q̇ ]
+/// [ G  0  ] [ λ  ] = [ −q̇ᵀ ∇²Φ q̇               ]
+/// ```
+///
+/// (the constraints differentiated twice: index 1). λ is empty without constraints.
+pub fn accelerations_and_multipliers<L: Lagrangian, S: Scalar>(
+    t: f64,
+    q: &[S],
+    qd: &[S],
+    u: &[S],
+    p: &[S],
+) -> (Vec<S>, Vec<S>) {
+    let n = q.len();
     let mut m = mass_matrix::<L, S>(q, qd, p);
     let mut rhs = generalized_rhs::<L, S>(t, q, qd, u, p);
-    solve(&mut m, &mut rhs);
-    rhs
+    if L::CONSTRAINTS == 0 {
+        solve(&mut m, &mut rhs);
+        return (rhs, Vec::new());
+    }
+    let g = constraint_jacobian::<L, S>(q, p);
+    let mut a = augmented(&m, &g);
+    rhs.extend(
+        constraint_curvature::<L, S>(q, qd, p)
+            .into_iter()
+            .map(|c| -c),
+    );
+    solve(&mut a, &mut rhs);
+    let lambda = rhs.split_off(n);
+    (rhs, lambda)
+}
+
+/// The constraint values `Φ(q)`.
+pub fn constraint_values<L: Lagrangian, S: Scalar>(q: &[S], p: &[S]) -> Vec<S> {
+    let mut phi = vec![S::from(0.0); L::CONSTRAINTS];
+    L::constraints(q, p, &mut phi);
+    phi
+}
+
+/// `G = ∂Φ/∂q` (m × n), one dual evaluation of Φ per column.
+pub fn constraint_jacobian<L: Lagrangian, S: Scalar>(q: &[S], p: &[S]) -> Vec<Vec<S>> {
+    let (n, m) = (q.len(), L::CONSTRAINTS);
+    let pd = lift_dual(p);
+    let mut g = vec![vec![S::from(0.0); n]; m];
+    for j in 0..n {
+        let mut qd = lift_dual(q);
+        qd[j].eps = S::from(1.0);
+        let mut phi = vec![Dual::from_re(S::from(0.0)); m];
+        L::constraints(&qd, &pd, &mut phi);
+        for (row, v) in g.iter_mut().zip(&phi) {
+            row[j] = v.eps;
+        }
+    }
+    g
+}
+
+/// `q̇ᵀ ∇²Φᵢ q̇` for each constraint (= Ġ q̇): one hyper-dual evaluation of Φ at
+/// `q + (ε₁ + ε₂) q̇`.
+fn constraint_curvature<L: Lagrangian, S: Scalar>(q: &[S], qd: &[S], p: &[S]) -> Vec<S> {
+    let qh: Vec<HyperDual<S>> = q
+        .iter()
+        .zip(qd)
+        .map(|(&qj, &vj)| HyperDual::new(qj, vj, vj, S::from(0.0)))
+        .collect();
+    let mut phi = vec![HyperDual::from_re(S::from(0.0)); L::CONSTRAINTS];
+    L::constraints(&qh, &lift_hyper(p), &mut phi);
+    phi.into_iter().map(|v| v.eps1eps2).collect()
+}
+
+/// `[M Gᵀ; G 0]`.
+fn augmented<S: Scalar>(m: &[Vec<S>], g: &[Vec<S>]) -> Vec<Vec<S>> {
+    let (n, k) = (m.len(), g.len());
+    let zero = S::from(0.0);
+    let mut a = vec![vec![zero; n + k]; n + k];
+    for i in 0..n {
+        a[i][..n].copy_from_slice(&m[i]);
+        for (r, gr) in g.iter().enumerate() {
+            a[i][n + r] = gr[i];
+            a[n + r][i] = gr[i];
+        }
+    }
+    a
+}
+
+/// Most Newton iterations of the position projection (it converges quadratically from
+/// the O(tolerance) violation one step leaves; more means the constraints are singular).
+const PROJECTION_ITERATIONS: usize = 8;
+
+/// Coordinate projection (Hairer, Lubich, Wanner, *Geometric Numerical Integration*,
+/// IV.4; Eich 1993): moves `q` onto `Φ(q) = 0` by Newton steps of the smallest kinetic
+/// metric change, `[M Gᵀ; G 0] [Δq; μ] = [0; −Φ]`, then `q̇` onto `G q̇ = 0` the same way.
+/// The M-metric makes the velocity correction the one that changes the kinetic energy
+/// least. Leaves the state alone if a solve fails (non-finite result).
+pub fn project_onto_constraints<L: Lagrangian>(x: &mut [f64], p: &[f64]) {
+    let n = x.len() / 2;
+    let (q, qd) = x.split_at_mut(n);
+    let correct = |q: &[f64], qd: &[f64], defect: Vec<f64>| -> Option<Vec<f64>> {
+        let m = mass_matrix::<L, f64>(q, qd, p);
+        let mut a = augmented(&m, &constraint_jacobian::<L, f64>(q, p));
+        let mut b = vec![0.0; n];
+        b.extend(defect.into_iter().map(|d| -d));
+        solve(&mut a, &mut b);
+        b.truncate(n);
+        b.iter().all(|v| v.is_finite()).then_some(b)
+    };
+    for _ in 0..PROJECTION_ITERATIONS {
+        let phi = constraint_values::<L, f64>(q, p);
+        let scale = q.iter().fold(1.0f64, |s, v| s.max(v.abs()));
+        if phi.iter().all(|v| v.abs() <= 4.0 * f64::EPSILON * scale) {
+            break;
+        }
+        let Some(dq) = correct(q, qd, phi) else {
+            return;
+        };
+        q.iter_mut().zip(&dq).for_each(|(qi, d)| *qi += d);
+    }
+    let g = constraint_jacobian::<L, f64>(q, p);
+    let velocity_defect = g
+        .iter()
+        .map(|row| row.iter().zip(qd.iter()).map(|(a, b)| a * b).sum())
+        .collect();
+    if let Some(dv) = correct(q, qd, velocity_defect) {
+        qd.iter_mut().zip(&dv).for_each(|(v, d)| *v += d);
+    }
 }
 
 /// Mechanical energy `E = T + V`.
@@ -252,6 +391,12 @@ impl<L: Lagrangian> System for L {
 
     fn default_experiment() -> (f64, f64, f64) {
         <L as Lagrangian>::default_experiment()
+    }
+
+    fn project(_t: f64, p: &[f64], x: &mut [f64]) {
+        if L::CONSTRAINTS > 0 {
+            project_onto_constraints::<L>(x, p);
+        }
     }
 }
 

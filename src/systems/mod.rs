@@ -7,6 +7,7 @@ mod projectile;
 mod rigid_body;
 mod rolling_disk;
 mod rolling_hoop;
+pub mod slider_crank;
 mod sphere_slide;
 mod spring_rod_pendulum;
 pub mod springy_pendulum;
@@ -20,6 +21,7 @@ pub use projectile::Projectile;
 pub use rigid_body::RigidBody;
 pub use rolling_disk::RollingDisk;
 pub use rolling_hoop::RollingHoop;
+pub use slider_crank::{SliderCrank, SliderCrankSurplus};
 pub use sphere_slide::SphereSlide;
 pub use spring_rod_pendulum::SpringRodPendulum;
 pub use springy_pendulum::SpringyPendulum;
@@ -54,7 +56,20 @@ fn linearize_at<M: System>(
     if let Some(what) = trim {
         linearize::trim::<M>(&mut op, what)?;
     }
-    Ok(linearize::linearize::<M>(&op))
+    let lin = linearize::linearize::<M>(&op);
+    let finite = |m: &nalgebra::DMatrix<f64>| m.iter().all(|v| v.is_finite());
+    let all_finite = finite(&lin.a)
+        && finite(&lin.b)
+        && finite(&lin.c)
+        && finite(&lin.d)
+        && lin.y0.iter().all(|v| v.is_finite());
+    if !all_finite {
+        return Err(format!(
+            "{}: the linearisation at this point is not finite (a derivative is singular there)",
+            M::NAME
+        ));
+    }
+    Ok(lin)
 }
 
 fn entry<M: System>(crate_name: &'static str) -> Entry {
@@ -85,5 +100,7 @@ pub fn all() -> Vec<Entry> {
         entry::<CompoundPendulum>("compound_pendulum"),
         entry::<SphereSlide>("sphere_slide"),
         entry::<SpringRodPendulum>("spring_rod_pendulum"),
+        entry::<SliderCrank>("slider_crank"),
+        entry::<SliderCrankSurplus>("slider_crank_surplus"),
     ]
 }

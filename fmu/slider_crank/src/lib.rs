@@ -1,0 +1,2 @@
+//! The SliderCrank FMU: this binary carries only this model.
+mbfmu::export_fmu!(mbfmu::systems::SliderCrank);
