@@ -13,8 +13,9 @@
 // be checked against it; the compiler rounds them to the nearest f64.
 #![allow(clippy::excessive_precision)]
 
+use super::explicit_rk::{initial_step, stage, step_too_small, FACOLD_MIN, LANDING_STRETCH};
 use super::problem::{start, Problem};
-use super::{Failure, Memory, Settings, Stats, MAX_STEPS};
+use super::{Failure, Memory, Settings, MAX_STEPS};
 
 // Nodes c_i (dop853.f; c12 = 1; c13..c16 belong to dense output, not implemented).
 const C2: f64 = 0.526001519587677318785587544488e-01;
@@ -117,77 +118,12 @@ const SAFETY: f64 = 0.9;
 const FAC_MIN: f64 = 0.333;
 /// Grow a step at most 6× at once (dop853.f FAC2).
 const FAC_MAX: f64 = 6.0;
-/// Floor of the previous error in the PI term, and its value on a cold start (dop853.f).
-const FACOLD_MIN: f64 = 1e-4;
 /// Weight of the third-order estimate in the denominator of the combined estimate
 /// (dop853.f: `DENO = ERR + 0.01*ERR2`): keeps the 5th-order estimate from vanishing
 /// accidentally when the 3rd-order one does not.
 const ERR3_WEIGHT: f64 = 0.01;
-/// Stretch a step ending within 1 % of `t_end` to land on it (dop853.f, as in DOPRI5).
-const LANDING_STRETCH: f64 = 1.01;
-/// Smallest usable step, in ulps of `max(|t|, 1)` (see [`super::dopri5`]).
-const MIN_STEP_ULPS: f64 = 16.0;
 /// Order of the method, for the initial step `h₁⁸·max(‖f'‖, ‖f‖) = 0.01` (dop853.f IORD = 8).
 const ORDER: i32 = 8;
-
-/// `out = x + h·Σ a_j·k_j`, the argument of a stage.
-fn stage(out: &mut [f64], x: &[f64], h: f64, terms: &[(f64, &[f64])]) {
-    for (i, o) in out.iter_mut().enumerate() {
-        let s: f64 = terms.iter().map(|(a, k)| a * k[i]).sum();
-        *o = x[i] + h * s;
-    }
-}
-
-fn scale(settings: &Settings, i: usize, x: f64) -> f64 {
-    settings.atol[i] + settings.rtol * x.abs()
-}
-
-/// Initial step (ODE I, II.4 p. 169; dop853.f HINIT with IORD = 8). One evaluation of f.
-#[allow(clippy::too_many_arguments)]
-fn hinit(
-    problem: &mut Problem,
-    t: f64,
-    x: &[f64],
-    f0: &[f64],
-    settings: &Settings,
-    h_max: f64,
-    y1: &mut [f64],
-    f1: &mut [f64],
-    stats: &mut Stats,
-) -> f64 {
-    let n = x.len().max(1) as f64;
-    let (mut dnf, mut dny) = (0.0, 0.0);
-    for i in 0..x.len() {
-        let sk = scale(settings, i, x[i]);
-        dnf += (f0[i] / sk).powi(2);
-        dny += (x[i] / sk).powi(2);
-    }
-    let (dnf, dny) = ((dnf / n).sqrt(), (dny / n).sqrt());
-    let h0 = if dnf <= 1e-5 || dny <= 1e-5 {
-        1e-6
-    } else {
-        0.01 * dny / dnf
-    }
-    .min(h_max);
-    for i in 0..x.len() {
-        y1[i] = x[i] + h0 * f0[i];
-    }
-    if !problem.eval(t + h0, y1, f1, stats) {
-        return h0;
-    }
-    let mut der2 = 0.0;
-    for i in 0..x.len() {
-        der2 += ((f1[i] - f0[i]) / scale(settings, i, x[i])).powi(2);
-    }
-    let der2 = (der2 / n).sqrt() / h0;
-    let der12 = der2.max(dnf);
-    let h1 = if der12 <= 1e-15 {
-        (h0 * 1e-3).max(1e-6)
-    } else {
-        (0.01 / der12).powf(1.0 / ORDER as f64)
-    };
-    (100.0 * h0).min(h1).min(h_max)
-}
 
 /// Advance with DOP853 from `*t` to exactly `t_end`, with `settings.rtol`, `settings.atol`
 /// (one per state) and `settings.step` as the maximum step (`settings.method` is not consulted:
@@ -246,7 +182,17 @@ fn run(
     let mut h = if carried {
         memory.h.min(h_max)
     } else {
-        hinit(problem, *t, x, &k1, settings, h_max, &mut y, &mut k2, stats)
+        let mut probe = |t: f64, y: &[f64], k: &mut [f64]| problem.eval(t, y, k, stats);
+        initial_step(
+            &mut probe,
+            *t,
+            x,
+            &k1,
+            settings,
+            h_max,
+            ORDER,
+            (&mut y, &mut k2),
+        )
     };
     // As in DOPRI5: a continuing call assumes the previous error was at tolerance.
     let mut facold: f64 = if carried { 1.0 } else { FACOLD_MIN };
@@ -261,7 +207,7 @@ fn run(
                 steps: attempts,
             });
         }
-        if h.is_nan() || h < MIN_STEP_ULPS * f64::EPSILON * t.abs().max(1.0) {
+        if step_too_small(*t, h) {
             return Err(Failure::StepTooSmall { t: *t, h });
         }
         attempts += 1;
@@ -454,7 +400,7 @@ fn run(
 #[cfg(test)]
 mod tests {
     use super::super::test_support::{oscillator, oscillator_error};
-    use super::super::Method;
+    use super::super::{Method, Stats};
     use super::*;
 
     fn settings(tol: f64, n: usize, step: f64) -> Settings {

@@ -7,6 +7,7 @@
 //! (initial step), IV.2 (PI / "Lund" stabilization); and Hairer's reference code `dopri5.f`
 //! (subroutines DOPCOR and HINIT), whose default constants are reproduced below.
 
+use super::explicit_rk::{eval, initial_step, stage, step_too_small, FACOLD_MIN, LANDING_STRETCH};
 use super::{Failure, Memory, Settings, Stats, MAX_STEPS};
 
 // Butcher tableau (Table II.5.2 / dopri5.f). c_i are the nodes, a_ij the stage weights.
@@ -59,96 +60,6 @@ const SAFETY: f64 = 0.9;
 const FAC_MIN: f64 = 0.2;
 /// Grow a step at most 10× at once (dopri5.f FAC2), for the same reason.
 const FAC_MAX: f64 = 10.0;
-/// Floor of the previous error in the PI term, and its value on a cold start: keeps
-/// `facold^β` away from 0 after an exact (error 0) step.
-const FACOLD_MIN: f64 = 1e-4;
-/// A step that would end less than 1 % before `t_end` is stretched to land on it, instead
-/// of leaving a sliver step (dopri5.f does the same).
-const LANDING_STRETCH: f64 = 1.01;
-/// Smallest usable step is `MIN_STEP_ULPS · ε · max(|t|, 1)`: 16 ulps of `t`, so `t + h`
-/// still differs from `t` in more than the last bits and the stage times are distinct; the
-/// `max(·, 1)` keeps an absolute floor (16ε s ≈ 3.6e-15 s) near t = 0, where ulps vanish.
-/// (dopri5.f stops when `0.1·|h| <= |t|·uround`, i.e. about 10 ulps, with no floor.)
-const MIN_STEP_ULPS: f64 = 16.0;
-
-/// One evaluation of f, counted; `false` if the derivative is not finite.
-fn eval(
-    rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
-    t: f64,
-    y: &[f64],
-    k: &mut [f64],
-    stats: &mut Stats,
-) -> bool {
-    stats.rhs_evals += 1;
-    rhs(t, y, k);
-    k.iter().all(|v| v.is_finite())
-}
-
-/// `out = x + h·Σ a_j·k_j`, the argument of a stage.
-fn stage(out: &mut [f64], x: &[f64], h: f64, terms: &[(f64, &[f64])]) {
-    for (i, o) in out.iter_mut().enumerate() {
-        let s: f64 = terms.iter().map(|(a, k)| a * k[i]).sum();
-        *o = x[i] + h * s;
-    }
-}
-
-/// Hairer's weight of component i: what "one unit of error" means there.
-fn scale(settings: &Settings, i: usize, x: f64) -> f64 {
-    settings.atol[i] + settings.rtol * x.abs()
-}
-
-/// Initial step (Hairer, ODE I, II.4 p. 169; dopri5.f HINIT), with the RMS norm of the book.
-/// Costs one evaluation of f (`f0` is the already evaluated first stage).
-#[allow(clippy::too_many_arguments)]
-fn hinit(
-    rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
-    t: f64,
-    x: &[f64],
-    f0: &[f64],
-    settings: &Settings,
-    h_max: f64,
-    y1: &mut [f64],
-    f1: &mut [f64],
-    stats: &mut Stats,
-) -> f64 {
-    let n = x.len().max(1) as f64;
-    let (mut dnf, mut dny) = (0.0, 0.0);
-    for i in 0..x.len() {
-        let sk = scale(settings, i, x[i]);
-        dnf += (f0[i] / sk).powi(2);
-        dny += (x[i] / sk).powi(2);
-    }
-    let (dnf, dny) = ((dnf / n).sqrt(), (dny / n).sqrt());
-    // a) h0 = 0.01·‖x‖/‖f‖: a step over which x changes by 1 % (or 1e-6 if either is ~0).
-    let h0 = if dnf <= 1e-5 || dny <= 1e-5 {
-        1e-6
-    } else {
-        0.01 * dny / dnf
-    }
-    .min(h_max);
-    // b) One explicit Euler step to estimate the second derivative.
-    for i in 0..x.len() {
-        y1[i] = x[i] + h0 * f0[i];
-    }
-    if !eval(rhs, t + h0, y1, f1, stats) {
-        // The probe ran into trouble; the main loop will find out whether h0 itself does.
-        return h0;
-    }
-    let mut der2 = 0.0;
-    for i in 0..x.len() {
-        der2 += ((f1[i] - f0[i]) / scale(settings, i, x[i])).powi(2);
-    }
-    let der2 = (der2 / n).sqrt() / h0;
-    // c) h1 with h1⁵·max(‖f'‖, ‖f‖) = 0.01 (order + 1 = 5).
-    let der12 = der2.max(dnf);
-    let h1 = if der12 <= 1e-15 {
-        (h0 * 1e-3).max(1e-6)
-    } else {
-        (0.01 / der12).powf(1.0 / 5.0)
-    };
-    (100.0 * h0).min(h1).min(h_max)
-}
-
 /// Advance with DOPRI5 from `*t` to `t_end` (> `*t`, `x` finite; see [`super::advance`]).
 ///
 /// Counts: each call evaluates f once for its first stage (fresh, because inputs may have
@@ -359,7 +270,8 @@ fn run(
     let mut h = if carried {
         memory.h.min(h_max)
     } else {
-        hinit(rhs, *t, x, k1, settings, h_max, &mut y, &mut k2, stats)
+        let mut probe = |t: f64, y: &[f64], k: &mut [f64]| eval(rhs, t, y, k, stats);
+        initial_step(&mut probe, *t, x, k1, settings, h_max, 5, (&mut y, &mut k2))
     };
     // Previous error for the PI term. A cold start uses Hairer's FACOLD_MIN, which damps the
     // first growth (~30 %). A call continuing with a carried step does not know the previous
@@ -380,7 +292,7 @@ fn run(
                 steps: attempts,
             });
         }
-        if h.is_nan() || h < MIN_STEP_ULPS * f64::EPSILON * t.abs().max(1.0) {
+        if step_too_small(*t, h) {
             return Err(Failure::StepTooSmall { t: *t, h });
         }
         attempts += 1;

@@ -13,6 +13,7 @@ pub mod dop853;
 pub mod dopri5;
 pub mod euler;
 pub mod exact_linear;
+mod explicit_rk;
 pub mod gauss;
 pub mod problem;
 pub mod radau5;

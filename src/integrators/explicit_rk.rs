@@ -1,0 +1,102 @@
+//! What DOPRI5 and DOP853 share: the stage sum, Hairer's error weights, the initial
+//! step (E. Hairer, S. P. Nørsett, G. Wanner, *Solving Ordinary Differential Equations
+//! I*, II.4 p. 169; HINIT of dopri5.f / dop853.f), and the landing and step-floor rules.
+
+use super::{Settings, Stats};
+
+/// A step that would end less than 1 % before the target is stretched to land on it,
+/// instead of leaving a sliver step (dopri5.f and dop853.f do the same).
+pub(super) const LANDING_STRETCH: f64 = 1.01;
+
+/// Smallest usable step is `MIN_STEP_ULPS · ε · max(|t|, 1)`: 16 ulps of `t`, so `t + h`
+/// still differs from `t` in more than the last bits and the stage times are distinct; the
+/// `max(·, 1)` keeps an absolute floor (16ε s ≈ 3.6e-15 s) near t = 0, where ulps vanish.
+/// (dopri5.f stops when `0.1·|h| <= |t|·uround`, i.e. about 10 ulps, with no floor.)
+pub(super) const MIN_STEP_ULPS: f64 = 16.0;
+
+/// Floor of the previous error in the PI term, and its value on a cold start: keeps
+/// `facold^β` away from 0 after an exact (error 0) step (both Fortran codes: 1e-4).
+pub(super) const FACOLD_MIN: f64 = 1e-4;
+
+/// Whether `h` is below the smallest usable step at `t` (or NaN).
+pub(super) fn step_too_small(t: f64, h: f64) -> bool {
+    h.is_nan() || h < MIN_STEP_ULPS * f64::EPSILON * t.abs().max(1.0)
+}
+
+/// `out = x + h·Σ a_j·k_j`, the argument of a stage.
+pub(super) fn stage(out: &mut [f64], x: &[f64], h: f64, terms: &[(f64, &[f64])]) {
+    for (i, o) in out.iter_mut().enumerate() {
+        let s: f64 = terms.iter().map(|(a, k)| a * k[i]).sum();
+        *o = x[i] + h * s;
+    }
+}
+
+/// Hairer's weight of component i: what "one unit of error" means there.
+pub(super) fn weight(settings: &Settings, i: usize, x: f64) -> f64 {
+    settings.atol[i] + settings.rtol * x.abs()
+}
+
+/// One evaluation of f, counted; `false` if the derivative is not finite.
+pub(super) fn eval(
+    rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
+    t: f64,
+    y: &[f64],
+    k: &mut [f64],
+    stats: &mut Stats,
+) -> bool {
+    stats.rhs_evals += 1;
+    rhs(t, y, k);
+    k.iter().all(|v| v.is_finite())
+}
+
+/// Initial step for a method of order `order`, with the RMS norm of the book. Costs one
+/// evaluation of f through `eval` (`f0 = f(t, x)` is already known; `y1`, `f1` are
+/// scratch).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn initial_step(
+    eval: &mut dyn FnMut(f64, &[f64], &mut [f64]) -> bool,
+    t: f64,
+    x: &[f64],
+    f0: &[f64],
+    settings: &Settings,
+    h_max: f64,
+    order: i32,
+    (y1, f1): (&mut [f64], &mut [f64]),
+) -> f64 {
+    let n = x.len().max(1) as f64;
+    let (mut dnf, mut dny) = (0.0, 0.0);
+    for i in 0..x.len() {
+        let sk = weight(settings, i, x[i]);
+        dnf += (f0[i] / sk).powi(2);
+        dny += (x[i] / sk).powi(2);
+    }
+    let (dnf, dny) = ((dnf / n).sqrt(), (dny / n).sqrt());
+    // a) h0 = 0.01·‖x‖/‖f‖: a step over which x changes by 1 % (or 1e-6 if either is ~0).
+    let h0 = if dnf <= 1e-5 || dny <= 1e-5 {
+        1e-6
+    } else {
+        0.01 * dny / dnf
+    }
+    .min(h_max);
+    // b) One explicit Euler step to estimate the second derivative.
+    for i in 0..x.len() {
+        y1[i] = x[i] + h0 * f0[i];
+    }
+    if !eval(t + h0, y1, f1) {
+        // The probe ran into trouble; the main loop will find out whether h0 itself does.
+        return h0;
+    }
+    let mut der2 = 0.0;
+    for i in 0..x.len() {
+        der2 += ((f1[i] - f0[i]) / weight(settings, i, x[i])).powi(2);
+    }
+    let der2 = (der2 / n).sqrt() / h0;
+    // c) h1 with h1^(order+1)·max(‖f'‖, ‖f‖) = 0.01 (Hairer's codes use the order here).
+    let der12 = der2.max(dnf);
+    let h1 = if der12 <= 1e-15 {
+        (h0 * 1e-3).max(1e-6)
+    } else {
+        (0.01 / der12).powf(1.0 / order as f64)
+    };
+    (100.0 * h0).min(h1).min(h_max)
+}
