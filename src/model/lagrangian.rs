@@ -89,6 +89,16 @@ pub trait Lagrangian: 'static {
     /// The constraint functions `Φ(q, p)` (length [`CONSTRAINTS`](Lagrangian::CONSTRAINTS)).
     fn constraints<S: Scalar>(_q: &[S], _p: &[S], _phi: &mut [S]) {}
 
+    /// How many velocity constraints `A(q) q̇ = 0` (need not be integrable: rolling
+    /// without slip) [`velocity_constraints`](Lagrangian::velocity_constraints) returns;
+    /// their multipliers follow those of the holonomic constraints, and `−Aᵀ λ` is their
+    /// force. Velocities are projected onto `A q̇ = 0` after every step.
+    const VELOCITY_CONSTRAINTS: usize = 0;
+
+    /// `A(q) q̇`, which must be linear in q̇ (length
+    /// [`VELOCITY_CONSTRAINTS`](Lagrangian::VELOCITY_CONSTRAINTS)).
+    fn velocity_constraints<S: Scalar>(_q: &[S], _qd: &[S], _p: &[S], _out: &mut [S]) {}
+
     /// DefaultExperiment: stop time, relative tolerance, communication step size.
     fn default_experiment() -> (f64, f64, f64) {
         (10.0, 1e-8, 1e-2)
@@ -195,14 +205,19 @@ pub fn accelerations_and_multipliers<L: Lagrangian, S: Scalar>(
     let n = q.len();
     let mut m = mass_matrix::<L, S>(q, qd, p);
     let mut rhs = generalized_rhs::<L, S>(t, q, qd, u, p);
-    if L::CONSTRAINTS == 0 {
+    if L::CONSTRAINTS + L::VELOCITY_CONSTRAINTS == 0 {
         solve(&mut m, &mut rhs);
         return (rhs, Vec::new());
     }
-    let g = constraint_jacobian::<L, S>(q, p);
+    let g = all_constraint_rows::<L, S>(q, p);
     let mut a = augmented(&m, &g);
     rhs.extend(
         constraint_curvature::<L, S>(q, qd, p)
+            .into_iter()
+            .map(|c| -c),
+    );
+    rhs.extend(
+        velocity_constraint_drift::<L, S>(q, qd, p)
             .into_iter()
             .map(|c| -c),
     );
@@ -233,6 +248,37 @@ pub fn constraint_jacobian<L: Lagrangian, S: Scalar>(q: &[S], p: &[S]) -> Vec<Ve
         }
     }
     g
+}
+
+/// `A(q)` (k × n) of the velocity constraints: column j is `A(q) e_j` (A q̇ is linear).
+pub fn velocity_constraint_matrix<L: Lagrangian, S: Scalar>(q: &[S], p: &[S]) -> Vec<Vec<S>> {
+    let (n, k) = (q.len(), L::VELOCITY_CONSTRAINTS);
+    let mut a = vec![vec![S::from(0.0); n]; k];
+    let mut column = vec![S::from(0.0); k];
+    for j in 0..n {
+        let mut e = vec![S::from(0.0); n];
+        e[j] = S::from(1.0);
+        L::velocity_constraints(q, &e, p, &mut column);
+        for (row, v) in a.iter_mut().zip(&column) {
+            row[j] = *v;
+        }
+    }
+    a
+}
+
+/// The rows of every constraint on the velocities: `G = ∂Φ/∂q` then `A(q)`.
+pub fn all_constraint_rows<L: Lagrangian, S: Scalar>(q: &[S], p: &[S]) -> Vec<Vec<S>> {
+    let mut rows = constraint_jacobian::<L, S>(q, p);
+    rows.extend(velocity_constraint_matrix::<L, S>(q, p));
+    rows
+}
+
+/// `Ȧ q̇ = (∂(A(q) v)/∂q) q̇` at `v = q̇`: one dual evaluation with `q + ε q̇`.
+fn velocity_constraint_drift<L: Lagrangian, S: Scalar>(q: &[S], qd: &[S], p: &[S]) -> Vec<S> {
+    let qdual: Vec<Dual<S>> = q.iter().zip(qd).map(|(&a, &b)| Dual::new(a, b)).collect();
+    let mut out = vec![Dual::from_re(S::from(0.0)); L::VELOCITY_CONSTRAINTS];
+    L::velocity_constraints(&qdual, &lift_dual(qd), &lift_dual(p), &mut out);
+    out.into_iter().map(|v| v.eps).collect()
 }
 
 /// `q̇ᵀ ∇²Φᵢ q̇` for each constraint (= Ġ q̇): one hyper-dual evaluation of Φ at
@@ -269,15 +315,16 @@ const PROJECTION_ITERATIONS: usize = 8;
 
 /// Coordinate projection (Hairer, Lubich, Wanner, *Geometric Numerical Integration*,
 /// IV.4; Eich 1993): moves `q` onto `Φ(q) = 0` by Newton steps of the smallest kinetic
-/// metric change, `[M Gᵀ; G 0] [Δq; μ] = [0; −Φ]`, then `q̇` onto `G q̇ = 0` the same way.
+/// metric change, `[M Gᵀ; G 0] [Δq; μ] = [0; −Φ]`, then `q̇` onto `G q̇ = 0` and
+/// `A(q) q̇ = 0` the same way.
 /// The M-metric makes the velocity correction the one that changes the kinetic energy
 /// least. Leaves the state alone if a solve fails (non-finite result).
 pub fn project_onto_constraints<L: Lagrangian>(x: &mut [f64], p: &[f64]) {
     let n = x.len() / 2;
     let (q, qd) = x.split_at_mut(n);
-    let correct = |q: &[f64], qd: &[f64], defect: Vec<f64>| -> Option<Vec<f64>> {
+    let correct = |q: &[f64], qd: &[f64], rows: &[Vec<f64>], defect: Vec<f64>| {
         let m = mass_matrix::<L, f64>(q, qd, p);
-        let mut a = augmented(&m, &constraint_jacobian::<L, f64>(q, p));
+        let mut a = augmented(&m, rows);
         let mut b = vec![0.0; n];
         b.extend(defect.into_iter().map(|d| -d));
         solve(&mut a, &mut b);
@@ -285,22 +332,26 @@ pub fn project_onto_constraints<L: Lagrangian>(x: &mut [f64], p: &[f64]) {
         b.iter().all(|v| v.is_finite()).then_some(b)
     };
     for _ in 0..PROJECTION_ITERATIONS {
+        if L::CONSTRAINTS == 0 {
+            break;
+        }
         let phi = constraint_values::<L, f64>(q, p);
         let scale = q.iter().fold(1.0f64, |s, v| s.max(v.abs()));
         if phi.iter().all(|v| v.abs() <= 4.0 * f64::EPSILON * scale) {
             break;
         }
-        let Some(dq) = correct(q, qd, phi) else {
+        let g = constraint_jacobian::<L, f64>(q, p);
+        let Some(dq) = correct(q, qd, &g, phi) else {
             return;
         };
         q.iter_mut().zip(&dq).for_each(|(qi, d)| *qi += d);
     }
-    let g = constraint_jacobian::<L, f64>(q, p);
-    let velocity_defect = g
+    let rows = all_constraint_rows::<L, f64>(q, p);
+    let velocity_defect = rows
         .iter()
         .map(|row| row.iter().zip(qd.iter()).map(|(a, b)| a * b).sum())
         .collect();
-    if let Some(dv) = correct(q, qd, velocity_defect) {
+    if let Some(dv) = correct(q, qd, &rows, velocity_defect) {
         qd.iter_mut().zip(&dv).for_each(|(v, d)| *v += d);
     }
 }
@@ -394,7 +445,7 @@ impl<L: Lagrangian> System for L {
     }
 
     fn project(_t: f64, p: &[f64], x: &mut [f64]) {
-        if L::CONSTRAINTS > 0 {
+        if L::CONSTRAINTS + L::VELOCITY_CONSTRAINTS > 0 {
             project_onto_constraints::<L>(x, p);
         }
     }
