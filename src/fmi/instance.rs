@@ -145,6 +145,13 @@ impl<M: System> Instance<M> {
                 if i < x.len() { self.state_name(i).to_string() } else { format!("der({})", self.state_name(i - x.len())) }
             ));
         }
+        if d.method.needs_linear_time_invariant() && !M::linear_time_invariant(&d.params) {
+            return Err(format!(
+                "fmi2ExitInitializationMode: solver {} needs a linear time-invariant system; {} with these parameters is not",
+                d.method.name(),
+                M::NAME
+            ));
+        }
         self.data.x = x;
         self.data.memory = Memory::default();
         self.data.machine = Machine::StepComplete;
@@ -321,6 +328,13 @@ impl<M: System> Instance<M> {
                         .join(", ")
                 )
             })?;
+        }
+        if method.needs_linear_time_invariant() && !M::linear_time_invariant(&self.data.params) {
+            return Err(format!(
+                "fmi2SetInteger: solver {} needs a linear time-invariant system; {} is not (with these parameters)",
+                method.name(),
+                M::NAME
+            ));
         }
         if method.needs_second_order() && !M::SECOND_ORDER {
             return Err(format!(

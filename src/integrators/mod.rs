@@ -45,11 +45,14 @@ pub enum Method {
     Dop853 = 9,
     /// Radau IIA order 5, adaptive step, exact Jacobian: for stiff systems.
     Radau5 = 10,
+    /// The exact propagator e^{Ah} of a linear time-invariant system (the floor and the
+    /// reference): refused by systems that are not.
+    ExactLinear = 11,
 }
 
 impl Method {
     /// Every method, in code order (for the modelDescription enumeration).
-    pub const ALL: [Method; 10] = [
+    pub const ALL: [Method; 11] = [
         Method::Rk4,
         Method::Dopri5,
         Method::ExplicitEuler,
@@ -60,6 +63,7 @@ impl Method {
         Method::Gauss6,
         Method::Dop853,
         Method::Radau5,
+        Method::ExactLinear,
     ];
 
     /// The method with this `solver` code, if any.
@@ -85,6 +89,7 @@ impl Method {
             Method::Gauss6 => "Gauss6",
             Method::Dop853 => "DOP853",
             Method::Radau5 => "RADAU5",
+            Method::ExactLinear => "ExactLinear",
         }
     }
 
@@ -103,6 +108,9 @@ impl Method {
             Method::Gauss6 => "Gauss-Legendre order 6, fixed step solver_step, exact Jacobian",
             Method::Dop853 => "Dormand-Prince 8(5,3), adaptive step",
             Method::Radau5 => "Radau IIA order 5, adaptive step, exact Jacobian (stiff systems)",
+            Method::ExactLinear => {
+                "Exact propagator e^(Ah) in steps of solver_step (linear time-invariant systems only)"
+            }
         }
     }
 
@@ -120,8 +128,17 @@ impl Method {
     pub fn needs_jacobian(self) -> bool {
         matches!(
             self,
-            Method::ImplicitMidpoint | Method::Gauss4 | Method::Gauss6 | Method::Radau5
+            Method::ImplicitMidpoint
+                | Method::Gauss4
+                | Method::Gauss6
+                | Method::Radau5
+                | Method::ExactLinear
         )
+    }
+
+    /// Whether the method is only valid for linear time-invariant systems.
+    pub fn needs_linear_time_invariant(self) -> bool {
+        self == Method::ExactLinear
     }
 }
 
@@ -162,6 +179,9 @@ pub fn advance_with(
         }
         Method::Radau5 => {
             radau5::advance(problem, t, x, t_end, settings, memory).map_err(|e| text(&e))
+        }
+        Method::ExactLinear => {
+            exact_linear::advance(problem, t, x, t_end, h, stats).map_err(|e| text(&e))
         }
     }
 }
@@ -311,7 +331,8 @@ mod tests {
         assert_eq!(Method::from_code(1), Some(Method::Rk4));
         assert_eq!(Method::from_code(2), Some(Method::Dopri5));
         assert_eq!(Method::from_code(0), None);
-        assert_eq!(Method::from_code(11), None);
+        assert_eq!(Method::from_code(12), None);
+        assert_eq!(Method::from_code(11), Some(Method::ExactLinear));
         assert_eq!(Method::from_code(10), Some(Method::Radau5));
         for m in Method::ALL {
             assert_eq!(Method::from_code(m.code()), Some(m));

@@ -116,6 +116,13 @@ pub trait System: 'static {
     /// default, which does nothing.
     fn project(_t: f64, _p: &[f64], _x: &mut [f64]) {}
 
+    /// Whether `ẋ = f(t, x, u, p)` is affine in x and u and independent of t with these
+    /// parameters: then the exact propagator (solver `ExactLinear`) integrates it without
+    /// truncation error for inputs held over a doStep. Default: no.
+    fn linear_time_invariant(_p: &[f64]) -> bool {
+        false
+    }
+
     /// An event indicator: a function of the state whose sign change is an event (a
     /// one-sided constraint letting go, an impact). `None` (the default): no events.
     /// The FMU locates a sign change inside doStep to the time resolution of the

@@ -75,6 +75,11 @@ impl System for MassSpringDamper {
         y[0] = m * x[1] * x[1] * 0.5 + k * x[0] * x[0] * 0.5;
     }
 
+    /// Affine and time invariant unless the harmonic forcing is on.
+    fn linear_time_invariant(p: &[f64]) -> bool {
+        p[3] == 0.0
+    }
+
     fn scenes() -> Vec<Scene> {
         vec![
             Scene::new("free", "Undamped free oscillation from x0 = 0.1 m", 10.0)

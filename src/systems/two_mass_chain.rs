@@ -77,6 +77,11 @@ impl System for TwoMassChain {
             (m1 * x[2] * x[2] + m2 * x[3] * x[3] + k1 * x[0] * x[0] + k2 * stretch * stretch) * 0.5;
     }
 
+    /// `ẋ = A x + B u` for any parameters.
+    fn linear_time_invariant(_p: &[f64]) -> bool {
+        true
+    }
+
     fn scenes() -> Vec<Scene> {
         vec![
             Scene::new("release", "Released from x1 = 0.1 m, all at rest", 10.0).set("x1", 0.1),

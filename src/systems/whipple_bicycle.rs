@@ -367,6 +367,11 @@ impl System for WhippleBicycle {
 
     fn extra_outputs<S: Scalar>(_t: f64, _x: &[S], _u: &[S], _p: &[S], _y: &mut [S]) {}
 
+    /// The linearised bicycle: `ẋ = A(v) x + B u` at a fixed speed.
+    fn linear_time_invariant(_p: &[f64]) -> bool {
+        true
+    }
+
     fn scenes() -> Vec<Scene> {
         vec![
             Scene::new(
