@@ -339,3 +339,30 @@ fn symplectic_solvers_are_refused_for_systems_without_a_position_velocity_split(
     let midpoint = mbfmu::integrators::Method::ImplicitMidpoint.code();
     assert!(inst.set_integer(&[solver], &[midpoint]).is_ok());
 }
+
+#[test]
+fn dopri5_warns_once_when_the_problem_is_stiff() {
+    // Heavily overdamped (c = 1e5): eigenvalues ≈ −k/c = −1e-3 and −c/m = −1e5 s⁻¹.
+    // After the fast transient the tolerance would allow long steps, but DOPRI5's
+    // stability region caps h|λ| near 3.3: Hairer's detection fires, once per run.
+    let f = Fmu::new("stiff_warning");
+    f.init(&[("c", 1e5), ("x", 0.1)]);
+    for i in 0..10 {
+        assert_eq!(fmi2DoStep(f.c, i as f64 * 0.01, 0.01, 1), Status::Ok);
+    }
+    let log = log_of("stiff_warning");
+    let warnings: Vec<_> = log
+        .iter()
+        .filter(|(s, _, m)| *s == Status::Warning as c_int && m.contains("seems stiff"))
+        .collect();
+    assert_eq!(warnings.len(), 1, "{log:?}");
+    assert_eq!(warnings[0].1, "logStatusWarning");
+    assert_eq!(log.len(), 1, "{log:?}");
+    // The default damped oscillator is not stiff: nothing is said.
+    let g = Fmu::new("not_stiff");
+    g.init(&[("x", 0.1)]);
+    for i in 0..100 {
+        assert_eq!(fmi2DoStep(g.c, i as f64 * 0.01, 0.01, 1), Status::Ok);
+    }
+    assert!(log_of("not_stiff").is_empty(), "{:?}", log_of("not_stiff"));
+}

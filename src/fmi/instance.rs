@@ -4,6 +4,7 @@
 //! A rejected call has no effect: every argument is checked before anything changes.
 
 use super::machine::{self, Machine};
+use super::Status;
 use super::{Logger, ModelInfo, Snapshot};
 use crate::integrators::problem::Problem;
 use crate::integrators::{self, dopri5, dopri5::Ahead, Memory, Method, Settings};
@@ -475,6 +476,15 @@ impl<M: System> Instance<M> {
         let mut y = vec![0.0; layout.n_outputs];
         M::extra_outputs(t, &x, u, p, &mut y);
         let outputs_finite = x.iter().chain(&y).all(|v| v.is_finite());
+        if let Some(at) = d.memory.stiffness.detected_at.take() {
+            d.memory.stiffness.reported = true;
+            self.logger.failure(
+                Status::Warning,
+                &format!(
+                    "fmi2DoStep: DOPRI5: the problem seems stiff from t = {at} s (15 steps in a row at the stability limit h|λ| > 3.25): steps are set by stability, not the tolerance; RADAU5 (solver = 10) may need far fewer"
+                ),
+            );
+        }
         match result {
             Ok(()) if outputs_finite => {
                 d.x = x;

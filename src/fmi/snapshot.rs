@@ -7,10 +7,12 @@
 //! format version, or of the wrong length is rejected.
 
 use super::Machine;
-use crate::integrators::{dopri5::Ahead, Memory, Method, Stats};
+use crate::integrators::dopri5::{Ahead, StiffnessMonitor};
+use crate::integrators::{Memory, Method, Stats};
 
 pub const SNAPSHOT_MAGIC: [u8; 8] = *b"MBFMU\0ST";
-/// 2: adds DOPRI5's dense-output point ([`crate::integrators::dopri5::Ahead`]).
+/// 2: adds DOPRI5's dense-output point ([`crate::integrators::dopri5::Ahead`]) and
+/// stiffness monitor.
 pub const SNAPSHOT_VERSION: u32 = 2;
 
 #[derive(Clone, Debug, PartialEq)]
@@ -86,6 +88,12 @@ impl Snapshot {
         for v in [s.rhs_evals, s.steps, s.rejected] {
             b.extend_from_slice(&v.to_le_bytes());
         }
+        let st = &self.memory.stiffness;
+        b.extend_from_slice(&st.suspicious.to_le_bytes());
+        b.extend_from_slice(&st.calm.to_le_bytes());
+        b.push(st.detected_at.is_some() as u8);
+        f(&mut b, st.detected_at.unwrap_or(0.0));
+        b.push(st.reported as u8);
         b.push(self.memory.ahead.is_some() as u8);
         if let Some(a) = &self.memory.ahead {
             for v in [a.t, a.t0, a.err_prev] {
@@ -147,6 +155,18 @@ impl Snapshot {
             steps: r.u64()?,
             rejected: r.u64()?,
         };
+        let (suspicious, calm) = (r.u32()?, r.u32()?);
+        let (has_detected, detected) = (r.take(1)?[0], r.f64()?);
+        let reported = r.take(1)?[0];
+        if has_detected > 1 || reported > 1 || !detected.is_finite() {
+            return Err("FMU state holds an invalid stiffness monitor".into());
+        }
+        let stiffness = StiffnessMonitor {
+            suspicious,
+            calm,
+            detected_at: (has_detected == 1).then_some(detected),
+            reported: reported == 1,
+        };
         let ahead = match r.take(1)?[0] {
             0 => None,
             1 => {
@@ -198,7 +218,12 @@ impl Snapshot {
             start_time,
             stop_time: (has_stop == 1).then_some(stop),
             tolerance,
-            memory: Memory { h, stats, ahead },
+            memory: Memory {
+                h,
+                stats,
+                ahead,
+                stiffness,
+            },
             machine,
         })
     }

@@ -155,6 +155,56 @@ impl Ahead {
     }
 }
 
+/// Hairer's stiffness detection (dopri5.f, NSTIFF): both f(t+h, y₁) and the sixth stage
+/// f(t+h, y₆) are taken at t + h, so `h·|f(y₁) − f(y₆)| / |y₁ − y₆|` estimates h·|λ| for
+/// the dominant eigenvalue. Above 3.25 (DOPRI5's stability boundary on the negative axis
+/// is ≈ 3.3) the step is limited by stability, not accuracy; 15 such steps in a row make
+/// the problem "seem stiff", 6 calm steps reset the count. The FMU reports the first
+/// detection as a warning: the results stay correct (the error control still holds) but
+/// RADAU5 would take far fewer steps, and at loose tolerances an explicit method can run
+/// away while its relative error estimate still passes.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct StiffnessMonitor {
+    /// Consecutive steps at the stability boundary (dopri5.f IASTI).
+    pub suspicious: u32,
+    /// Consecutive steps below it since the last suspicious one (dopri5.f NONSTI).
+    pub calm: u32,
+    /// Where the problem first seemed stiff (and no one has reported it yet).
+    pub detected_at: Option<f64>,
+    /// Whether a detection has been reported: one warning per run.
+    pub reported: bool,
+}
+
+/// h·|λ| above which a DOPRI5 step counts as stability-limited (dopri5.f: 3.25).
+const STIFF_H_LAMBDA: f64 = 3.25;
+/// Consecutive stability-limited steps that make a problem "seem stiff" (dopri5.f: 15).
+const STIFF_STEPS: u32 = 15;
+/// Consecutive calm steps that reset the count (dopri5.f: 6).
+const CALM_STEPS: u32 = 6;
+
+impl StiffnessMonitor {
+    /// One accepted step of size `h` ending at `t` with `(f(y₁), f(y₆))` and `(y₁, y₆)`.
+    fn observe(&mut self, h: f64, (f1, f6): (&[f64], &[f64]), (y1, y6): (&[f64], &[f64]), t: f64) {
+        let num: f64 = f1.iter().zip(f6).map(|(a, b)| (a - b) * (a - b)).sum();
+        let den: f64 = y1.iter().zip(y6).map(|(a, b)| (a - b) * (a - b)).sum();
+        if den <= 0.0 {
+            return;
+        }
+        if h * (num / den).sqrt() > STIFF_H_LAMBDA {
+            self.calm = 0;
+            self.suspicious += 1;
+            if self.suspicious == STIFF_STEPS && !self.reported && self.detected_at.is_none() {
+                self.detected_at = Some(t);
+            }
+        } else {
+            self.calm += 1;
+            if self.calm == CALM_STEPS {
+                self.suspicious = 0;
+            }
+        }
+    }
+}
+
 /// Dense-output coefficients d_i of dopri5.f (the order-4 continuous extension).
 const D1: f64 = -12715105075.0 / 11282082432.0;
 const D3: f64 = 87487479700.0 / 32700410799.0;
@@ -263,7 +313,7 @@ fn run(
         f64::INFINITY
     };
     let stats = &mut memory.stats;
-    let [mut k2, mut k3, mut k4, mut k5, mut k6, mut k7, mut y] =
+    let [mut k2, mut k3, mut k4, mut k5, mut k6, mut k7, mut y, mut y6] =
         std::array::from_fn(|_| vec![0.0; n]);
 
     let carried = memory.h > 0.0 && memory.h.is_finite();
@@ -339,8 +389,8 @@ fn run(
             (A64, &k4),
             (A65, &k5),
         ];
-        stage(&mut y, x, hs, &row6);
-        if !eval(rhs, t_new, &y, &mut k6, stats) {
+        stage(&mut y6, x, hs, &row6);
+        if !eval(rhs, t_new, &y6, &mut k6, stats) {
             return Err(bad());
         }
         let row7 = [
@@ -388,6 +438,7 @@ fn run(
         facold = err.max(FACOLD_MIN);
         after_reject = false;
         stats.steps += 1;
+        memory.stiffness.observe(hs, (&k7, &k6), (&y, &y6), t_new);
         let done = match goal {
             Goal::Land(_) => landing,
             Goal::Pass { t_out, .. } => t_new >= t_out,

@@ -223,6 +223,8 @@ pub struct Memory {
     /// DOPRI5's own point ahead of the communication time, in dense-output mode (see
     /// [`dopri5::Ahead`]); `None` in every other mode and whenever f has changed.
     pub ahead: Option<dopri5::Ahead>,
+    /// DOPRI5's stiffness detection (see [`dopri5::StiffnessMonitor`]).
+    pub stiffness: dopri5::StiffnessMonitor,
 }
 
 /// Why [`advance`] stopped early. In every case the state was left at the last accepted step.
