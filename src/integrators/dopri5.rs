@@ -285,6 +285,83 @@ struct Dense {
     err_prev: f64,
 }
 
+/// The work vectors of one DOPRI5 step: stages k2 … k7 (`k[0]` … `k[5]`), the new
+/// solution `y` and the sixth stage's argument `y6` (kept for the stiffness test).
+struct Stages {
+    k: [Vec<f64>; 6],
+    y: Vec<f64>,
+    y6: Vec<f64>,
+}
+
+impl Stages {
+    fn new(n: usize) -> Stages {
+        Stages {
+            k: std::array::from_fn(|_| vec![0.0; n]),
+            y: vec![0.0; n],
+            y6: vec![0.0; n],
+        }
+    }
+
+    /// One attempted step `x → y` of size `hs` from `t0` (ending at `t_new`, given so a
+    /// landing step ends exactly there) with `k1 = f(t0, x)`; returns Hairer's RMS norm of
+    /// the local error estimate `h·Σ eᵢ kᵢ` with weights `atol + rtol·max(|x|, |y|)`
+    /// (scipy's RK45 uses the same norm).
+    #[allow(clippy::too_many_arguments)]
+    fn attempt(
+        &mut self,
+        rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
+        k1: &[f64],
+        (t0, t_new): (f64, f64),
+        x: &[f64],
+        hs: f64,
+        settings: &Settings,
+        stats: &mut Stats,
+    ) -> Result<f64, Failure> {
+        let bad = || Failure::NonFinite { t: t0 };
+        let [k2, k3, k4, k5, k6, k7] = &mut self.k;
+        let y = &mut self.y;
+        stage(y, x, hs, &[(A21, k1)]);
+        if !eval(rhs, t0 + C2 * hs, y, k2, stats) {
+            return Err(bad());
+        }
+        stage(y, x, hs, &[(A31, k1), (A32, k2)]);
+        if !eval(rhs, t0 + C3 * hs, y, k3, stats) {
+            return Err(bad());
+        }
+        stage(y, x, hs, &[(A41, k1), (A42, k2), (A43, k3)]);
+        if !eval(rhs, t0 + C4 * hs, y, k4, stats) {
+            return Err(bad());
+        }
+        stage(y, x, hs, &[(A51, k1), (A52, k2), (A53, k3), (A54, k4)]);
+        if !eval(rhs, t0 + C5 * hs, y, k5, stats) {
+            return Err(bad());
+        }
+        let row6 = [(A61, k1), (A62, k2), (A63, k3), (A64, k4), (A65, k5)];
+        stage(&mut self.y6, x, hs, &row6);
+        if !eval(rhs, t_new, &self.y6, k6, stats) {
+            return Err(bad());
+        }
+        let row7 = [(A71, k1), (A73, k3), (A74, k4), (A75, k5), (A76, k6)];
+        stage(y, x, hs, &row7);
+        if !y.iter().all(|v| v.is_finite()) || !eval(rhs, t_new, y, k7, stats) {
+            return Err(bad());
+        }
+        let mut sum = 0.0;
+        for i in 0..x.len() {
+            let e =
+                hs * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
+            let sk = settings.atol[i] + settings.rtol * x[i].abs().max(y[i].abs());
+            sum += (e / sk).powi(2);
+        }
+        let err = (sum / x.len().max(1) as f64).sqrt();
+        if err.is_nan() {
+            // Only possible with a zero weight (atol = rtol·|x| = 0): no error can be judged.
+            return Err(bad());
+        }
+        Ok(err)
+    }
+}
+
 /// The stepping loop shared by both modes. `k1` holds f(t, x) on entry and f at the
 /// final point on success (FSAL). `err_prev`: the PI controller's previous error when the
 /// caller kept it; `project` is applied after every accepted step (see [`advance_dense`]).
@@ -313,15 +390,23 @@ fn run(
         f64::INFINITY
     };
     let stats = &mut memory.stats;
-    let [mut k2, mut k3, mut k4, mut k5, mut k6, mut k7, mut y, mut y6] =
-        std::array::from_fn(|_| vec![0.0; n]);
+    let mut w = Stages::new(n);
 
     let carried = memory.h > 0.0 && memory.h.is_finite();
     let mut h = if carried {
         memory.h.min(h_max)
     } else {
         let mut probe = |t: f64, y: &[f64], k: &mut [f64]| eval(rhs, t, y, k, stats);
-        initial_step(&mut probe, *t, x, k1, settings, h_max, 5, (&mut y, &mut k2))
+        initial_step(
+            &mut probe,
+            *t,
+            x,
+            k1,
+            settings,
+            h_max,
+            5,
+            (&mut w.y, &mut w.k[0]),
+        )
     };
     // Previous error for the PI term. A cold start uses Hairer's FACOLD_MIN, which damps the
     // first growth (~30 %). A call continuing with a carried step does not know the previous
@@ -359,65 +444,7 @@ fn run(
             (h, *t + h)
         };
         let t0 = *t;
-        let bad = || Failure::NonFinite { t: t0 };
-
-        stage(&mut y, x, hs, &[(A21, k1)]);
-        if !eval(rhs, t0 + C2 * hs, &y, &mut k2, stats) {
-            return Err(bad());
-        }
-        stage(&mut y, x, hs, &[(A31, k1), (A32, &k2)]);
-        if !eval(rhs, t0 + C3 * hs, &y, &mut k3, stats) {
-            return Err(bad());
-        }
-        stage(&mut y, x, hs, &[(A41, k1), (A42, &k2), (A43, &k3)]);
-        if !eval(rhs, t0 + C4 * hs, &y, &mut k4, stats) {
-            return Err(bad());
-        }
-        stage(
-            &mut y,
-            x,
-            hs,
-            &[(A51, k1), (A52, &k2), (A53, &k3), (A54, &k4)],
-        );
-        if !eval(rhs, t0 + C5 * hs, &y, &mut k5, stats) {
-            return Err(bad());
-        }
-        let row6 = [
-            (A61, &k1[..]),
-            (A62, &k2),
-            (A63, &k3),
-            (A64, &k4),
-            (A65, &k5),
-        ];
-        stage(&mut y6, x, hs, &row6);
-        if !eval(rhs, t_new, &y6, &mut k6, stats) {
-            return Err(bad());
-        }
-        let row7 = [
-            (A71, &k1[..]),
-            (A73, &k3),
-            (A74, &k4),
-            (A75, &k5),
-            (A76, &k6),
-        ];
-        stage(&mut y, x, hs, &row7);
-        if !y.iter().all(|v| v.is_finite()) || !eval(rhs, t_new, &y, &mut k7, stats) {
-            return Err(bad());
-        }
-
-        // Hairer's RMS norm of the local error estimate h·Σ e_i k_i.
-        let mut sum = 0.0;
-        for i in 0..n {
-            let e =
-                hs * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
-            let sk = settings.atol[i] + settings.rtol * x[i].abs().max(y[i].abs());
-            sum += (e / sk).powi(2);
-        }
-        let err = (sum / n.max(1) as f64).sqrt();
-        if err.is_nan() {
-            // Only possible with a zero weight (atol = rtol·|x| = 0): no error can be judged.
-            return Err(bad());
-        }
+        let err = w.attempt(rhs, k1, (t0, t_new), x, hs, settings, stats)?;
 
         let fac11 = err.powf(EXPO1);
         if err > 1.0 {
@@ -438,19 +465,22 @@ fn run(
         facold = err.max(FACOLD_MIN);
         after_reject = false;
         stats.steps += 1;
-        memory.stiffness.observe(hs, (&k7, &k6), (&y, &y6), t_new);
+        memory
+            .stiffness
+            .observe(hs, (&w.k[5], &w.k[4]), (&w.y, &w.y6), t_new);
         let done = match goal {
             Goal::Land(_) => landing,
             Goal::Pass { t_out, .. } => t_new >= t_out,
         };
-        let dense = done.then(|| continuous_extension(x, &y, hs, [k1, &k3, &k4, &k5, &k6, &k7]));
-        x.copy_from_slice(&y);
-        std::mem::swap(k1, &mut k7); // FSAL
+        let [_, k3, k4, k5, k6, k7] = &w.k;
+        let dense = done.then(|| continuous_extension(x, &w.y, hs, [k1, k3, k4, k5, k6, k7]));
+        x.copy_from_slice(&w.y);
+        std::mem::swap(k1, &mut w.k[5]); // FSAL
         *t = t_new;
         if let Some(project) = project.as_mut() {
-            y.copy_from_slice(x);
+            w.y.copy_from_slice(x);
             project(t_new, x);
-            if x != &y[..] && !eval(rhs, t_new, x, k1, stats) {
+            if x != &w.y[..] && !eval(rhs, t_new, x, k1, stats) {
                 return Err(Failure::NonFinite { t: t_new });
             }
         }
