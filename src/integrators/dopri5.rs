@@ -502,6 +502,116 @@ fn run(
     }
 }
 
+/// scipy's `solve_ivp(method="RK45")` step-size controller around this file's step, for
+/// conformance testing only (not an FMU solver): the same Dormand–Prince pair and error
+/// norm, with scipy's rules instead of Hairer's: a pure I-controller
+/// `h·min(10, 0.9·err^(−1/5))` on acceptance (`err < 1`, strictly; capped at 1 after a
+/// rejection in the same step), `h·max(0.2, 0.9·err^(−1/5))` on rejection, no PI term, no
+/// 1 % landing stretch, scipy's initial step (`select_initial_step` with order 4) and its
+/// step floor of 10 ulps of t. From `t0` to `t_bound` with one absolute tolerance per
+/// component; returns the accepted step end times. `stats.rhs_evals` then equals scipy's
+/// `nfev`: 1 (f at t0) + 1 (initial step) + 6 per attempted step.
+pub fn scipy_rk45(
+    rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
+    t0: f64,
+    x: &mut [f64],
+    t_bound: f64,
+    (rtol, atol): (f64, &[f64]),
+    max_step: f64,
+    stats: &mut Stats,
+) -> Result<Vec<f64>, Failure> {
+    const SAFETY: f64 = 0.9;
+    const MIN_FACTOR: f64 = 0.2;
+    const MAX_FACTOR: f64 = 10.0;
+    const EXPONENT: f64 = -1.0 / 5.0;
+    let n = x.len();
+    let settings = Settings {
+        method: super::Method::Dopri5,
+        rtol,
+        atol: atol.to_vec(),
+        step: max_step,
+    };
+    let mut f = vec![0.0; n];
+    if !eval(rhs, t0, x, &mut f, stats) {
+        return Err(Failure::NonFinite { t: t0 });
+    }
+    // select_initial_step (scipy/integrate/_ivp/common.py), order 4.
+    let rms = |v: &mut dyn Iterator<Item = f64>| (v.map(|c| c * c).sum::<f64>() / n as f64).sqrt();
+    let scale: Vec<f64> = (0..n).map(|i| atol[i] + x[i].abs() * rtol).collect();
+    let d0 = rms(&mut (0..n).map(|i| x[i] / scale[i]));
+    let d1 = rms(&mut (0..n).map(|i| f[i] / scale[i]));
+    let interval = (t_bound - t0).abs();
+    let h0 = if d0 < 1e-5 || d1 < 1e-5 {
+        1e-6
+    } else {
+        0.01 * d0 / d1
+    }
+    .min(interval);
+    let y1: Vec<f64> = (0..n).map(|i| x[i] + h0 * f[i]).collect();
+    let mut f1 = vec![0.0; n];
+    if !eval(rhs, t0 + h0, &y1, &mut f1, stats) {
+        return Err(Failure::NonFinite { t: t0 });
+    }
+    let d2 = rms(&mut (0..n).map(|i| (f1[i] - f[i]) / scale[i])) / h0;
+    let h1 = if d1 <= 1e-15 && d2 <= 1e-15 {
+        (h0 * 1e-3).max(1e-6)
+    } else {
+        (0.01 / d1.max(d2)).powf(1.0 / 5.0)
+    };
+    let mut h_abs = (100.0 * h0).min(h1).min(interval).min(max_step);
+
+    let mut w = Stages::new(n);
+    let mut t = t0;
+    let mut times = Vec::new();
+    while t < t_bound {
+        let min_step = 10.0 * (next_up(t) - t);
+        h_abs = h_abs.min(max_step).max(min_step);
+        let mut rejected = false;
+        loop {
+            if h_abs < min_step {
+                return Err(Failure::StepTooSmall { t, h: h_abs });
+            }
+            let t_new = (t + h_abs).min(t_bound);
+            let h = t_new - t;
+            h_abs = h.abs();
+            let err = w.attempt(rhs, &f, (t, t_new), x, h, &settings, stats)?;
+            if err < 1.0 {
+                let mut factor = if err == 0.0 {
+                    MAX_FACTOR
+                } else {
+                    MAX_FACTOR.min(SAFETY * err.powf(EXPONENT))
+                };
+                if rejected {
+                    factor = factor.min(1.0);
+                }
+                h_abs *= factor;
+                stats.steps += 1;
+                x.copy_from_slice(&w.y);
+                std::mem::swap(&mut f, &mut w.k[5]);
+                t = t_new;
+                times.push(t);
+                break;
+            }
+            stats.rejected += 1;
+            h_abs *= MIN_FACTOR.max(SAFETY * err.powf(EXPONENT));
+            rejected = true;
+        }
+    }
+    Ok(times)
+}
+
+/// The next f64 above `t` (numpy's `nextafter(t, inf)`).
+fn next_up(t: f64) -> f64 {
+    if t.is_nan() || t == f64::INFINITY {
+        return t;
+    }
+    if t == 0.0 {
+        return f64::from_bits(1);
+    }
+    let bits = t.to_bits();
+    f64::from_bits(if t > 0.0 { bits + 1 } else { bits - 1 })
+}
+
 /// dopri5.f's RCONT for the step x → y of size h with stages k1, k3 … k7 (k7 = f(y)).
 fn continuous_extension(x: &[f64], y: &[f64], h: f64, k: [&[f64]; 6]) -> Vec<f64> {
     let n = x.len();
