@@ -5,11 +5,12 @@
 //! tolerance, then `fmi2DoStep` with a communication step of [`BenchConfig::comm_step`] up to
 //! the scene's stop time, reading the states and `E` at every communication point.
 //!
-//! The error is measured against a reference run of the same scene with DOP853 at
-//! [`REFERENCE_TOL`] (same `Instance` path). The reference's own error is estimated by a
-//! second run with DOP853 at [`CHECK_TOL`]: `ref_error` is their difference in the same norm.
-//! Closed forms (e^{At} for the linear systems) are not used here yet; `benches/peers.py`
-//! checks the linear references against `expm`.
+//! The error is measured against a reference run of the same scene (same `Instance` path):
+//! the closed form where one exists — the exact propagator e^{Ah} (method `ExactLinear`) of
+//! a linear time-invariant scene, checked by DOP853 at [`REFERENCE_TOL`] — else DOP853 at
+//! [`REFERENCE_TOL`], checked by DOP853 at [`CHECK_TOL`]. `ref_error` is the difference of the
+//! two in the same norm (for DOP853 references an upper estimate of the reference's error).
+//! `benches/peers.py` also checks the references of the affine scenes against `expm`.
 //!
 //! Error norm: state `i` is scaled by `scale_i = max_t |x_ref,i(t)|` over the communication
 //! grid (its `nominal`, else 1, when the reference stays at 0). `error` is the largest scaled
@@ -17,20 +18,32 @@
 //! are compared on, since scipy and CVODE land exactly on the stop time too).
 //!
 //! Timing is wall-clock time (`Instant`) of instantiation + initialisation + the doStep loop
-//! (with the reads), the minimum of [`BenchConfig::reps`] repetitions; it is measured, never
-//! asserted. RHS evaluations, steps and rejections come from `Instance::stats()`.
+//! (with the reads), the minimum of [`BenchConfig::reps`] repetitions (a run longer than
+//! [`TIME_ONCE_ABOVE`] is timed once); it is measured, never asserted. RHS evaluations, steps
+//! and rejections come from `Instance::stats()`.
+//!
+//! Besides the rows, a run of `mbfmu bench` writes (through [`BenchConfig::sink`]) the
+//! reference of every scene at its stop time (`reference.csv`, read by `benches/peers.py`),
+//! long runs of the conservative scenes ([`LongRuns`]: `longrun.csv`, `invariant.csv`) and
+//! the springy-vs-rigid pendulum comparison ([`springy_rigid`]).
+
+pub mod springy_rigid;
 
 use crate::fmi::{Instance, Logger, ModelInfo, StepOutcome};
 use crate::integrators::Method;
 use crate::model::{Scene, System, VarKind};
 use std::fmt::Write as _;
 use std::path::Path;
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 /// Tolerance of the reference run (DOP853).
 pub const REFERENCE_TOL: f64 = 1e-13;
 /// Tolerance of the run that estimates the reference's error (DOP853).
 pub const CHECK_TOL: f64 = 1e-12;
+/// A run that takes longer than this (s) is timed once: repetitions only fight the noise of
+/// short runs.
+pub const TIME_ONCE_ABOVE: f64 = 0.2;
 /// Communication steps of the reference per benchmark communication step.
 pub const REFERENCE_SUBSTEPS: usize = 8;
 /// Same, for the check run (another step sequence than the reference's).
@@ -54,7 +67,65 @@ pub struct BenchConfig {
     /// Also run the adaptive methods with one doStep over the whole scene (comm_step = stop
     /// time): the integrator alone, unconstrained by the communication grid, as the peers run.
     pub free_run: bool,
+    /// Long runs of the scenes whose energy is an invariant (None: none). Written to the sink.
+    pub long_runs: Option<LongRuns>,
+    /// Where the references and the long runs go (None: they are not computed).
+    pub sink: Option<Arc<Mutex<Sink>>>,
 }
+
+/// Long runs of the conservative scenes: every method over `factor` × the scene's stop time,
+/// the relative invariant error |E(t) − E(0)| / |E(0)| sampled at `samples` log-spaced
+/// times (multiples of the communication step, which are also the doStep boundaries).
+#[derive(Clone, Debug)]
+pub struct LongRuns {
+    pub factor: f64,
+    /// Tolerances of the adaptive methods.
+    pub tolerances: Vec<f64>,
+    /// `solver_step` of the fixed-step methods (divisors of the communication step, so that
+    /// every doStep is a whole number of steps and the symplectic methods stay symplectic).
+    pub steps: Vec<f64>,
+    pub samples: usize,
+}
+
+impl LongRuns {
+    pub fn full() -> Self {
+        LongRuns {
+            factor: 10.0,
+            tolerances: vec![1e-4, 1e-6, 1e-8, 1e-10, 1e-12],
+            steps: vec![1e-2, 5e-3, 2e-3, 1e-3],
+            samples: 60,
+        }
+    }
+
+    pub fn quick() -> Self {
+        LongRuns {
+            factor: 10.0,
+            tolerances: vec![1e-6],
+            steps: vec![1e-2],
+            samples: 30,
+        }
+    }
+}
+
+/// CSV text (without headers) that a bench run produces besides its rows.
+#[derive(Debug, Default)]
+pub struct Sink {
+    /// `reference.csv`: one row per scene and state.
+    pub reference: String,
+    /// `longrun.csv`: one row per long run.
+    pub long_runs: String,
+    /// `invariant.csv`: one row per long run and sample time.
+    pub invariant: String,
+}
+
+/// Header of `reference.csv`.
+pub const REFERENCE_HEADER: &str =
+    "system,scene,stop_time,state,value,scale,nominal,start,ref_error,invariant,reference,projected\n";
+/// Header of `longrun.csv`.
+pub const LONG_RUN_HEADER: &str = "system,scene,method,setting_kind,setting,horizon,status,max_invariant_error,final_invariant_error,cpu_s,rhs_evals,steps,rejected,message\n";
+/// Header of `invariant.csv`.
+pub const INVARIANT_HEADER: &str =
+    "system,scene,method,setting_kind,setting,t,invariant_error,rhs_evals\n";
 
 impl BenchConfig {
     /// The full sweep.
@@ -67,6 +138,8 @@ impl BenchConfig {
             methods: Vec::new(),
             scenes: Vec::new(),
             free_run: true,
+            long_runs: None,
+            sink: None,
         }
     }
 
@@ -160,17 +233,16 @@ impl Model {
     }
 }
 
-/// Integrates `scene` with `method` (`tol` for adaptive methods, `step` for fixed ones) up to
-/// `stop` through the Instance API. Setup errors are returned as `Err` (the run was refused).
-fn run<M: System>(
+/// An instance with the scene's start values, `method` (`tol` for adaptive methods, `step`
+/// for fixed ones), set up to `stop` and initialised. Setup errors are returned as `Err`.
+fn start<M: System>(
     model: &Model,
     scene: &Scene,
     method: Method,
     tol: f64,
     step: f64,
-    comm_step: f64,
     stop: f64,
-) -> Result<Run, String> {
+) -> Result<Instance<M>, String> {
     let layout = &model.info.layout;
     let mut fmu = Instance::<M>::new(model.info, Logger::silent("bench"));
     for (name, value) in &scene.start_values {
@@ -190,6 +262,21 @@ fn run<M: System>(
     fmu.setup_experiment(Some(tol), 0.0, Some(stop))?;
     fmu.enter_initialization_mode()?;
     fmu.exit_initialization_mode()?;
+    Ok(fmu)
+}
+
+/// Integrates `scene` with `method` (`tol` for adaptive methods, `step` for fixed ones) up to
+/// `stop` through the Instance API. Setup errors are returned as `Err` (the run was refused).
+fn run<M: System>(
+    model: &Model,
+    scene: &Scene,
+    method: Method,
+    tol: f64,
+    step: f64,
+    comm_step: f64,
+    stop: f64,
+) -> Result<Run, String> {
+    let mut fmu = start::<M>(model, scene, method, tol, step, stop)?;
     let n_comm = (stop / comm_step).round().max(1.0) as usize;
     let n = model.state_vrs.len();
     let mut trajectory = Trajectory {
@@ -238,6 +325,166 @@ fn run<M: System>(
     })
 }
 
+/// Log-spaced sample times from `grid` to `horizon`: multiples of `grid` (at most `samples`
+/// of them), the last one `horizon` itself.
+pub fn sample_times(horizon: f64, samples: usize, grid: f64) -> Vec<f64> {
+    let n = (horizon / grid).round().max(1.0) as u64;
+    let last = samples.max(2) - 1;
+    let mut ks: Vec<u64> = (0..=last)
+        .map(|i| (n as f64).powf(i as f64 / last as f64).round().max(1.0) as u64)
+        .collect();
+    ks.push(n);
+    ks.sort_unstable();
+    ks.dedup();
+    ks.into_iter()
+        .map(|k| if k == n { horizon } else { k as f64 * grid })
+        .collect()
+}
+
+/// A long run: (t, |E(t) − E(0)| / |E(0)|, RHS evaluations so far) at every sample time.
+struct LongRun {
+    samples: Vec<(f64, f64, u64)>,
+    failure: Option<String>,
+    stats: crate::integrators::Stats,
+}
+
+/// Integrates `scene` with doSteps ending at each of `times` (the last is the horizon),
+/// reading `E` after each.
+fn long_run<M: System>(
+    model: &Model,
+    scene: &Scene,
+    method: Method,
+    tol: f64,
+    step: f64,
+    times: &[f64],
+) -> Result<LongRun, String> {
+    let horizon = *times.last().ok_or("no sample times")?;
+    let vr = model.energy_vr.ok_or("the model has no output E")?;
+    let mut fmu = start::<M>(model, scene, method, tol, step, horizon)?;
+    let energy = |fmu: &Instance<M>| -> Result<f64, String> {
+        let mut e = [0.0];
+        fmu.get_real(&[vr], &mut e)?;
+        Ok(e[0])
+    };
+    let e0 = energy(&fmu)?;
+    let mut samples = Vec::with_capacity(times.len());
+    let mut failure = None;
+    for &t in times {
+        let now = fmu.time();
+        match fmu.do_step(now, t - now) {
+            Ok(StepOutcome::Completed) => {
+                let e = energy(&fmu)?;
+                samples.push((t, (e - e0).abs() / e0.abs(), fmu.stats().rhs_evals));
+            }
+            Ok(StepOutcome::Discarded(why)) | Err(why) => {
+                failure = Some(why);
+                break;
+            }
+        }
+    }
+    Ok(LongRun {
+        samples,
+        failure,
+        stats: fmu.stats(),
+    })
+}
+
+/// Every method of `config` on a conservative scene over the long horizon: rows of
+/// `longrun.csv` and `invariant.csv` appended to `summary` and `history`.
+fn long_runs<M: System>(
+    model: &Model,
+    scene: &Scene,
+    config: &BenchConfig,
+    long: &LongRuns,
+    summary: &mut String,
+    history: &mut String,
+) {
+    let horizon = scene.stop_time * long.factor;
+    let times = sample_times(horizon, long.samples, config.comm_step);
+    for method in methods_of(config) {
+        let settings = if method.is_adaptive() {
+            &long.tolerances
+        } else {
+            &long.steps
+        };
+        for &setting in settings {
+            let (tol, step) = if method.is_adaptive() {
+                (setting, 0.0)
+            } else {
+                (M::default_experiment().1, setting)
+            };
+            let (kind, mut best) = (
+                if method.is_adaptive() { "tol" } else { "step" },
+                f64::INFINITY,
+            );
+            let mut outcome = None;
+            for _ in 0..config.reps.max(1) {
+                let clock = Instant::now();
+                let r = long_run::<M>(model, scene, method, tol, step, &times);
+                let elapsed = clock.elapsed().as_secs_f64();
+                best = best.min(elapsed);
+                let again =
+                    matches!(&r, Ok(run) if run.failure.is_none()) && elapsed < TIME_ONCE_ABOVE;
+                outcome = Some(r);
+                if !again {
+                    break; // long or failed runs are timed once
+                }
+            }
+            let head = format!(
+                "{},{},{},{kind},{setting:e},{horizon:?}",
+                M::NAME,
+                scene.name,
+                method.name()
+            );
+            match outcome.expect("at least one repetition") {
+                Err(why) => {
+                    let _ = writeln!(
+                        summary,
+                        "{head},refused,,,{best:e},0,0,0,\"{}\"",
+                        why.replace('"', "'")
+                    );
+                }
+                Ok(r) => {
+                    let max = r.samples.iter().map(|s| s.1).fold(0.0, f64::max);
+                    let (status, last, message) = match &r.failure {
+                        None => ("ok", opt(r.samples.last().map(|s| s.1)), String::new()),
+                        Some(why) => ("failed", String::new(), why.replace('"', "'")),
+                    };
+                    let _ = writeln!(
+                        summary,
+                        "{head},{status},{},{last},{best:e},{},{},{},\"{message}\"",
+                        if status == "ok" {
+                            format!("{max:e}")
+                        } else {
+                            String::new()
+                        },
+                        r.stats.rhs_evals,
+                        r.stats.steps,
+                        r.stats.rejected
+                    );
+                    for (t, e, rhs) in &r.samples {
+                        let _ = writeln!(
+                            history,
+                            "{},{},{},{kind},{setting:e},{t:?},{e:.3e},{rhs}",
+                            M::NAME,
+                            scene.name,
+                            method.name()
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
+
+fn methods_of(config: &BenchConfig) -> Vec<Method> {
+    if config.methods.is_empty() {
+        Method::ALL.to_vec()
+    } else {
+        config.methods.clone()
+    }
+}
+
 /// A reference run: DOP853 at `tol` with a communication step `comm_step / substeps`, so its
 /// step sequence differs from every benchmarked run (with the benchmark's grid, DOP853 would
 /// take the very steps of the runs it judges), kept at the benchmark's grid points.
@@ -248,9 +495,33 @@ fn reference_run<M: System>(
     substeps: usize,
     config: &BenchConfig,
 ) -> Result<Run, String> {
+    reference_run_with::<M>(model, scene, Method::Dop853, tol, substeps, config)
+}
+
+/// The exact propagator e^{Ah} among the methods, when the build has one (found by name so
+/// the bench compiles with or without it).
+fn exact_method() -> Option<Method> {
+    Method::ALL.into_iter().find(|m| m.name() == "ExactLinear")
+}
+
+/// [`reference_run`] with any method: an adaptive one at `tol`, a fixed-step one (the exact
+/// propagator) with `solver_step` = the fine communication step.
+fn reference_run_with<M: System>(
+    model: &Model,
+    scene: &Scene,
+    method: Method,
+    tol: f64,
+    substeps: usize,
+    config: &BenchConfig,
+) -> Result<Run, String> {
     let stop = scene.stop_time;
     let fine = config.comm_step / substeps as f64;
-    let mut r = run::<M>(model, scene, Method::Dop853, tol, 0.0, fine, stop)?;
+    let (tol, step) = if method.is_adaptive() {
+        (tol, 0.0)
+    } else {
+        (M::default_experiment().1, fine)
+    };
+    let mut r = run::<M>(model, scene, method, tol, step, fine, stop)?;
     fn keep<T>(v: &mut Vec<T>, substeps: usize) {
         let last = v.len() - 1;
         let mut k = 0;
@@ -342,10 +613,28 @@ pub fn bench_system<M: System>(config: &BenchConfig) -> Vec<BenchRow> {
             continue;
         }
         let stop = scene.stop_time;
-        let (reference, check) = match (
-            reference_run::<M>(&model, &scene, REFERENCE_TOL, REFERENCE_SUBSTEPS, config),
-            reference_run::<M>(&model, &scene, CHECK_TOL, CHECK_SUBSTEPS, config),
-        ) {
+        // The reference: the exact propagator where the scene is linear time-invariant (the
+        // closed form e^{At}; DOP853 at REFERENCE_TOL is then its check), else DOP853 at
+        // REFERENCE_TOL checked by DOP853 at CHECK_TOL.
+        let exact = exact_method().and_then(|m| {
+            match reference_run_with::<M>(&model, &scene, m, 0.0, REFERENCE_SUBSTEPS, config) {
+                Ok(r) if r.failure.is_none() => Some(r),
+                _ => None,
+            }
+        });
+        let (reference_name, first, second) = match exact {
+            Some(r) => (
+                "ExactLinear",
+                Ok(r),
+                reference_run::<M>(&model, &scene, REFERENCE_TOL, CHECK_SUBSTEPS, config),
+            ),
+            None => (
+                "DOP853",
+                reference_run::<M>(&model, &scene, REFERENCE_TOL, REFERENCE_SUBSTEPS, config),
+                reference_run::<M>(&model, &scene, CHECK_TOL, CHECK_SUBSTEPS, config),
+            ),
+        };
+        let (reference, check) = match (first, second) {
             (Ok(r), Ok(c)) if r.failure.is_none() && c.failure.is_none() => (r, c),
             (r, c) => {
                 let why = |x: Result<Run, String>| match x {
@@ -366,12 +655,26 @@ pub fn bench_system<M: System>(config: &BenchConfig) -> Vec<BenchRow> {
         let ref_error = errors(&check.trajectory, &reference.trajectory, &scale).0;
         let invariant =
             model.energy_vr.is_some() && energy_is_invariant(energy_drift(&reference.trajectory));
-        let methods: Vec<Method> = if config.methods.is_empty() {
-            Method::ALL.to_vec()
-        } else {
-            config.methods.clone()
-        };
-        for method in methods {
+        if let Some(sink) = &config.sink {
+            let text = reference_rows::<M>(
+                &model,
+                &scene,
+                &reference.trajectory,
+                &scale,
+                ref_error,
+                invariant,
+                reference_name,
+            );
+            sink.lock().expect("sink").reference.push_str(&text);
+            if let (Some(long), true) = (&config.long_runs, invariant) {
+                let (mut summary, mut history) = (String::new(), String::new());
+                long_runs::<M>(&model, &scene, config, long, &mut summary, &mut history);
+                let mut sink = sink.lock().expect("sink");
+                sink.long_runs.push_str(&summary);
+                sink.invariant.push_str(&history);
+            }
+        }
+        for method in methods_of(config) {
             let (kind, settings) = if method.is_adaptive() {
                 ("tol", &config.tolerances)
             } else {
@@ -397,11 +700,12 @@ pub fn bench_system<M: System>(config: &BenchConfig) -> Vec<BenchRow> {
                 for _ in 0..config.reps.max(1) {
                     let start = Instant::now();
                     let r = run::<M>(&model, &scene, method, tol, step, comm, stop);
-                    best = best.min(start.elapsed().as_secs_f64());
+                    let elapsed = start.elapsed().as_secs_f64();
+                    best = best.min(elapsed);
                     let failed = !matches!(&r, Ok(run) if run.failure.is_none());
                     outcome = Some(r);
-                    if failed {
-                        break; // a failure is not timed further
+                    if failed || elapsed > TIME_ONCE_ABOVE {
+                        break; // a failure is not timed further, a long run once
                     }
                 }
                 let mut row = BenchRow {
@@ -523,51 +827,91 @@ pub fn to_csv(rows: &[BenchRow]) -> String {
     s
 }
 
-/// The reference at the stop time of each scene, for `benches/peers.py`: one row per state
-/// with its final value and its scale.
-fn reference_csv<M: System>(config: &BenchConfig) -> String {
-    let model = Model::of::<M>();
+/// The parameters of `scene`: its start values over the declared defaults.
+fn parameters(model: &Model, scene: &Scene) -> Vec<f64> {
+    let mut p: Vec<(usize, f64)> = model
+        .info
+        .layout
+        .vars
+        .iter()
+        .filter(|(slot, _)| slot.kind == VarKind::Parameter)
+        .map(|(slot, var)| {
+            let value = scene
+                .start_values
+                .iter()
+                .rev()
+                .find(|(n, _)| *n == var.name)
+                .map_or(var.start, |(_, v)| *v);
+            (slot.index, value)
+        })
+        .collect();
+    p.sort_by_key(|(i, _)| *i);
+    p.into_iter().map(|(_, v)| v).collect()
+}
+
+/// Whether the system projects its states after every doStep (`System::project` moves a
+/// state slightly off the start): the peers integrate such systems as the raw ODE.
+fn projects<M: System>(model: &Model, scene: &Scene, start: &[f64]) -> bool {
+    let p = parameters(model, scene);
+    let off: Vec<f64> = start.iter().map(|v| v + 1e-3 * (1.0 + v.abs())).collect();
+    let mut moved = off.clone();
+    M::project(0.0, &p, &mut moved);
+    moved != off
+}
+
+/// Rows of `reference.csv` for one scene: per state, the reference at the stop time, its
+/// scale, nominal and start value (after fmi2ExitInitializationMode: projected for the
+/// constrained systems), the reference's estimated error, whether E is an invariant, which
+/// reference it is (`ExactLinear`: e^{At}, else `DOP853` at [`REFERENCE_TOL`]) and whether the
+/// system projects its states after every doStep.
+fn reference_rows<M: System>(
+    model: &Model,
+    scene: &Scene,
+    reference: &Trajectory,
+    scale: &[f64],
+    ref_error: f64,
+    invariant: bool,
+    reference_name: &str,
+) -> String {
     let layout = &model.info.layout;
     let mut s = String::new();
-    for scene in M::scenes() {
-        if !config.scenes.is_empty() && !config.scenes.iter().any(|s| s == scene.name) {
-            continue;
-        }
-        let Ok(r) = reference_run::<M>(&model, &scene, REFERENCE_TOL, REFERENCE_SUBSTEPS, config)
-        else {
-            continue;
-        };
-        if r.failure.is_some() {
-            continue;
-        }
-        let scale = scales(&r.trajectory, &model.nominal);
-        let last = r.trajectory.x.last().expect("recorded");
-        for (i, &vr) in model.state_vrs.iter().enumerate() {
-            let _ = writeln!(
-                s,
-                "{},{},{:?},{},{:?},{:?},{:?}",
-                M::NAME,
-                scene.name,
-                scene.stop_time,
-                layout.vars[vr as usize].1.name,
-                last[i],
-                scale[i],
-                model.nominal[i]
-            );
-        }
+    let (first, last) = (&reference.x[0], reference.x.last().expect("recorded"));
+    let projected = u8::from(projects::<M>(model, scene, first));
+    for (i, &vr) in model.state_vrs.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "{},{},{:?},{},{:?},{:?},{:?},{:?},{:e},{},{reference_name},{projected}",
+            M::NAME,
+            scene.name,
+            scene.stop_time,
+            layout.vars[vr as usize].1.name,
+            last[i],
+            scale[i],
+            model.nominal[i],
+            first[i],
+            ref_error,
+            u8::from(invariant)
+        );
     }
     s
 }
 
 /// `mbfmu bench [--quick] [--out DIR] [--system NAME]... [--scene NAME]... [--reps N]
-/// [--no-energy]`; `default_out` is docs/bench of the workspace.
+/// [--no-energy] [--no-springy]`; `default_out` is docs/bench of the workspace.
+///
+/// Writes `results.csv` and `reference.csv`; unless `--no-energy`, the long runs of the
+/// conservative scenes (`longrun.csv`, `invariant.csv`); unless `--no-springy` or when the
+/// selection leaves out SpringyPendulum/stiff, the springy-vs-rigid comparison
+/// (`springy_rigid*.csv`).
 pub fn cli(args: &[String], default_out: &Path) -> Result<(), String> {
+    let clock = Instant::now();
     let mut quick = false;
     let mut out = default_out.to_path_buf();
     let mut only = Vec::new();
     let mut scenes = Vec::new();
     let mut reps = None;
     let mut energy = true;
+    let mut springy = true;
     let mut it = args.iter();
     while let Some(a) = it.next() {
         let mut value = || it.next().ok_or_else(|| format!("{a} needs a value"));
@@ -584,6 +928,7 @@ pub fn cli(args: &[String], default_out: &Path) -> Result<(), String> {
                 )
             }
             "--no-energy" => energy = false,
+            "--no-springy" => springy = false,
             other => return Err(format!("bench: unknown option {other}")),
         }
     }
@@ -596,6 +941,15 @@ pub fn cli(args: &[String], default_out: &Path) -> Result<(), String> {
         config.reps = r.max(1);
     }
     config.scenes = scenes;
+    if energy {
+        config.long_runs = Some(if quick {
+            LongRuns::quick()
+        } else {
+            LongRuns::full()
+        });
+    }
+    let sink = Arc::new(Mutex::new(Sink::default()));
+    config.sink = Some(Arc::clone(&sink));
     if quick && only.is_empty() {
         only = vec!["MassSpringDamper".into(), "TwoMassChain".into()];
     }
@@ -608,20 +962,9 @@ pub fn cli(args: &[String], default_out: &Path) -> Result<(), String> {
     }
     std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
     let mut rows = Vec::new();
-    let mut reference = String::from("system,scene,stop_time,state,value,scale,nominal\n");
     for e in &entries {
         let start = Instant::now();
         let mine = (e.bench)(&config);
-        // The peers (benches/peers.py) integrate these two linear systems themselves.
-        match e.name {
-            "MassSpringDamper" => {
-                reference.push_str(&reference_csv::<crate::systems::MassSpringDamper>(&config))
-            }
-            "TwoMassChain" => {
-                reference.push_str(&reference_csv::<crate::systems::TwoMassChain>(&config))
-            }
-            _ => {}
-        }
         let failed = mine.iter().filter(|r| r.status != "ok").count();
         eprintln!(
             "bench: {:<18} {:>4} runs ({failed} failed or refused) in {:.1} s",
@@ -638,31 +981,55 @@ pub fn cli(args: &[String], default_out: &Path) -> Result<(), String> {
         Ok::<(), String>(())
     };
     write("results.csv", &to_csv(&rows))?;
-    write("reference.csv", &reference)?;
-    if energy && entries.iter().any(|e| e.name == "MassSpringDamper") {
-        let runs = [
-            (Method::Rk4, 1e-2),
-            (Method::Verlet, 1e-2),
-            (Method::Gauss4, 1e-2),
-            (Method::Dopri5, 1e-6),
-        ];
-        let horizon = if quick { 100.0 } else { 1000.0 };
-        let history = energy_history::<crate::systems::MassSpringDamper>(
-            "free",
-            &runs,
-            horizon,
-            config.comm_step,
-            1.0,
+    let sink = std::mem::take(&mut *sink.lock().expect("sink"));
+    write(
+        "reference.csv",
+        &format!("{REFERENCE_HEADER}{}", sink.reference),
+    )?;
+    if energy {
+        write(
+            "longrun.csv",
+            &format!("{LONG_RUN_HEADER}{}", sink.long_runs),
         )?;
-        let mut text = String::from("system,scene,method,setting,t,energy_error\n");
-        for (m, s, t, e) in history {
-            let _ = writeln!(text, "MassSpringDamper,free,{m},{s:e},{t:?},{e:e}");
-        }
-        write("energy.csv", &text)?;
+        write(
+            "invariant.csv",
+            &format!("{INVARIANT_HEADER}{}", sink.invariant),
+        )?;
+    }
+    let wants = |name: &str, list: &[String]| list.is_empty() || list.iter().any(|n| n == name);
+    if springy && wants("SpringyPendulum", &only) && wants("stiff", &config.scenes) {
+        let start = Instant::now();
+        let cmp = springy_rigid::compare(&config)?;
+        eprintln!(
+            "bench: springy vs rigid in {:.1} s",
+            start.elapsed().as_secs_f64()
+        );
+        write("springy_rigid.csv", &cmp.trajectory)?;
+        write("springy_rigid_cost.csv", &cmp.cost)?;
+        write("springy_rigid_stiffness.csv", &cmp.stiffness)?;
     }
     eprintln!(
-        "next: python benches/peers.py --out {0} && python benches/plot.py --out {0}",
-        out.display()
+        "bench: done in {:.1} s; next: python benches/peers.py --out {dir} && python benches/plot.py --out {dir}",
+        clock.elapsed().as_secs_f64(),
+        dir = out.display()
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::sample_times;
+
+    #[test]
+    fn sample_times_are_increasing_grid_multiples_ending_at_the_horizon() {
+        let t = sample_times(100.0, 60, 0.01);
+        assert!(t.len() > 30 && t.len() <= 61, "{}", t.len());
+        assert_eq!(t[0], 0.01);
+        assert_eq!(*t.last().unwrap(), 100.0);
+        assert!(t.windows(2).all(|w| w[0] < w[1]));
+        assert!(t
+            .iter()
+            .all(|&x| ((x / 0.01).round() * 0.01 - x).abs() < 1e-12));
+        assert_eq!(sample_times(0.01, 60, 0.01), vec![0.01]);
+    }
 }

@@ -20,7 +20,7 @@ const USAGE: &str = "usage:
   mbfmu xml [--check]
   mbfmu linearize MODEL [--scene S] [--set PARAM=VALUE]... [--at STATE_OR_INPUT=VALUE]...
                   [--trim | --trim-inputs] [--format json|py|csv] [--out FILE]
-  mbfmu bench [--quick] [--out DIR] [--system MODEL]... [--scene S]... [--reps N] [--no-energy]";
+  mbfmu bench [--quick] [--out DIR] [--system MODEL]... [--scene S]... [--reps N] [--no-energy] [--no-springy]";
 
 fn workspace_root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
