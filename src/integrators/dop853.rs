@@ -13,9 +13,12 @@
 // be checked against it; the compiler rounds them to the nearest f64.
 #![allow(clippy::excessive_precision)]
 
-use super::explicit_rk::{initial_step, stage, step_too_small, FACOLD_MIN, LANDING_STRETCH};
+use super::explicit_rk::{
+    carried_proposal, check_attempt, initial_step, stage, PiController, PiGains, FACOLD_MIN,
+    LANDING_STRETCH,
+};
 use super::problem::{start, Problem};
-use super::{Failure, Memory, Settings, MAX_STEPS};
+use super::{Failure, Memory, Settings};
 
 // Nodes c_i (dop853.f; c12 = 1; c13..c16 belong to dense output, not implemented).
 const C2: f64 = 0.526001519587677318785587544488e-01;
@@ -118,6 +121,14 @@ const SAFETY: f64 = 0.9;
 const FAC_MIN: f64 = 0.333;
 /// Grow a step at most 6× at once (dop853.f FAC2).
 const FAC_MAX: f64 = 6.0;
+/// The controller constants above, for [`PiController`].
+const GAINS: PiGains = PiGains {
+    beta: BETA,
+    expo1: EXPO1,
+    safety: SAFETY,
+    fac_min: FAC_MIN,
+    fac_max: FAC_MAX,
+};
 /// Weight of the third-order estimate in the denominator of the combined estimate
 /// (dop853.f: `DENO = ERR + 0.01*ERR2`): keeps the 5th-order estimate from vanishing
 /// accidentally when the 3rd-order one does not.
@@ -195,21 +206,12 @@ fn run(
         )
     };
     // As in DOPRI5: a continuing call assumes the previous error was at tolerance.
-    let mut facold: f64 = if carried { 1.0 } else { FACOLD_MIN };
-    let mut after_reject = false;
+    let mut controller = PiController::new(GAINS, if carried { 1.0 } else { FACOLD_MIN });
     let mut k1_fresh = true;
     let mut attempts: u64 = 0;
 
     loop {
-        if attempts >= MAX_STEPS {
-            return Err(Failure::TooManySteps {
-                t: *t,
-                steps: attempts,
-            });
-        }
-        if step_too_small(*t, h) {
-            return Err(Failure::StepTooSmall { t: *t, h });
-        }
+        check_attempt(*t, h, attempts)?;
         attempts += 1;
         let last = *t + LANDING_STRETCH * h >= t_end;
         let (hs, t_new) = if last {
@@ -370,29 +372,20 @@ fn run(
             return Err(bad());
         }
 
-        let fac11 = err.powf(EXPO1);
         if err <= 1.0 {
-            let fac = fac11 / facold.powf(BETA);
-            let mut h_new = hs / (fac / SAFETY).clamp(1.0 / FAC_MAX, 1.0 / FAC_MIN);
-            h_new = h_new.min(h_max);
-            if after_reject {
-                h_new = h_new.min(hs);
-            }
-            facold = err.max(FACOLD_MIN);
-            after_reject = false;
+            let h_new = controller.accepted(err, hs, h_max);
             stats.steps += 1;
             x.copy_from_slice(&y);
             *t = t_new;
             k1_fresh = false;
             if last {
-                memory.h = if h_new < hs { h_new } else { h_new.max(h) };
+                memory.h = carried_proposal(h_new, hs, h);
                 return Ok(());
             }
             h = h_new;
         } else {
             stats.rejected += 1;
-            after_reject = true;
-            h = hs / (fac11 / SAFETY).min(1.0 / FAC_MIN);
+            h = controller.rejected(err, hs);
         }
     }
 }

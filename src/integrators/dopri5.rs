@@ -7,8 +7,11 @@
 //! (initial step), IV.2 (PI / "Lund" stabilization); and Hairer's reference code `dopri5.f`
 //! (subroutines DOPCOR and HINIT), whose default constants are reproduced below.
 
-use super::explicit_rk::{eval, initial_step, stage, step_too_small, FACOLD_MIN, LANDING_STRETCH};
-use super::{Failure, Memory, Settings, Stats, MAX_STEPS};
+use super::explicit_rk::{
+    carried_proposal, check_attempt, eval, initial_step, stage, PiController, PiGains, FACOLD_MIN,
+    LANDING_STRETCH,
+};
+use super::{Failure, Memory, Settings, Stats};
 
 // Butcher tableau (Table II.5.2 / dopri5.f). c_i are the nodes, a_ij the stage weights.
 // The 5th-order solution uses row 7 (A7j), which is also the FSAL stage.
@@ -60,6 +63,14 @@ const SAFETY: f64 = 0.9;
 const FAC_MIN: f64 = 0.2;
 /// Grow a step at most 10× at once (dopri5.f FAC2), for the same reason.
 const FAC_MAX: f64 = 10.0;
+/// The controller constants above, for [`PiController`].
+const GAINS: PiGains = PiGains {
+    beta: BETA,
+    expo1: EXPO1,
+    safety: SAFETY,
+    fac_min: FAC_MIN,
+    fac_max: FAC_MAX,
+};
 /// Advance with DOPRI5 from `*t` to `t_end` (> `*t`, `x` finite; see [`super::advance`]).
 ///
 /// Counts: each call evaluates f once for its first stage (fresh, because inputs may have
@@ -412,24 +423,16 @@ fn run(
     // first growth (~30 %). A call continuing with a carried step does not know the previous
     // error (it is not part of the FMU state); assuming it was at tolerance (1) makes the first
     // update a plain I-controller instead of shrinking the proposal at every call.
-    let mut facold = match err_prev {
+    let facold = match err_prev {
         Some(e) if carried => e,
         _ if carried => 1.0,
         _ => FACOLD_MIN,
     };
-    let mut after_reject = false;
+    let mut controller = PiController::new(GAINS, facold);
     let mut attempts: u64 = 0;
 
     loop {
-        if attempts >= MAX_STEPS {
-            return Err(Failure::TooManySteps {
-                t: *t,
-                steps: attempts,
-            });
-        }
-        if step_too_small(*t, h) {
-            return Err(Failure::StepTooSmall { t: *t, h });
-        }
+        check_attempt(*t, h, attempts)?;
         attempts += 1;
         // `h` stays the controller's proposal; `hs` is the step actually taken (shortened or
         // stretched to land on the end or the limit).
@@ -446,24 +449,12 @@ fn run(
         let t0 = *t;
         let err = w.attempt(rhs, k1, (t0, t_new), x, hs, settings, stats)?;
 
-        let fac11 = err.powf(EXPO1);
         if err > 1.0 {
-            // Rejected: shrink by the error model alone (no PI term), at most 1/FAC_MIN.
             stats.rejected += 1;
-            after_reject = true;
-            h = hs / (fac11 / SAFETY).min(1.0 / FAC_MIN);
+            h = controller.rejected(err, hs);
             continue;
         }
-        // Accepted. PI controller: h_new/h = SAFETY / (err^EXPO1 / errold^BETA), in bounds.
-        let fac = fac11 / facold.powf(BETA);
-        let mut h_new = hs / (fac / SAFETY).clamp(1.0 / FAC_MAX, 1.0 / FAC_MIN);
-        h_new = h_new.min(h_max);
-        if after_reject {
-            // Just failed with a larger step: growing again would likely fail again.
-            h_new = h_new.min(hs);
-        }
-        facold = err.max(FACOLD_MIN);
-        after_reject = false;
+        let h_new = controller.accepted(err, hs, h_max);
         stats.steps += 1;
         memory
             .stiffness
@@ -485,17 +476,15 @@ fn run(
             }
         }
         if let Some(rcont) = dense {
-            // A landing step may have been cut short; its easy error must not shrink the
-            // proposal for the next call. Keep the planned step unless asked to reduce.
-            memory.h = if !landing || h_new < hs {
-                h_new
+            memory.h = if landing {
+                carried_proposal(h_new, hs, h)
             } else {
-                h_new.max(h)
+                h_new
             };
             return Ok(Dense {
                 t0,
                 rcont,
-                err_prev: facold,
+                err_prev: controller.err_prev,
             });
         }
         h = h_new;
@@ -633,7 +622,7 @@ fn continuous_extension(x: &[f64], y: &[f64], h: f64, k: [&[f64]; 6]) -> Vec<f64
 #[cfg(test)]
 mod tests {
     use super::super::test_support::{oscillator, oscillator_error};
-    use super::super::{self as integ, Method};
+    use super::super::{self as integ, Method, MAX_STEPS};
     use super::*;
 
     fn settings(tol: f64, n: usize, step: f64) -> Settings {

@@ -2,7 +2,7 @@
 //! step (E. Hairer, S. P. Nørsett, G. Wanner, *Solving Ordinary Differential Equations
 //! I*, II.4 p. 169; HINIT of dopri5.f / dop853.f), and the landing and step-floor rules.
 
-use super::{Settings, Stats};
+use super::{Failure, Settings, Stats, MAX_STEPS};
 
 /// A step that would end less than 1 % before the target is stretched to land on it,
 /// instead of leaving a sliver step (dopri5.f and dop853.f do the same).
@@ -99,4 +99,85 @@ pub(super) fn initial_step(
         (0.01 / der12).powf(1.0 / order as f64)
     };
     (100.0 * h0).min(h1).min(h_max)
+}
+
+/// The loop guards of both codes before an attempt: give up after [`MAX_STEPS`] attempts
+/// in one call, or when the proposal falls below the smallest usable step.
+pub(super) fn check_attempt(t: f64, h: f64, attempts: u64) -> Result<(), Failure> {
+    if attempts >= MAX_STEPS {
+        return Err(Failure::TooManySteps { t, steps: attempts });
+    }
+    if step_too_small(t, h) {
+        return Err(Failure::StepTooSmall { t, h });
+    }
+    Ok(())
+}
+
+/// The constants of Hairer's PI controller for one method (dopri5.f / dop853.f defaults).
+pub(super) struct PiGains {
+    /// Lund-stabilisation exponent on the previous error.
+    pub beta: f64,
+    /// Exponent on the current error.
+    pub expo1: f64,
+    /// Fraction of the step the error model allows that is aimed at.
+    pub safety: f64,
+    /// Smallest factor a step may shrink by at once.
+    pub fac_min: f64,
+    /// Largest factor a step may grow by at once.
+    pub fac_max: f64,
+}
+
+/// Hairer's PI step-size controller with Lund stabilisation (ODE I, IV.2; dopri5.f DOPCOR,
+/// dop853.f DP86CO): its state is the previous error and whether the last attempt failed.
+pub(super) struct PiController {
+    gains: PiGains,
+    /// The previous accepted error (dopri5.f FACOLD), floored at [`FACOLD_MIN`].
+    pub err_prev: f64,
+    after_reject: bool,
+}
+
+impl PiController {
+    pub(super) fn new(gains: PiGains, err_prev: f64) -> PiController {
+        PiController {
+            gains,
+            err_prev,
+            after_reject: false,
+        }
+    }
+
+    /// The proposal after an accepted step of size `hs` with error `err` (≤ 1):
+    /// `h_new/hs = SAFETY / (err^EXPO1 / errold^BETA)` within the factor bounds and
+    /// `h_max`, and not above `hs` right after a rejection (growing again would likely
+    /// fail again).
+    pub(super) fn accepted(&mut self, err: f64, hs: f64, h_max: f64) -> f64 {
+        let g = &self.gains;
+        let fac = err.powf(g.expo1) / self.err_prev.powf(g.beta);
+        let mut h_new = hs / (fac / g.safety).clamp(1.0 / g.fac_max, 1.0 / g.fac_min);
+        h_new = h_new.min(h_max);
+        if self.after_reject {
+            h_new = h_new.min(hs);
+        }
+        self.err_prev = err.max(FACOLD_MIN);
+        self.after_reject = false;
+        h_new
+    }
+
+    /// The retry after a rejected step of size `hs` with error `err` (> 1): shrink by the
+    /// error model alone (no PI term), at most by `fac_min`.
+    pub(super) fn rejected(&mut self, err: f64, hs: f64) -> f64 {
+        self.after_reject = true;
+        let g = &self.gains;
+        hs / (err.powf(g.expo1) / g.safety).min(1.0 / g.fac_min)
+    }
+}
+
+/// The proposal carried to the next call after a landing step `hs` that was planned as
+/// `h`: the cut-short step's easy error must not shrink it, so keep the planned step
+/// unless the controller asks to reduce.
+pub(super) fn carried_proposal(h_new: f64, hs: f64, h: f64) -> f64 {
+    if h_new < hs {
+        h_new
+    } else {
+        h_new.max(h)
+    }
 }
