@@ -7,7 +7,9 @@ use super::machine::{self, Machine};
 use super::Status;
 use super::{Logger, ModelInfo, Snapshot};
 use crate::integrators::problem::Problem;
-use crate::integrators::{self, dopri5, dopri5::Ahead, Memory, Method, Settings};
+use crate::integrators::{
+    self, dopri5, dopri5::Ahead, rattle::Mechanics, Memory, Method, Settings,
+};
 use crate::model::jacobian::{directional, Direction};
 use crate::model::{Slot, System, VarKind};
 use std::marker::PhantomData;
@@ -337,6 +339,13 @@ impl<M: System> Instance<M> {
                 M::NAME
             ));
         }
+        if method.needs_mechanics() && M::mechanics(&self.data.u, &self.data.params).is_none() {
+            return Err(format!(
+                "fmi2SetInteger: solver {} needs a system written as a Lagrangian with holonomic constraints only; {} is not",
+                method.name(),
+                M::NAME
+            ));
+        }
         if method.needs_second_order() && !M::SECOND_ORDER {
             return Err(format!(
                 "fmi2SetInteger: solver {} needs states of the form (q, q̇); {} has none",
@@ -436,10 +445,17 @@ impl<M: System> Instance<M> {
                 }
             }
         };
+        let mut mechanics = if d.method.needs_mechanics() {
+            M::mechanics(u, p)
+        } else {
+            None
+        };
         let mut problem = Problem {
             rhs: &mut rhs,
             jacobian: Some(&mut jacobian),
             second_order: M::SECOND_ORDER.then_some(n / 2),
+            // (the cast shortens the trait object's lifetime to the borrow's)
+            mechanics: mechanics.as_deref_mut().map(|m| m as &mut dyn Mechanics),
         };
         let mut t = current;
         let mut x = d.x.clone();

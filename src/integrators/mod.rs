@@ -17,6 +17,7 @@ mod explicit_rk;
 pub mod gauss;
 pub mod problem;
 pub mod radau5;
+pub mod rattle;
 pub mod rk4;
 pub mod verlet;
 
@@ -48,11 +49,14 @@ pub enum Method {
     /// The exact propagator e^{Ah} of a linear time-invariant system (the floor and the
     /// reference): refused by systems that are not.
     ExactLinear = 11,
+    /// RATTLE, fixed step: constrained generalised Störmer–Verlet for Lagrangian systems
+    /// (symplectic, keeps holonomic constraints to rounding without projection).
+    Rattle = 12,
 }
 
 impl Method {
     /// Every method, in code order (for the modelDescription enumeration).
-    pub const ALL: [Method; 11] = [
+    pub const ALL: [Method; 12] = [
         Method::Rk4,
         Method::Dopri5,
         Method::ExplicitEuler,
@@ -64,6 +68,7 @@ impl Method {
         Method::Dop853,
         Method::Radau5,
         Method::ExactLinear,
+        Method::Rattle,
     ];
 
     /// The method with this `solver` code, if any.
@@ -90,6 +95,7 @@ impl Method {
             Method::Dop853 => "DOP853",
             Method::Radau5 => "RADAU5",
             Method::ExactLinear => "ExactLinear",
+            Method::Rattle => "RATTLE",
         }
     }
 
@@ -110,6 +116,9 @@ impl Method {
             Method::Radau5 => "Radau IIA order 5, adaptive step, exact Jacobian (stiff systems)",
             Method::ExactLinear => {
                 "Exact propagator e^(Ah) in steps of solver_step (linear time-invariant systems only)"
+            }
+            Method::Rattle => {
+                "RATTLE, fixed step solver_step: symplectic, holonomic constraints kept to rounding (Lagrangian systems only)"
             }
         }
     }
@@ -139,6 +148,12 @@ impl Method {
     /// Whether the method is only valid for linear time-invariant systems.
     pub fn needs_linear_time_invariant(self) -> bool {
         self == Method::ExactLinear
+    }
+
+    /// Whether the method needs the mechanical structure of a Lagrangian
+    /// ([`crate::model::System::mechanics`]).
+    pub fn needs_mechanics(self) -> bool {
+        self == Method::Rattle
     }
 }
 
@@ -182,6 +197,13 @@ pub fn advance_with(
         }
         Method::ExactLinear => {
             exact_linear::advance(problem, t, x, t_end, h, stats).map_err(|e| text(&e))
+        }
+        Method::Rattle => {
+            let mech = problem
+                .mechanics
+                .as_deref_mut()
+                .expect("RATTLE needs Problem::mechanics");
+            rattle::advance(mech, t, x, t_end, h, stats).map_err(|e| text(&e))
         }
     }
 }
@@ -333,7 +355,8 @@ mod tests {
         assert_eq!(Method::from_code(1), Some(Method::Rk4));
         assert_eq!(Method::from_code(2), Some(Method::Dopri5));
         assert_eq!(Method::from_code(0), None);
-        assert_eq!(Method::from_code(12), None);
+        assert_eq!(Method::from_code(13), None);
+        assert_eq!(Method::from_code(12), Some(Method::Rattle));
         assert_eq!(Method::from_code(11), Some(Method::ExactLinear));
         assert_eq!(Method::from_code(10), Some(Method::Radau5));
         for m in Method::ALL {

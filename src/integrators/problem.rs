@@ -22,6 +22,8 @@ pub struct Problem<'a> {
     /// Some(nq) when the state is (q, q̇) with dq/dt = q̇ (the first nq components are
     /// positions): needed by the symplectic Euler and Störmer–Verlet methods.
     pub second_order: Option<usize>,
+    /// Mass matrix, generalized force and holonomic constraints (RATTLE).
+    pub mechanics: Option<&'a mut dyn super::rattle::Mechanics>,
 }
 
 impl<'a> Problem<'a> {
@@ -31,6 +33,7 @@ impl<'a> Problem<'a> {
             rhs,
             jacobian: None,
             second_order: None,
+            mechanics: None,
         }
     }
 

@@ -33,6 +33,7 @@
 //! the same pivot sequence as the `f64` one and differentiates the same formula.
 
 use super::{Scalar, Scene, System, Var};
+use crate::integrators::rattle::Mechanics;
 use num_dual::{Dual, HyperDual};
 
 /// A mechanical system given by its energies in generalised coordinates.
@@ -224,6 +225,88 @@ pub fn accelerations_and_multipliers<L: Lagrangian, S: Scalar>(
     solve(&mut a, &mut rhs);
     let lambda = rhs.split_off(n);
     (rhs, lambda)
+}
+
+/// The generalized force `F = Q + ∂L/∂q` of RATTLE's momentum equation `ṗ = F − Gᵀλ`:
+/// one dual evaluation of L per coordinate.
+pub fn generalized_force<L: Lagrangian>(
+    t: f64,
+    q: &[f64],
+    qd: &[f64],
+    u: &[f64],
+    p: &[f64],
+) -> Vec<f64> {
+    let mut f = vec![0.0; q.len()];
+    L::forces(t, q, qd, u, p, &mut f);
+    let (qdd, pd) = (lift_dual(qd), lift_dual(p));
+    for (i, fi) in f.iter_mut().enumerate() {
+        let mut qdual = lift_dual(q);
+        qdual[i].eps = 1.0;
+        *fi += lagrangian::<L, _>(&qdual, &qdd, &pd).eps;
+    }
+    f
+}
+
+/// `b(q) = ∂T/∂q̇` at `q̇ = 0`, so that `p = ∂L/∂q̇ = M q̇ + b` for T quadratic in q̇.
+pub fn momentum_offset<L: Lagrangian>(q: &[f64], p: &[f64]) -> Vec<f64> {
+    let (qd, pd) = (lift_dual(q), lift_dual(p));
+    (0..q.len())
+        .map(|i| {
+            let mut v = vec![Dual::from_re(0.0); q.len()];
+            v[i].eps = 1.0;
+            L::kinetic(&qd, &v, &pd).eps
+        })
+        .collect()
+}
+
+/// A Lagrangian with its inputs and parameters, as RATTLE sees it.
+pub struct LagrangianMechanics<'a, L> {
+    u: &'a [f64],
+    p: &'a [f64],
+    system: std::marker::PhantomData<L>,
+}
+
+impl<'a, L: Lagrangian> LagrangianMechanics<'a, L> {
+    pub fn new(u: &'a [f64], p: &'a [f64]) -> Self {
+        LagrangianMechanics {
+            u,
+            p,
+            system: std::marker::PhantomData,
+        }
+    }
+}
+
+impl<L: Lagrangian> Mechanics for LagrangianMechanics<'_, L> {
+    fn dims(&self) -> (usize, usize) {
+        (L::coordinates().len(), L::CONSTRAINTS)
+    }
+
+    fn mass_matrix(&mut self, q: &[f64], m: &mut [f64]) {
+        let n = q.len();
+        // T quadratic in q̇: M does not depend on q̇.
+        for (i, row) in mass_matrix::<L, f64>(q, &vec![0.0; n], self.p)
+            .iter()
+            .enumerate()
+        {
+            m[i * n..(i + 1) * n].copy_from_slice(row);
+        }
+    }
+
+    fn momentum_offset(&mut self, q: &[f64], b: &mut [f64]) {
+        b.copy_from_slice(&momentum_offset::<L>(q, self.p));
+    }
+
+    fn force(&mut self, t: f64, q: &[f64], qd: &[f64], f: &mut [f64]) {
+        f.copy_from_slice(&generalized_force::<L>(t, q, qd, self.u, self.p));
+    }
+
+    fn constraints(&mut self, q: &[f64], g: &mut [f64], jac: &mut [f64]) {
+        let n = q.len();
+        g.copy_from_slice(&constraint_values::<L, f64>(q, self.p));
+        for (i, row) in constraint_jacobian::<L, f64>(q, self.p).iter().enumerate() {
+            jac[i * n..(i + 1) * n].copy_from_slice(row);
+        }
+    }
 }
 
 /// The constraint values `Φ(q)`.
@@ -442,6 +525,12 @@ impl<L: Lagrangian> System for L {
 
     fn default_experiment() -> (f64, f64, f64) {
         <L as Lagrangian>::default_experiment()
+    }
+
+    /// RATTLE handles holonomic constraints only.
+    fn mechanics<'a>(u: &'a [f64], p: &'a [f64]) -> Option<Box<dyn Mechanics + 'a>> {
+        (L::VELOCITY_CONSTRAINTS == 0)
+            .then(|| Box::new(LagrangianMechanics::<L>::new(u, p)) as Box<dyn Mechanics + 'a>)
     }
 
     fn project(_t: f64, p: &[f64], x: &mut [f64]) {

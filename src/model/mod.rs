@@ -14,6 +14,7 @@ mod scene;
 pub use layout::{Layout, Slot, VarKind};
 pub use scene::Scene;
 
+use crate::integrators::rattle::Mechanics;
 use num_dual::DualNum;
 use std::borrow::Cow;
 
@@ -115,6 +116,13 @@ pub trait System: 'static {
     /// cannot accumulate across communication steps. Unconstrained systems keep the
     /// default, which does nothing.
     fn project(_t: f64, _p: &[f64], _x: &mut [f64]) {}
+
+    /// The mechanical structure RATTLE needs (mass matrix, generalized force, holonomic
+    /// constraints) with these inputs and parameters, for systems written as a
+    /// [`lagrangian::Lagrangian`]; `None` (the default) for the others, which then refuse solver RATTLE.
+    fn mechanics<'a>(_u: &'a [f64], _p: &'a [f64]) -> Option<Box<dyn Mechanics + 'a>> {
+        None
+    }
 
     /// Whether `ẋ = f(t, x, u, p)` is affine in x and u and independent of t with these
     /// parameters: then the exact propagator (solver `ExactLinear`) integrates it without
