@@ -8,7 +8,7 @@ use super::Status;
 use super::{Logger, ModelInfo, Snapshot};
 use crate::integrators::problem::Problem;
 use crate::integrators::{
-    self, dopri5, dopri5::Ahead, rattle::Mechanics, Memory, Method, Settings,
+    self, dopri5, dopri5::Ahead, radau5, rattle::Mechanics, Memory, Method, Settings,
 };
 use crate::model::jacobian::{directional, Direction};
 use crate::model::{Slot, System, VarKind};
@@ -293,6 +293,7 @@ impl<M: System> Instance<M> {
                     // communication time no longer holds. The same value keeps it.
                     if d.u[slot.index].to_bits() != value.to_bits() {
                         d.memory.ahead = None;
+                        d.memory.radau5_ahead = None;
                     }
                     d.u[slot.index] = value
                 }
@@ -459,23 +460,34 @@ impl<M: System> Instance<M> {
         };
         let mut t = current;
         let mut x = d.x.clone();
-        // DOPRI5 runs ahead of the communication points with dense output, unless an event
-        // may come (events are located on landing steps).
-        let dense = d.method == Method::Dopri5 && M::event_indicator(t, &x, u, p).is_none();
+        // DOPRI5 and RADAU5 run ahead of the communication points with dense output, unless
+        // an event may come (events are located on landing steps).
+        let dense = matches!(d.method, Method::Dopri5 | Method::Radau5)
+            && M::event_indicator(t, &x, u, p).is_none();
         let result = if dense {
             // Never step past the stop time (f may not be defined beyond it).
             let t_limit = d.stop_time.map_or(f64::INFINITY, |stop| stop.max(t_end));
             let mut project = |t: f64, x: &mut [f64]| M::project(t, p, x);
-            advance_dense(
-                problem.rhs,
-                &mut project,
-                (&mut t, &mut x),
-                (t_end, t_limit),
-                &settings,
-                &mut d.memory,
-            )
+            let state = (&mut t, &mut x);
+            let ends = (t_end, t_limit);
+            if d.method == Method::Dopri5 {
+                d.memory.radau5_ahead = None;
+                let rhs = &mut *problem.rhs;
+                advance_dense(rhs, &mut project, state, ends, &settings, &mut d.memory)
+            } else {
+                d.memory.ahead = None;
+                advance_dense_radau5(
+                    &mut problem,
+                    &mut project,
+                    state,
+                    ends,
+                    &settings,
+                    &mut d.memory,
+                )
+            }
         } else {
             d.memory.ahead = None;
+            d.memory.radau5_ahead = None;
             advance_locating_events::<M>(
                 &mut problem,
                 &mut t,
@@ -660,6 +672,56 @@ fn advance_dense(
             *x = out;
             *t = t_end;
             memory.ahead = Some(ahead);
+            Ok(())
+        }
+        Err(e) => {
+            if ahead.t > *t {
+                *t = ahead.t;
+                x.copy_from_slice(&ahead.x);
+            }
+            Err(e.to_string())
+        }
+    }
+}
+
+/// RADAU5 with dense output (see [`radau5::Ahead`]), as [`advance_dense`] does for DOPRI5:
+/// continues the loop state kept ahead of `*t` when there is one (else starts one at
+/// `(*t, x)` with the carried step proposal), steps until the last step covers `t_end`,
+/// and writes x(`t_end`) from the collocation polynomial. On failure `(*t, x)` is the last
+/// accepted step and the state ahead is dropped.
+#[allow(clippy::type_complexity)] // the integrators' own closure types, spelled out
+fn advance_dense_radau5(
+    problem: &mut Problem,
+    project: &mut dyn FnMut(f64, &mut [f64]),
+    (t, x): (&mut f64, &mut Vec<f64>),
+    (t_end, t_limit): (f64, f64),
+    settings: &Settings,
+    memory: &mut Memory,
+) -> Result<(), String> {
+    let mut ahead = match memory.radau5_ahead.take() {
+        Some(a) if *t <= a.t => a,
+        _ => radau5::Ahead::start(
+            problem,
+            *t,
+            x,
+            memory.h,
+            t_limit,
+            settings,
+            &mut memory.stats,
+        )
+        .map_err(|e| {
+            memory.h = 0.0;
+            e.to_string()
+        })?,
+    };
+    let mut out = vec![0.0; x.len()];
+    match radau5::advance_dense(
+        problem, project, &mut ahead, t_end, t_limit, settings, memory, &mut out,
+    ) {
+        Ok(()) => {
+            *x = out;
+            *t = t_end;
+            memory.radau5_ahead = Some(ahead);
             Ok(())
         }
         Err(e) => {

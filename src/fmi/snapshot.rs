@@ -8,12 +8,12 @@
 
 use super::Machine;
 use crate::integrators::dopri5::{Ahead, StiffnessMonitor};
-use crate::integrators::{Memory, Method, Stats};
+use crate::integrators::{radau5, Memory, Method, Stats};
 
 pub const SNAPSHOT_MAGIC: [u8; 8] = *b"MBFMU\0ST";
 /// 2: adds DOPRI5's dense-output point ([`crate::integrators::dopri5::Ahead`]) and
-/// stiffness monitor.
-pub const SNAPSHOT_VERSION: u32 = 2;
+/// stiffness monitor. 3: adds RADAU5's loop state ([`radau5::Ahead`]).
+pub const SNAPSHOT_VERSION: u32 = 3;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Snapshot {
@@ -59,6 +59,82 @@ impl<'a> Reader<'a> {
     fn f64s(&mut self, n: usize) -> Result<Vec<f64>, String> {
         (0..n).map(|_| self.f64()).collect()
     }
+    fn flag(&mut self) -> Result<bool, String> {
+        match self.take(1)?[0] {
+            0 => Ok(false),
+            1 => Ok(true),
+            other => Err(format!("FMU state has invalid flag {other}")),
+        }
+    }
+}
+
+fn put_f64(b: &mut Vec<u8>, v: f64) {
+    b.extend_from_slice(&v.to_bits().to_le_bytes());
+}
+
+/// RADAU5's loop state, after its presence flag.
+fn write_radau5(b: &mut Vec<u8>, a: &radau5::Ahead) {
+    for v in [
+        a.t, a.h, a.hopt, a.hold, a.hmaxn, a.hacc, a.erracc, a.faccon,
+    ] {
+        put_f64(b, v);
+    }
+    let flags = [
+        a.have_cont,
+        a.first,
+        a.reject,
+        a.last,
+        a.landed,
+        a.need_jac,
+        a.caljac,
+    ];
+    b.extend(flags.map(u8::from));
+    b.extend_from_slice(&a.nsing.to_le_bytes());
+    for &v in a.x.iter().chain(&a.f).chain(&a.cont).chain(&a.jac) {
+        put_f64(b, v);
+    }
+}
+
+/// Reads what [`write_radau5`] wrote for `n` states, and checks it.
+fn read_radau5(r: &mut Reader, n: usize) -> Result<radau5::Ahead, String> {
+    let [t, h, hopt, hold, hmaxn, hacc, erracc, faccon] = [(); 8].map(|()| r.f64());
+    let (t, h, hopt, hold, hmaxn) = (t?, h?, hopt?, hold?, hmaxn?);
+    let (hacc, erracc, faccon) = (hacc?, erracc?, faccon?);
+    let [have_cont, first, reject, last, landed, need_jac, caljac] = [(); 7].map(|()| r.flag());
+    let a = radau5::Ahead {
+        t,
+        h,
+        hopt,
+        hold,
+        hmaxn,
+        hacc,
+        erracc,
+        faccon,
+        have_cont: have_cont?,
+        first: first?,
+        reject: reject?,
+        last: last?,
+        landed: landed?,
+        need_jac: need_jac?,
+        caljac: caljac?,
+        nsing: r.u32()?,
+        x: r.f64s(n)?,
+        f: r.f64s(n)?,
+        cont: r.f64s(3 * n)?,
+        jac: r.f64s(n * n)?,
+    };
+    // hmaxn is +∞ without a step bound and a stop time.
+    let finite = [t, h, hopt, hold, hacc, erracc, faccon]
+        .iter()
+        .chain(&a.x)
+        .chain(&a.f)
+        .chain(&a.cont)
+        .chain(&a.jac)
+        .all(|v| v.is_finite());
+    if !(finite && h >= 0.0 && hold > 0.0 && hmaxn > 0.0) {
+        return Err("FMU state holds an invalid RADAU5 integrator state".into());
+    }
+    Ok(a)
 }
 
 impl Snapshot {
@@ -102,6 +178,10 @@ impl Snapshot {
             for &v in a.x.iter().chain(&a.f).chain(&a.rcont) {
                 f(&mut b, v);
             }
+        }
+        b.push(self.memory.radau5_ahead.is_some() as u8);
+        if let Some(a) = &self.memory.radau5_ahead {
+            write_radau5(&mut b, a);
         }
         b.extend_from_slice(&self.machine.code().to_le_bytes());
         b
@@ -193,6 +273,10 @@ impl Snapshot {
             }
             other => return Err(format!("FMU state has invalid flag {other}")),
         };
+        let radau5_ahead = match r.flag()? {
+            false => None,
+            true => Some(read_radau5(&mut r, counts[1])?),
+        };
         let code = r.u32()?;
         let machine = Machine::from_code(code)
             .ok_or_else(|| format!("FMU state names unknown machine state {code}"))?;
@@ -222,6 +306,7 @@ impl Snapshot {
                 h,
                 stats,
                 ahead,
+                radau5_ahead,
                 stiffness,
             },
             machine,

@@ -238,13 +238,16 @@ pub struct Stats {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Memory {
     /// The controller's step-size proposal carried across calls; 0 = none yet (choose an initial step).
-    /// Only DOPRI5 uses it; RK4 leaves it alone. Reset to 0 when a call fails, so a retry
+    /// The adaptive methods use it; the fixed-step ones leave it alone. Reset to 0 when a call fails, so a retry
     /// starts from a fresh estimate instead of a step that has just proved hopeless.
     pub h: f64,
     pub stats: Stats,
     /// DOPRI5's own point ahead of the communication time, in dense-output mode (see
     /// [`dopri5::Ahead`]); `None` in every other mode and whenever f has changed.
     pub ahead: Option<dopri5::Ahead>,
+    /// RADAU5's loop state ahead of the communication time, in dense-output mode (see
+    /// [`radau5::Ahead`]); `None` likewise.
+    pub radau5_ahead: Option<radau5::Ahead>,
     /// DOPRI5's stiffness detection (see [`dopri5::StiffnessMonitor`]).
     pub stiffness: dopri5::StiffnessMonitor,
 }

@@ -18,8 +18,10 @@
 //! - tolerances transformed as in radau5.f: `rtol' = 0.1·rtol^(2/3)`, `atol' = rtol'·atol/rtol`,
 //!   so that the global error comes out roughly proportional to `rtol`.
 //!
-//! Not ported: mass matrices, banded Jacobians, DAE index handling, dense output (the
-//! collocation polynomial is kept, but only for the Newton starting values).
+//! - dense output (CONTR5): in the FMU's dense mode ([`advance_dense`]) the loop state is kept
+//!   between calls and communication points are read from the collocation polynomial.
+//!
+//! Not ported: mass matrices, banded Jacobians, DAE index handling.
 
 // The coefficients are copied digit for digit from Hairer's Fortran source, so that they can
 // be checked against it; the compiler rounds them to the nearest f64.
@@ -120,11 +122,12 @@ struct Factorized {
     betan: f64,
 }
 
-fn decompose(jac: &DMatrix<f64>, h: f64, k: &Coefficients) -> Option<Factorized> {
-    let n = jac.nrows();
+/// LU of `γ/h·I − J` and `(α + iβ)/h·I − J` (radau5.f DECOMR, DECOMC) for the row-major n×n
+/// `jac`; deterministic, so recomputing it from the same `jac` and `h` gives the same bits.
+fn decompose(jac: &[f64], n: usize, h: f64, k: &Coefficients) -> Option<Factorized> {
     let (fac1, alphn, betan) = (k.u1 / h, k.alpha / h, k.beta / h);
-    let mut e1 = -jac.clone();
-    let mut e2 = DMatrix::<Complex<f64>>::from_fn(n, n, |i, j| Complex::new(-jac[(i, j)], 0.0));
+    let mut e1 = DMatrix::<f64>::from_fn(n, n, |i, j| -jac[i * n + j]);
+    let mut e2 = DMatrix::<Complex<f64>>::from_fn(n, n, |i, j| Complex::new(-jac[i * n + j], 0.0));
     for i in 0..n {
         e1[(i, i)] += fac1;
         e2[(i, i)] += Complex::new(alphn, betan);
@@ -148,6 +151,15 @@ fn rms(vs: &[&[f64]], scal: &[f64]) -> f64 {
         }
     }
     (sum / (vs.len() * scal.len()).max(1) as f64).sqrt()
+}
+
+/// The largest step: `settings.step` when positive and finite.
+fn step_bound(settings: &Settings) -> f64 {
+    if settings.step > 0.0 && settings.step.is_finite() {
+        settings.step
+    } else {
+        f64::INFINITY
+    }
 }
 
 /// Advance with RADAU5 from `*t` to exactly `t_end`, with `settings.rtol` and `settings.atol`
@@ -176,11 +188,196 @@ pub fn advance(
     if !start("RADAU5", *t, x, t_end)? {
         return Ok(());
     }
-    let result = run(problem, t, x, t_end, settings, memory);
-    if result.is_err() {
-        memory.h = 0.0;
+    let result = Ahead::start(problem, *t, x, memory.h, t_end, settings, &mut memory.stats)
+        .and_then(|mut st| {
+            let r = run(
+                problem,
+                &mut st,
+                t_end,
+                None,
+                None,
+                settings,
+                &mut memory.stats,
+            );
+            *t = st.t;
+            x.copy_from_slice(&st.x);
+            r.map(|()| st.hopt)
+        });
+    match result {
+        Ok(hopt) => {
+            memory.h = hopt;
+            Ok(())
+        }
+        Err(e) => {
+            memory.h = 0.0;
+            Err(e)
+        }
     }
-    result
+}
+
+/// The RADAU5 loop between two attempted steps: radau5.f's variables that live from one
+/// step to the next. Landing mode builds one per call; dense-output mode keeps it between
+/// calls (in [`Memory::radau5_ahead`]) so that the steps are the controller's alone, the
+/// same however many calls a run is cut into, and a communication time inside the last
+/// accepted step is read from its collocation polynomial (radau5.f CONTR5). Valid only while
+/// f is unchanged. `theta` is not kept: radau5.f resets it at every Newton start.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Ahead {
+    /// End of the last accepted step: the integrator's own time.
+    pub t: f64,
+    /// State at `t`.
+    pub x: Vec<f64>,
+    /// f(t, x) (radau5.f Y0).
+    pub f: Vec<f64>,
+    /// The step to attempt next (radau5.f H); `last` if it lands on the limit.
+    pub h: f64,
+    /// The step proposal handed to a later integration (radau5.f HOPT).
+    pub hopt: f64,
+    /// Size of the last accepted step (radau5.f HOLD).
+    pub hold: f64,
+    /// Largest step (radau5.f HMAXN), fixed when the integration starts.
+    pub hmaxn: f64,
+    /// Collocation polynomial of the last accepted step, 3 blocks of n (radau5.f CONT after
+    /// its first block, which is `x`); meaningful once `have_cont`.
+    pub cont: Vec<f64>,
+    /// A step has been accepted: `cont`, `hacc` and `erracc` hold.
+    pub have_cont: bool,
+    /// Gustafsson's controller memory: the last accepted step and its error (radau5.f HACC,
+    /// ERRACC).
+    pub hacc: f64,
+    pub erracc: f64,
+    /// Newton convergence factor carried to the next step (radau5.f FACCON).
+    pub faccon: f64,
+    /// radau5.f FIRST, REJECT, LAST.
+    pub first: bool,
+    pub reject: bool,
+    pub last: bool,
+    /// The last step landed on the limit: radau5.f returns there without f at `t` or a next
+    /// step, so a later call that must go on starts afresh from `(t, x)`.
+    pub landed: bool,
+    /// ∂f/∂x, row-major n×n, where it was last evaluated. The LU factors are not kept: they
+    /// are recomputed from `jac` and `h` at the next call, bit for bit the same.
+    pub jac: Vec<f64>,
+    /// Evaluate `jac` before the next attempt.
+    pub need_jac: bool,
+    /// `jac` was evaluated at `(t, x)` (radau5.f CALJAC).
+    pub caljac: bool,
+    /// Singular Newton matrices met so far (radau5.f NSING).
+    pub nsing: u32,
+}
+
+impl Ahead {
+    /// The loop state at `(t, x)` before any step (radau5.f up to its label 10), to integrate
+    /// up to `t_limit`; `h_carried` is an earlier integration's proposal (0: none, start with
+    /// 1e-6 as radau5.f does). Evaluates f once.
+    pub fn start(
+        problem: &mut Problem,
+        t: f64,
+        x: &[f64],
+        h_carried: f64,
+        t_limit: f64,
+        settings: &Settings,
+        stats: &mut Stats,
+    ) -> Result<Ahead, Failure> {
+        let n = x.len();
+        let mut f = vec![0.0; n];
+        if !x.iter().all(|v| v.is_finite()) || !problem.eval(t, x, &mut f, stats) {
+            return Err(Failure::NonFinite { t });
+        }
+        let hmaxn = step_bound(settings).min(t_limit - t);
+        let carried = h_carried > 0.0 && h_carried.is_finite();
+        let mut h = if carried { h_carried } else { H_START }.min(hmaxn);
+        let mut last = false;
+        if t + h * 1.0001 >= t_limit {
+            h = t_limit - t;
+            last = true;
+        }
+        Ok(Ahead {
+            t,
+            x: x.to_vec(),
+            f,
+            h,
+            hopt: h,
+            hold: h,
+            hmaxn,
+            cont: vec![0.0; 3 * n],
+            have_cont: false,
+            hacc: 0.0,
+            erracc: 0.0,
+            faccon: 1.0,
+            first: !carried,
+            reject: false,
+            last,
+            landed: false,
+            jac: vec![0.0; n * n],
+            need_jac: true,
+            caljac: false,
+            nsing: 0,
+        })
+    }
+
+    /// x(`t`) for `t` in the last accepted step, from its collocation polynomial (radau5.f
+    /// CONTR5); `x` itself at the end of the step (and before any step).
+    pub fn interpolate(&self, t: f64, out: &mut [f64]) {
+        if t == self.t || !self.have_cont {
+            out.copy_from_slice(&self.x);
+            return;
+        }
+        let k = Coefficients::new();
+        let (c1m1, c2m1) = (k.c1 - 1.0, k.c2 - 1.0);
+        let n = self.x.len();
+        let s = (t - self.t) / self.hold;
+        let c = |j: usize, i: usize| self.cont[j * n + i];
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = self.x[i] + s * (c(0, i) + (s - c2m1) * (c(1, i) + (s - c1m1) * c(2, i)));
+        }
+    }
+}
+
+/// Dense mode (see [`Ahead`]): steps `ahead` until its last step covers `t_out`, then writes
+/// x(`t_out`) into `out`. Steps are cut only to land on `t_limit` (the experiment's stop
+/// time, or +∞), which the integrator never passes; `t_out` must not exceed it.
+///
+/// `project` maps a state back onto the system's constraints; it is applied after every
+/// accepted step, before f is evaluated there (so it costs no evaluation). On success
+/// `memory.h` holds the proposal a fresh start would take (after an input change); on
+/// failure `ahead` holds the last accepted step and `memory.h` is reset.
+#[allow(clippy::too_many_arguments)]
+pub fn advance_dense(
+    problem: &mut Problem,
+    project: &mut dyn FnMut(f64, &mut [f64]),
+    ahead: &mut Ahead,
+    t_out: f64,
+    t_limit: f64,
+    settings: &Settings,
+    memory: &mut Memory,
+    out: &mut [f64],
+) -> Result<(), Failure> {
+    if t_out > ahead.t && ahead.landed {
+        // Landed on an earlier limit: go on as a new integration from there.
+        let (t, x, h) = (ahead.t, ahead.x.clone(), ahead.hopt);
+        *ahead = Ahead::start(problem, t, &x, h, t_limit, settings, &mut memory.stats)?;
+    }
+    let goal = Some(t_out);
+    match run(
+        problem,
+        ahead,
+        t_limit,
+        goal,
+        Some(project),
+        settings,
+        &mut memory.stats,
+    ) {
+        Ok(()) => {
+            memory.h = ahead.hopt;
+            ahead.interpolate(t_out, out);
+            Ok(())
+        }
+        Err(e) => {
+            memory.h = 0.0;
+            Err(e)
+        }
+    }
 }
 
 /// How one Newton solve ended.
@@ -195,110 +392,327 @@ enum Newton {
     Unexpected,
 }
 
-fn run(
+/// The constants of one integration: method coefficients and transformed tolerances.
+struct Constants {
+    k: Coefficients,
+    rtol: f64,
+    atol: Vec<f64>,
+    /// Newton stopping tolerance (radau5.f FNEWT default).
+    fnewt: f64,
+    /// radau5.f CFAC.
+    cfac: f64,
+}
+
+impl Constants {
+    fn new(settings: &Settings, n: usize) -> Self {
+        assert_eq!(
+            settings.atol.len(),
+            n,
+            "RADAU5 needs one absolute tolerance per state"
+        );
+        let uround = f64::EPSILON;
+        // Tolerance transformation of radau5.f (EXPM = 2/3).
+        let rtol = 0.1 * settings.rtol.powf(2.0 / 3.0);
+        let atol = settings
+            .atol
+            .iter()
+            .map(|&a| {
+                if settings.rtol > 0.0 {
+                    rtol * a / settings.rtol
+                } else {
+                    0.1 * a.powf(2.0 / 3.0)
+                }
+            })
+            .collect();
+        Constants {
+            k: Coefficients::new(),
+            rtol,
+            atol,
+            fnewt: (10.0 * uround / rtol.max(uround)).max(0.03f64.min(rtol.sqrt())),
+            cfac: SAFETY * (1 + 2 * NIT) as f64,
+        }
+    }
+
+    /// The error weights `atol + rtol·|x|` (radau5.f SCAL).
+    fn scale(&self, x: &[f64], scal: &mut [f64]) {
+        for i in 0..x.len() {
+            scal[i] = self.atol[i] + self.rtol * x[i].abs();
+        }
+    }
+}
+
+/// Work vectors of one step: the stage increments Z, their transformed values F, scratch.
+struct Work {
+    z1: Vec<f64>,
+    z2: Vec<f64>,
+    z3: Vec<f64>,
+    f1: Vec<f64>,
+    f2: Vec<f64>,
+    f3: Vec<f64>,
+    tmp: Vec<f64>,
+    ff: Vec<f64>,
+    scal: Vec<f64>,
+}
+
+impl Work {
+    fn new(n: usize) -> Self {
+        let [z1, z2, z3, f1, f2, f3, tmp, ff, scal] = std::array::from_fn(|_| vec![0.0; n]);
+        Work {
+            z1,
+            z2,
+            z3,
+            f1,
+            f2,
+            f3,
+            tmp,
+            ff,
+            scal,
+        }
+    }
+
+    /// Newton starting values: the last step's collocation polynomial extrapolated to the
+    /// new step `h`, or zero before any step.
+    fn start_values(&mut self, st: &Ahead, k: &Coefficients) {
+        if !st.have_cont {
+            for v in [
+                &mut self.z1,
+                &mut self.z2,
+                &mut self.z3,
+                &mut self.f1,
+                &mut self.f2,
+                &mut self.f3,
+            ] {
+                v.fill(0.0);
+            }
+            return;
+        }
+        let n = st.x.len();
+        let (c1m1, c2m1) = (k.c1 - 1.0, k.c2 - 1.0);
+        let c3q = st.h / st.hold;
+        let (c1q, c2q) = (k.c1 * c3q, k.c2 * c3q);
+        for i in 0..n {
+            let (ak1, ak2, ak3) = (st.cont[i], st.cont[n + i], st.cont[2 * n + i]);
+            let z1i = c1q * (ak1 + (c1q - c2m1) * (ak2 + (c1q - c1m1) * ak3));
+            let z2i = c2q * (ak1 + (c2q - c2m1) * (ak2 + (c2q - c1m1) * ak3));
+            let z3i = c3q * (ak1 + (c3q - c2m1) * (ak2 + (c3q - c1m1) * ak3));
+            self.z1[i] = z1i;
+            self.z2[i] = z2i;
+            self.z3[i] = z3i;
+            self.f1[i] = TI11 * z1i + TI12 * z2i + TI13 * z3i;
+            self.f2[i] = TI21 * z1i + TI22 * z2i + TI23 * z3i;
+            self.f3[i] = TI31 * z1i + TI32 * z2i + TI33 * z3i;
+        }
+    }
+}
+
+/// The simplified Newton iteration of one step of size `h` from `(t0, x)` (radau5.f label
+/// 40); updates `faccon`. Leaves the stage increments in `w.z*`.
+#[allow(clippy::too_many_arguments)]
+fn newton(
     problem: &mut Problem,
-    t: &mut f64,
-    x: &mut [f64],
-    t_end: f64,
-    settings: &Settings,
-    memory: &mut Memory,
-) -> Result<(), Failure> {
+    c: &Constants,
+    fz: &Factorized,
+    (t0, t_new, h): (f64, f64, f64),
+    x: &[f64],
+    faccon: &mut f64,
+    w: &mut Work,
+    stats: &mut Stats,
+) -> Result<Newton, Failure> {
+    let uround = f64::EPSILON;
     let n = x.len();
-    assert_eq!(
-        settings.atol.len(),
-        n,
-        "RADAU5 needs one absolute tolerance per state"
-    );
-    let k = Coefficients::new();
+    let (c1, c2) = (c.k.c1, c.k.c2);
+    *faccon = faccon.max(uround).powf(0.8);
+    let mut theta = THET.abs();
+    let mut newt = 0;
+    let (mut dynold, mut thqold) = (0.0, 0.0);
+    loop {
+        if newt >= NIT {
+            return Ok(Newton::Unexpected);
+        }
+        for (zi, ci) in [(&mut w.z1, c1), (&mut w.z2, c2), (&mut w.z3, 1.0)] {
+            for i in 0..n {
+                w.tmp[i] = x[i] + zi[i];
+            }
+            let tc = if ci == 1.0 { t_new } else { t0 + ci * h };
+            if !problem.eval(tc, &w.tmp, zi, stats) {
+                return Err(Failure::NonFinite { t: t0 });
+            }
+        }
+        // Transform, form the right-hand sides (SLVRAD) and solve.
+        let mut r1 = DVector::<f64>::zeros(n);
+        let mut r2 = DVector::<Complex<f64>>::zeros(n);
+        for i in 0..n {
+            let (a1, a2, a3) = (w.z1[i], w.z2[i], w.z3[i]);
+            let w1 = TI11 * a1 + TI12 * a2 + TI13 * a3;
+            let w2 = TI21 * a1 + TI22 * a2 + TI23 * a3;
+            let w3 = TI31 * a1 + TI32 * a2 + TI33 * a3;
+            let (s2, s3) = (-w.f2[i], -w.f3[i]);
+            r1[i] = w1 - w.f1[i] * fz.fac1;
+            r2[i] = Complex::new(
+                w2 + s2 * fz.alphn - s3 * fz.betan,
+                w3 + s3 * fz.alphn + s2 * fz.betan,
+            );
+        }
+        let d1 = fz.e1.solve(&r1).expect("invertible");
+        let d2 = fz.e2.solve(&r2).expect("invertible");
+        for i in 0..n {
+            w.z1[i] = d1[i];
+            w.z2[i] = d2[i].re;
+            w.z3[i] = d2[i].im;
+        }
+        newt += 1;
+        let dyno = rms(&[&w.z1, &w.z2, &w.z3], &w.scal);
+        if !dyno.is_finite() {
+            return Err(Failure::NonFinite { t: t0 });
+        }
+        if newt > 1 && newt < NIT {
+            let thq = dyno / dynold;
+            theta = if newt == 2 {
+                thq
+            } else {
+                (thq * thqold).sqrt()
+            };
+            thqold = thq;
+            if theta < 0.99 {
+                *faccon = theta / (1.0 - theta);
+                let dyth = *faccon * dyno * theta.powi((NIT - 1 - newt) as i32) / c.fnewt;
+                if dyth >= 1.0 {
+                    let qnewt = dyth.clamp(1e-4, 20.0);
+                    let hhfac = 0.8 * qnewt.powf(-1.0 / (4.0 + NIT as f64 - 1.0 - newt as f64));
+                    return Ok(Newton::Shrink(hhfac));
+                }
+            } else {
+                return Ok(Newton::Unexpected);
+            }
+        }
+        dynold = dyno.max(uround);
+        for i in 0..n {
+            w.f1[i] += w.z1[i];
+            w.f2[i] += w.z2[i];
+            w.f3[i] += w.z3[i];
+            w.z1[i] = T11 * w.f1[i] + T12 * w.f2[i] + T13 * w.f3[i];
+            w.z2[i] = T21 * w.f1[i] + T22 * w.f2[i] + T23 * w.f3[i];
+            w.z3[i] = T31 * w.f1[i] + w.f2[i];
+        }
+        if *faccon * dyno <= c.fnewt {
+            return Ok(Newton::Converged {
+                iterations: newt,
+                theta,
+            });
+        }
+    }
+}
+
+/// The error estimate of the converged step (radau5.f ESTRAD), with the extra evaluation
+/// (IV.8.20) when it fails on the first step or after a rejection.
+fn error_estimate(
+    problem: &mut Problem,
+    c: &Constants,
+    fz: &Factorized,
+    st: &Ahead,
+    w: &mut Work,
+    stats: &mut Stats,
+) -> Result<f64, Failure> {
+    let n = st.x.len();
+    let (t0, h) = (st.t, st.h);
+    let (hee1, hee2, hee3) = (c.k.dd[0] / h, c.k.dd[1] / h, c.k.dd[2] / h);
+    let mut r = DVector::<f64>::zeros(n);
+    for i in 0..n {
+        w.ff[i] = hee1 * w.z1[i] + hee2 * w.z2[i] + hee3 * w.z3[i];
+        r[i] = w.ff[i] + st.f[i];
+    }
+    let mut e = fz.e1.solve(&r).expect("invertible");
+    let mut err = rms(&[e.as_slice()], &w.scal).max(ERR_MIN);
+    if err >= 1.0 && (st.first || st.reject) {
+        for i in 0..n {
+            w.tmp[i] = st.x[i] + e[i];
+        }
+        if !problem.eval(t0, &w.tmp, &mut w.f1, stats) {
+            return Err(Failure::NonFinite { t: t0 });
+        }
+        for i in 0..n {
+            r[i] = w.f1[i] + w.ff[i];
+        }
+        e = fz.e1.solve(&r).expect("invertible");
+        err = rms(&[e.as_slice()], &w.scal).max(ERR_MIN);
+    }
+    if err.is_nan() {
+        return Err(Failure::NonFinite { t: t0 });
+    }
+    Ok(err)
+}
+
+/// Takes the converged step to `t_new`: the new state and its collocation polynomial
+/// (radau5.f CONT). The state is left alone if the new one is not finite.
+fn commit(st: &mut Ahead, t_new: f64, w: &Work, k: &Coefficients) -> Result<(), Failure> {
+    let n = st.x.len();
+    if !(0..n).all(|i| (st.x[i] + w.z3[i]).is_finite()) {
+        return Err(Failure::NonFinite { t: st.t });
+    }
     let (c1, c2) = (k.c1, k.c2);
     let (c1m1, c2m1, c1mc2) = (c1 - 1.0, c2 - 1.0, c1 - c2);
-    let uround = f64::EPSILON;
-
-    // Tolerance transformation of radau5.f (EXPM = 2/3).
-    let rtol = 0.1 * settings.rtol.powf(2.0 / 3.0);
-    let atol: Vec<f64> = settings
-        .atol
-        .iter()
-        .map(|&a| {
-            if settings.rtol > 0.0 {
-                rtol * a / settings.rtol
-            } else {
-                0.1 * a.powf(2.0 / 3.0)
-            }
-        })
-        .collect();
-    // Newton stopping tolerance (radau5.f FNEWT default).
-    let fnewt = (10.0 * uround / rtol.max(uround)).max(0.03f64.min(rtol.sqrt()));
-    let h_max = if settings.step > 0.0 && settings.step.is_finite() {
-        settings.step
-    } else {
-        f64::INFINITY
-    };
-    let hmaxn = h_max.min(t_end - *t);
-    let stats: &mut Stats = &mut memory.stats;
-
-    let carried = memory.h > 0.0 && memory.h.is_finite();
-    let mut h = if carried { memory.h } else { H_START }.min(hmaxn);
-    let mut last = false;
-    if *t + h * 1.0001 >= t_end {
-        h = t_end - *t;
-        last = true;
+    st.t = t_new;
+    for i in 0..n {
+        st.x[i] += w.z3[i];
+        let (z1i, z2i) = (w.z1[i], w.z2[i]);
+        let cont1 = (z2i - w.z3[i]) / c2m1;
+        let ak = (z1i - z2i) / c1mc2;
+        let acont3 = (ak - z1i / c1) / c2;
+        let cont2 = (ak - cont1) / c1m1;
+        st.cont[i] = cont1;
+        st.cont[n + i] = cont2;
+        st.cont[2 * n + i] = cont2 - acont3;
     }
-    let mut hopt = h;
-    let mut hold = h;
-    let mut first = !carried;
-    let mut reject = false;
-    let mut faccon: f64 = 1.0;
-    let cfac = SAFETY * (1 + 2 * NIT) as f64;
-    let mut nsing = 0;
-    let (mut hacc, mut erracc) = (0.0, 0.0);
-    let mut accepted_here: u64 = 0;
-    let mut attempts: u64 = 0;
-    let mut have_cont = false;
-    let mut theta: f64;
+    st.have_cont = true;
+    Ok(())
+}
 
-    let scale_of = |x: &[f64], scal: &mut [f64]| {
-        for i in 0..x.len() {
-            scal[i] = atol[i] + rtol * x[i].abs();
-        }
-    };
-    let mut scal = vec![0.0; n];
-    scale_of(x, &mut scal);
-
-    let [mut y0, mut z1, mut z2, mut z3, mut f1, mut f2, mut f3, mut tmp, mut cont1, mut cont2, mut cont3, mut ff] =
-        std::array::from_fn(|_| vec![0.0; n]);
-    let mut jac_buf = vec![0.0; n * n];
-    let mut jac = DMatrix::<f64>::zeros(n, n);
-
-    if !problem.eval(*t, x, &mut y0, stats) {
-        return Err(Failure::NonFinite { t: *t });
-    }
-    let mut need_jac = true;
+/// The stepping loop (radau5.f RADCOR) on `st` up to `t_limit`, which it lands on and never
+/// passes. `t_out: None` (landing mode) returns at `t_limit`; `Some(t_out)` returns as soon
+/// as `st.t ≥ t_out` (at once if it already is), with `st` ready for the next step.
+/// `project` is applied after every accepted step. On failure `st` holds the last accepted
+/// step.
+#[allow(clippy::too_many_arguments)]
+fn run(
+    problem: &mut Problem,
+    st: &mut Ahead,
+    t_limit: f64,
+    t_out: Option<f64>,
+    mut project: Option<&mut dyn FnMut(f64, &mut [f64])>,
+    settings: &Settings,
+    stats: &mut Stats,
+) -> Result<(), Failure> {
+    let n = st.x.len();
+    let c = Constants::new(settings, n);
+    let mut w = Work::new(n);
+    c.scale(&st.x, &mut w.scal);
     let mut factors: Option<Factorized> = None;
-    let mut caljac = false;
+    let mut attempts: u64 = 0;
 
     loop {
-        if need_jac {
-            problem.eval_jacobian("RADAU5", *t, x, &mut jac_buf);
-            jac = DMatrix::from_row_slice(n, n, &jac_buf);
-            need_jac = false;
-            caljac = true;
+        if t_out.is_some_and(|t_out| st.t >= t_out) {
+            return Ok(());
+        }
+        if st.need_jac {
+            problem.eval_jacobian("RADAU5", st.t, &st.x, &mut st.jac);
+            st.need_jac = false;
+            st.caljac = true;
             factors = None;
         }
         if factors.is_none() {
-            match decompose(&jac, h, &k) {
+            match decompose(&st.jac, n, st.h, &c.k) {
                 Some(f) => factors = Some(f),
                 None => {
                     // Singular Newton matrix: unexpected rejection (radau5.f label 78).
-                    nsing += 1;
-                    if nsing >= MAX_SINGULAR {
-                        return Err(Failure::StepTooSmall { t: *t, h });
+                    st.nsing += 1;
+                    if st.nsing >= MAX_SINGULAR {
+                        return Err(Failure::StepTooSmall { t: st.t, h: st.h });
                     }
                     stats.rejected += 1;
-                    h *= UNEXPECTED_SHRINK;
-                    reject = true;
-                    last = false;
-                    need_jac = !caljac;
+                    st.h *= UNEXPECTED_SHRINK;
+                    st.reject = true;
+                    st.last = false;
+                    st.need_jac = !st.caljac;
                     continue;
                 }
             }
@@ -307,246 +721,107 @@ fn run(
 
         if attempts >= MAX_STEPS {
             return Err(Failure::TooManySteps {
-                t: *t,
+                t: st.t,
                 steps: attempts,
             });
         }
-        if h.is_nan() || h < MIN_STEP_ULPS * f64::EPSILON * t.abs().max(1.0) {
-            return Err(Failure::StepTooSmall { t: *t, h });
+        let h = st.h;
+        if h.is_nan() || h < MIN_STEP_ULPS * f64::EPSILON * st.t.abs().max(1.0) {
+            return Err(Failure::StepTooSmall { t: st.t, h });
         }
         attempts += 1;
-        let t0 = *t;
-        let t_new = if last { t_end } else { t0 + h };
+        let t0 = st.t;
+        let t_new = if st.last { t_limit } else { t0 + h };
 
-        // Starting values: the collocation polynomial of the last step, extrapolated.
-        if have_cont {
-            let c3q = h / hold;
-            let (c1q, c2q) = (c1 * c3q, c2 * c3q);
-            for i in 0..n {
-                let (ak1, ak2, ak3) = (cont1[i], cont2[i], cont3[i]);
-                let z1i = c1q * (ak1 + (c1q - c2m1) * (ak2 + (c1q - c1m1) * ak3));
-                let z2i = c2q * (ak1 + (c2q - c2m1) * (ak2 + (c2q - c1m1) * ak3));
-                let z3i = c3q * (ak1 + (c3q - c2m1) * (ak2 + (c3q - c1m1) * ak3));
-                z1[i] = z1i;
-                z2[i] = z2i;
-                z3[i] = z3i;
-                f1[i] = TI11 * z1i + TI12 * z2i + TI13 * z3i;
-                f2[i] = TI21 * z1i + TI22 * z2i + TI23 * z3i;
-                f3[i] = TI31 * z1i + TI32 * z2i + TI33 * z3i;
-            }
-        } else {
-            for v in [&mut z1, &mut z2, &mut z3, &mut f1, &mut f2, &mut f3] {
-                v.fill(0.0);
-            }
-        }
-
-        // Simplified Newton iteration (radau5.f label 40).
-        faccon = faccon.max(uround).powf(0.8);
-        theta = THET.abs();
-        let newton = {
-            let mut newt = 0;
-            let (mut dynold, mut thqold) = (0.0, 0.0);
-            loop {
-                if newt >= NIT {
-                    break Newton::Unexpected;
-                }
-                for (zi, ci) in [(&mut z1, c1), (&mut z2, c2), (&mut z3, 1.0)] {
-                    for i in 0..n {
-                        tmp[i] = x[i] + zi[i];
-                    }
-                    let tc = if ci == 1.0 { t_new } else { t0 + ci * h };
-                    if !problem.eval(tc, &tmp, zi, stats) {
-                        return Err(Failure::NonFinite { t: t0 });
-                    }
-                }
-                // Transform, form the right-hand sides (SLVRAD) and solve.
-                let mut r1 = DVector::<f64>::zeros(n);
-                let mut r2 = DVector::<Complex<f64>>::zeros(n);
-                for i in 0..n {
-                    let (a1, a2, a3) = (z1[i], z2[i], z3[i]);
-                    let w1 = TI11 * a1 + TI12 * a2 + TI13 * a3;
-                    let w2 = TI21 * a1 + TI22 * a2 + TI23 * a3;
-                    let w3 = TI31 * a1 + TI32 * a2 + TI33 * a3;
-                    let (s2, s3) = (-f2[i], -f3[i]);
-                    r1[i] = w1 - f1[i] * fz.fac1;
-                    r2[i] = Complex::new(
-                        w2 + s2 * fz.alphn - s3 * fz.betan,
-                        w3 + s3 * fz.alphn + s2 * fz.betan,
-                    );
-                }
-                let d1 = fz.e1.solve(&r1).expect("invertible");
-                let d2 = fz.e2.solve(&r2).expect("invertible");
-                for i in 0..n {
-                    z1[i] = d1[i];
-                    z2[i] = d2[i].re;
-                    z3[i] = d2[i].im;
-                }
-                newt += 1;
-                let dyno = rms(&[&z1, &z2, &z3], &scal);
-                if !dyno.is_finite() {
-                    return Err(Failure::NonFinite { t: t0 });
-                }
-                if newt > 1 && newt < NIT {
-                    let thq = dyno / dynold;
-                    theta = if newt == 2 {
-                        thq
-                    } else {
-                        (thq * thqold).sqrt()
-                    };
-                    thqold = thq;
-                    if theta < 0.99 {
-                        faccon = theta / (1.0 - theta);
-                        let dyth = faccon * dyno * theta.powi((NIT - 1 - newt) as i32) / fnewt;
-                        if dyth >= 1.0 {
-                            let qnewt = dyth.clamp(1e-4, 20.0);
-                            let hhfac =
-                                0.8 * qnewt.powf(-1.0 / (4.0 + NIT as f64 - 1.0 - newt as f64));
-                            break Newton::Shrink(hhfac);
-                        }
-                    } else {
-                        break Newton::Unexpected;
-                    }
-                }
-                dynold = dyno.max(uround);
-                for i in 0..n {
-                    f1[i] += z1[i];
-                    f2[i] += z2[i];
-                    f3[i] += z3[i];
-                    z1[i] = T11 * f1[i] + T12 * f2[i] + T13 * f3[i];
-                    z2[i] = T21 * f1[i] + T22 * f2[i] + T23 * f3[i];
-                    z3[i] = T31 * f1[i] + f2[i];
-                }
-                if faccon * dyno <= fnewt {
-                    break Newton::Converged {
-                        iterations: newt,
-                        theta,
-                    };
-                }
-            }
-        };
-
-        let (newt, theta_step) = match newton {
+        w.start_values(st, &c.k);
+        let newton = newton(
+            problem,
+            &c,
+            fz,
+            (t0, t_new, h),
+            &st.x,
+            &mut st.faccon,
+            &mut w,
+            stats,
+        )?;
+        let (newt, theta) = match newton {
             Newton::Converged { iterations, theta } => (iterations, theta),
-            Newton::Shrink(factor) => {
+            Newton::Shrink(_) | Newton::Unexpected => {
                 stats.rejected += 1;
-                h *= factor;
-                reject = true;
-                last = false;
+                st.h *= match newton {
+                    Newton::Shrink(factor) => factor,
+                    _ => UNEXPECTED_SHRINK,
+                };
+                st.reject = true;
+                st.last = false;
                 factors = None;
-                need_jac = !caljac;
-                continue;
-            }
-            Newton::Unexpected => {
-                stats.rejected += 1;
-                h *= UNEXPECTED_SHRINK;
-                reject = true;
-                last = false;
-                factors = None;
-                need_jac = !caljac;
+                st.need_jac = !st.caljac;
                 continue;
             }
         };
-        theta = theta_step;
-
-        // Error estimate (ESTRAD).
-        let (hee1, hee2, hee3) = (k.dd[0] / h, k.dd[1] / h, k.dd[2] / h);
-        let mut r = DVector::<f64>::zeros(n);
-        for i in 0..n {
-            ff[i] = hee1 * z1[i] + hee2 * z2[i] + hee3 * z3[i];
-            r[i] = ff[i] + y0[i];
-        }
-        let mut e = fz.e1.solve(&r).expect("invertible");
-        let mut err = rms(&[e.as_slice()], &scal).max(ERR_MIN);
-        if err >= 1.0 && (first || reject) {
-            for i in 0..n {
-                tmp[i] = x[i] + e[i];
-            }
-            if !problem.eval(t0, &tmp, &mut f1, stats) {
-                return Err(Failure::NonFinite { t: t0 });
-            }
-            for i in 0..n {
-                r[i] = f1[i] + ff[i];
-            }
-            e = fz.e1.solve(&r).expect("invertible");
-            err = rms(&[e.as_slice()], &scal).max(ERR_MIN);
-        }
-        if err.is_nan() {
-            return Err(Failure::NonFinite { t: t0 });
-        }
+        let err = error_estimate(problem, &c, fz, st, &mut w, stats)?;
 
         // New step size (radau5.f: 0.2 ≤ h_new/h ≤ 8).
-        let fac = SAFETY.min(cfac / (newt + 2 * NIT) as f64);
+        let fac = SAFETY.min(c.cfac / (newt + 2 * NIT) as f64);
         let mut quot = FAC_R.max(FAC_L.min(err.powf(0.25) / fac));
         let mut hnew = h / quot;
 
-        if err < 1.0 {
-            first = false;
-            accepted_here += 1;
-            // Gustafsson's predictive controller.
-            if accepted_here > 1 {
-                let facgus = (hacc / h) * (err * err / erracc).powf(0.25) / SAFETY;
-                quot = quot.max(facgus.clamp(FAC_R, FAC_L));
-                hnew = h / quot;
-            }
-            hacc = h;
-            erracc = err.max(1e-2);
-            hold = h;
-            *t = t_new;
-            for i in 0..n {
-                x[i] += z3[i];
-                let (z1i, z2i) = (z1[i], z2[i]);
-                cont1[i] = (z2i - z3[i]) / c2m1;
-                let ak = (z1i - z2i) / c1mc2;
-                let acont3 = (ak - z1i / c1) / c2;
-                cont2[i] = (ak - cont1[i]) / c1m1;
-                cont3[i] = cont2[i] - acont3;
-            }
-            have_cont = true;
-            stats.steps += 1;
-            if !x.iter().all(|v| v.is_finite()) {
-                // Cannot happen with finite stages; kept so the invariant is checked.
-                return Err(Failure::NonFinite { t: t0 });
-            }
-            scale_of(x, &mut scal);
-            caljac = false;
-            if last {
-                memory.h = hopt;
-                return Ok(());
-            }
-            if !problem.eval(*t, x, &mut y0, stats) {
-                return Err(Failure::NonFinite { t: *t });
-            }
-            hnew = hnew.min(hmaxn);
-            hopt = h.min(hnew);
-            if reject {
-                hnew = hnew.min(h);
-            }
-            reject = false;
-            if *t + hnew / QUOT1 >= t_end {
-                h = t_end - *t;
-                last = true;
-            } else {
-                let qt = hnew / h;
-                if theta <= THET && (QUOT1..=QUOT2).contains(&qt) {
-                    // Keep h, the Jacobian and the factorization.
-                    continue;
-                }
-                h = hnew;
-            }
-            factors = None;
-            need_jac = theta > THET;
-        } else {
-            reject = true;
-            last = false;
+        if err >= 1.0 {
+            st.reject = true;
+            st.last = false;
             stats.rejected += 1;
-            if first {
-                h *= FIRST_REJECT_SHRINK;
+            st.h = if st.first {
+                h * FIRST_REJECT_SHRINK
             } else {
-                h = hnew;
-            }
+                hnew
+            };
             factors = None;
-            need_jac = !caljac;
+            st.need_jac = !st.caljac;
+            continue;
         }
+        st.first = false;
+        if st.have_cont {
+            // Gustafsson's predictive controller (from the second accepted step on).
+            let facgus = (st.hacc / h) * (err * err / st.erracc).powf(0.25) / SAFETY;
+            quot = quot.max(facgus.clamp(FAC_R, FAC_L));
+            hnew = h / quot;
+        }
+        st.hacc = h;
+        st.erracc = err.max(1e-2);
+        st.hold = h;
+        commit(st, t_new, &w, &c.k)?;
+        if let Some(project) = project.as_mut() {
+            project(t_new, &mut st.x);
+        }
+        stats.steps += 1;
+        c.scale(&st.x, &mut w.scal);
+        st.caljac = false;
+        if st.last {
+            st.landed = true;
+            return Ok(());
+        }
+        if !problem.eval(st.t, &st.x, &mut st.f, stats) {
+            return Err(Failure::NonFinite { t: st.t });
+        }
+        hnew = hnew.min(st.hmaxn);
+        st.hopt = h.min(hnew);
+        if st.reject {
+            hnew = hnew.min(h);
+        }
+        st.reject = false;
+        if st.t + hnew / QUOT1 >= t_limit {
+            st.h = t_limit - st.t;
+            st.last = true;
+        } else {
+            let qt = hnew / h;
+            if theta <= THET && (QUOT1..=QUOT2).contains(&qt) {
+                // Keep h, the Jacobian and the factorization.
+                continue;
+            }
+            st.h = hnew;
+        }
+        factors = None;
+        st.need_jac = theta > THET;
     }
 }
 
@@ -638,6 +913,92 @@ mod tests {
         let r = advance(&mut p, &mut t, &mut x, 1.0, &settings(1e-8, 1), &mut memory);
         assert_eq!(r, Err(Failure::NonFinite { t }));
         assert!(t <= 0.5 && (x[0] - (-t).exp()).abs() < 1e-7, "t = {t}");
+        assert_eq!(memory.h, 0.0);
+    }
+
+    fn oscillator_dense(
+        ahead: &mut Ahead,
+        memory: &mut Memory,
+        (t_out, t_limit): (f64, f64),
+    ) -> [f64; 2] {
+        let mut rhs = oscillator;
+        let mut jac = oscillator_jacobian;
+        let mut p = Problem::new(&mut rhs);
+        p.jacobian = Some(&mut jac);
+        let mut out = [0.0; 2];
+        let s = settings(1e-8, 2);
+        advance_dense(
+            &mut p,
+            &mut |_, _| {},
+            ahead,
+            t_out,
+            t_limit,
+            &s,
+            memory,
+            &mut out,
+        )
+        .unwrap();
+        out
+    }
+
+    #[test]
+    fn dense_output_follows_the_solution_and_lands_on_the_limit() {
+        let mut rhs = oscillator;
+        let mut p = Problem::new(&mut rhs);
+        let mut memory = Memory::default();
+        let s = settings(1e-8, 2);
+        let mut ahead =
+            Ahead::start(&mut p, 0.0, &[1.0, 0.0], 0.0, 1.0, &s, &mut memory.stats).unwrap();
+        let mut worst = 0.0f64;
+        for i in 1..=100 {
+            let t = i as f64 / 100.0;
+            let (x_before, steps) = (ahead.x.clone(), memory.stats.steps);
+            let x = oscillator_dense(&mut ahead, &mut memory, (t, 1.0));
+            assert!(ahead.t >= t && ahead.t - ahead.hold <= t + 1e-12);
+            worst = worst.max(oscillator_error(t, &x));
+            if memory.stats.steps == steps + 1 {
+                // The collocation polynomial passes through the start of its step.
+                let mut start = [0.0; 2];
+                ahead.interpolate(ahead.t - ahead.hold, &mut start);
+                let gap = (start[0] - x_before[0])
+                    .abs()
+                    .max((start[1] - x_before[1]).abs());
+                assert!(gap < 1e-12, "{gap:e}");
+            }
+        }
+        // rtol 1e-8: local tolerance 0.1·rtol^(2/3) ≈ 2e-6 bounds the order-3 interpolant.
+        eprintln!("dense worst error {worst:e}, {:?}", memory.stats);
+        assert!(worst < 2e-6, "{worst:e}");
+        assert!(ahead.landed && ahead.t == 1.0);
+        // A later, larger limit: the integration goes on from the point it landed on.
+        let x = oscillator_dense(&mut ahead, &mut memory, (1.5, 2.0));
+        assert!(!ahead.landed && ahead.t >= 1.5, "{ahead:?}");
+        assert!(oscillator_error(1.5, &x) < 2e-6);
+    }
+
+    #[test]
+    fn dense_failure_keeps_the_last_accepted_step() {
+        let mut rhs = |t: f64, y: &[f64], d: &mut [f64]| {
+            d[0] = if t > 0.5 { f64::NAN } else { -y[0] };
+        };
+        let mut jac = |_: f64, _: &[f64], j: &mut [f64]| j[0] = -1.0;
+        let mut p = Problem::new(&mut rhs);
+        p.jacobian = Some(&mut jac);
+        let (s, mut memory) = (settings(1e-8, 1), Memory::default());
+        let mut ahead = Ahead::start(&mut p, 0.0, &[1.0], 0.0, 1.0, &s, &mut memory.stats).unwrap();
+        let mut out = [0.0];
+        let r = advance_dense(
+            &mut p,
+            &mut |_, _| {},
+            &mut ahead,
+            1.0,
+            1.0,
+            &s,
+            &mut memory,
+            &mut out,
+        );
+        assert_eq!(r, Err(Failure::NonFinite { t: ahead.t }));
+        assert!(ahead.t <= 0.5 && (ahead.x[0] - (-ahead.t).exp()).abs() < 1e-7);
         assert_eq!(memory.h, 0.0);
     }
 
