@@ -17,146 +17,22 @@
 //! - MassSpringDamper damped, 10 s: landing 844 / 11 016 / 110 012 / 1 086 442; dense 844
 //!   (190 steps) on every grid, worst error 5.3e-6.
 
-use mbfmu::fmi::{Instance, Logger, ModelInfo, StepOutcome};
-use mbfmu::integrators::Stats;
-use mbfmu::model::System;
+mod dense_common;
+
+use dense_common::{
+    bits, check_sweep, grids_agree, rollback, steps, sweep, worst_error, Case, EXACT_LINEAR, RADAU5,
+};
+use mbfmu::fmi::StepOutcome;
 use mbfmu::systems::{MassSpringDamper, RigidBody, TwoMassChain};
 
-const RADAU5: i32 = 10;
-const EXACT_LINEAR: i32 = 11;
 const TOL: f64 = 1e-6;
 
-fn info<S: System>() -> &'static ModelInfo {
-    Box::leak(Box::new(ModelInfo::of::<S>()))
-}
-
-/// A system under test: its model info, the scene and the names of its states.
-struct Case<S: System> {
-    info: &'static ModelInfo,
-    scene: &'static str,
-    states: &'static [&'static str],
-    _s: std::marker::PhantomData<S>,
-}
-
-impl<S: System> Case<S> {
-    fn new(scene: &'static str, states: &'static [&'static str]) -> Self {
-        Case {
-            info: info::<S>(),
-            scene,
-            states,
-            _s: std::marker::PhantomData,
-        }
-    }
-
-    fn vr(&self, name: &str) -> u32 {
-        self.info.layout.vr_of(name).unwrap()
-    }
-
-    fn stop_time(&self) -> f64 {
-        self.scene().stop_time
-    }
-
-    fn scene(&self) -> mbfmu::model::Scene {
-        S::scenes()
-            .into_iter()
-            .find(|s| s.name == self.scene)
-            .unwrap()
-    }
-
-    /// An instance in step mode at `start` with the scene's start values, `solver`, and
-    /// `extra` values set in initialization mode (ExactLinear steps by the communication
-    /// step `comm`).
-    fn started(&self, solver: i32, comm: f64, start: f64, extra: &[(&str, f64)]) -> Instance<S> {
-        let scene = self.scene();
-        let mut inst = Instance::<S>::new(self.info, Logger::silent("dense_radau5"));
-        inst.setup_experiment(Some(TOL), start, Some(scene.stop_time))
-            .unwrap();
-        inst.enter_initialization_mode().unwrap();
-        for (name, value) in scene.start_values.iter().chain(extra) {
-            inst.set_real(&[self.vr(name)], &[*value]).unwrap();
-        }
-        if solver == EXACT_LINEAR {
-            inst.set_real(&[self.vr("solver_step")], &[comm]).unwrap();
-        }
-        inst.set_integer(&[self.vr("solver")], &[solver]).unwrap();
-        inst.exit_initialization_mode().unwrap();
-        inst
-    }
-
-    /// max_t |x_i(t)| of the exact trajectory on a 1e-2 s grid (the bench's error scale).
-    fn scale(&self) -> Vec<f64> {
-        let (grid, _) = self.run(EXACT_LINEAR, 1e-2);
-        (0..self.states.len())
-            .map(|i| grid.iter().fold(0.0f64, |m, x| m.max(x[i].abs())))
-            .collect()
-    }
-
-    fn state(&self, inst: &Instance<S>) -> Vec<f64> {
-        let vrs: Vec<u32> = self.states.iter().map(|n| self.vr(n)).collect();
-        let mut x = vec![0.0; vrs.len()];
-        inst.get_real(&vrs, &mut x).unwrap();
-        x
-    }
-
-    /// doSteps of `comm` over the scene: the states at every communication point, and the
-    /// stats.
-    fn run(&self, solver: i32, comm: f64) -> (Vec<Vec<f64>>, Stats) {
-        let mut inst = self.started(solver, comm, 0.0, &[]);
-        let n = (self.stop_time() / comm).round() as usize;
-        let mut out = Vec::with_capacity(n);
-        for i in 0..n {
-            let t = i as f64 * comm;
-            let h = if i + 1 == n {
-                self.stop_time() - t
-            } else {
-                comm
-            };
-            assert_eq!(inst.do_step(t, h).unwrap(), StepOutcome::Completed);
-            out.push(self.state(&inst));
-        }
-        (out, inst.stats())
-    }
-}
-
-/// The largest error over a grid, component i scaled by `scale[i]`.
-fn worst_error(got: &[Vec<f64>], reference: &[Vec<f64>], scale: &[f64]) -> f64 {
-    let dim = scale.len();
-    got.iter().zip(reference).fold(0.0f64, |m, (x, r)| {
-        (0..dim).fold(m, |m, i| m.max((x[i] - r[i]).abs() / scale[i]))
-    })
-}
-
 fn chain() -> Case<TwoMassChain> {
-    Case::new("stiff", &["x1", "x2", "v1", "v2"])
+    Case::new("stiff", &["x1", "x2", "v1", "v2"], TOL)
 }
 
 fn msd() -> Case<MassSpringDamper> {
-    Case::new("damped", &["x", "v"])
-}
-
-/// RHS counts and worst errors for communication steps stop time, 1e-2, 1e-3, 1e-4.
-fn sweep<S: System>(case: &Case<S>) -> Vec<(f64, u64, f64)> {
-    let scale = case.scale();
-    [case.stop_time(), 1e-2, 1e-3, 1e-4]
-        .into_iter()
-        .map(|comm| {
-            let (x, stats) = case.run(RADAU5, comm);
-            let (reference, _) = case.run(EXACT_LINEAR, comm);
-            let err = worst_error(&x, &reference, &scale);
-            println!(
-                "METRIC RADAU5 {} comm {comm:e}: {} RHS, {} steps, worst error {err:.2e}",
-                case.scene, stats.rhs_evals, stats.steps
-            );
-            (comm, stats.rhs_evals, err)
-        })
-        .collect()
-}
-
-fn check_sweep(runs: &[(f64, u64, f64)], bound: f64) {
-    for (comm, evals, err) in runs {
-        assert_eq!(*evals, runs[0].1, "comm {comm}: {evals} vs {}", runs[0].1);
-        assert!(*err < bound, "comm {comm}: worst error {err:e}");
-    }
+    Case::new("damped", &["x", "v"], TOL)
 }
 
 /// The bound on the error at the communication points: radau5.f's local tolerance
@@ -168,84 +44,26 @@ const DENSE_BOUND: f64 = 1e-5;
 
 #[test]
 fn stiff_chain_rhs_count_does_not_depend_on_the_communication_step() {
-    let runs = sweep(&chain());
-    check_sweep(&runs, DENSE_BOUND);
+    let runs = sweep(&chain(), RADAU5);
+    check_sweep(&runs, DENSE_BOUND, 0);
 }
 
 #[test]
 fn damped_oscillator_rhs_count_does_not_depend_on_the_communication_step() {
-    let runs = sweep(&msd());
-    check_sweep(&runs, DENSE_BOUND);
-}
-
-fn bits(v: &[Vec<f64>]) -> Vec<u64> {
-    v.iter().flatten().map(|x| x.to_bits()).collect()
-}
-
-/// Grids of 1/8, 1/64 and 1/512 s (exact in binary, so the points meet exactly): the
-/// states where they meet are the same bits, as from one run read at those points.
-fn grids_agree<S: System>(case: &Case<S>) {
-    let coarse = 0.125;
-    let (x8, s8) = case.run(RADAU5, coarse);
-    for fine in [coarse / 8.0, coarse / 64.0] {
-        let (x, s) = case.run(RADAU5, fine);
-        let every = (coarse / fine) as usize;
-        let met: Vec<Vec<f64>> = x.into_iter().skip(every - 1).step_by(every).collect();
-        assert_eq!(bits(&met), bits(&x8), "{} at {fine}", case.scene);
-        assert_eq!(s, s8, "{} at {fine}", case.scene);
-    }
+    let runs = sweep(&msd(), RADAU5);
+    check_sweep(&runs, DENSE_BOUND, 0);
 }
 
 #[test]
 fn communication_points_of_different_grids_agree_bit_for_bit() {
-    grids_agree(&chain());
-    grids_agree(&msd());
-}
-
-/// doSteps of `comm` from `from` to `to` (indices), the states after each.
-fn steps<S: System>(
-    case: &Case<S>,
-    inst: &mut Instance<S>,
-    comm: f64,
-    from: usize,
-    to: usize,
-) -> Vec<Vec<f64>> {
-    (from..to)
-        .map(|i| {
-            assert_eq!(
-                inst.do_step(i as f64 * comm, comm).unwrap(),
-                StepOutcome::Completed
-            );
-            case.state(inst)
-        })
-        .collect()
-}
-
-fn rollback<S: System>(case: &Case<S>) {
-    let comm = 1e-3;
-    let mut inst = case.started(RADAU5, comm, 0.0, &[]);
-    steps(case, &mut inst, comm, 0, 300);
-    let saved = inst.snapshot();
-    assert!(
-        saved.memory.radau5_ahead.is_some(),
-        "RADAU5 keeps its loop state ahead of the communication time"
-    );
-    let blob = inst.serialize(&saved);
-    let forward = steps(case, &mut inst, comm, 300, 700);
-    let stats = inst.stats();
-    for restore in [saved.clone(), inst.deserialize(&blob).unwrap()] {
-        assert_eq!(restore, saved);
-        inst.restore(&restore).unwrap();
-        let again = steps(case, &mut inst, comm, 300, 700);
-        assert_eq!(bits(&again), bits(&forward), "{}", case.scene);
-        assert_eq!(inst.stats(), stats);
-    }
+    grids_agree(&chain(), RADAU5, 0);
+    grids_agree(&msd(), RADAU5, 0);
 }
 
 #[test]
 fn rollback_and_serialization_continue_bit_for_bit() {
-    rollback(&chain());
-    rollback(&msd());
+    rollback(&chain(), RADAU5);
+    rollback(&msd(), RADAU5);
 }
 
 #[test]
@@ -325,6 +143,7 @@ fn projected_steps_do_not_depend_on_the_communication_step() {
     let case = Case::<RigidBody>::new(
         "symmetric_top",
         &["omega1", "omega2", "omega3", "q0", "q1", "q2", "q3"],
+        TOL,
     );
     let (x_stop, stats) = case.run(RADAU5, case.stop_time());
     for comm in [1e-2, 1e-3] {

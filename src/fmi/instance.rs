@@ -8,7 +8,7 @@ use super::Status;
 use super::{Logger, ModelInfo, Snapshot};
 use crate::integrators::problem::Problem;
 use crate::integrators::{
-    self, dopri5, dopri5::Ahead, radau5, rattle::Mechanics, Memory, Method, Settings,
+    self, dop853, dopri5, dopri5::Ahead, radau5, rattle::Mechanics, Memory, Method, Settings,
 };
 use crate::model::jacobian::{directional, Direction};
 use crate::model::{Slot, System, VarKind};
@@ -292,8 +292,7 @@ impl<M: System> Instance<M> {
                     // A new input value changes f: the integrator's point ahead of the
                     // communication time no longer holds. The same value keeps it.
                     if d.u[slot.index].to_bits() != value.to_bits() {
-                        d.memory.ahead = None;
-                        d.memory.radau5_ahead = None;
+                        drop_ahead(&mut d.memory);
                     }
                     d.u[slot.index] = value
                 }
@@ -460,34 +459,34 @@ impl<M: System> Instance<M> {
         };
         let mut t = current;
         let mut x = d.x.clone();
-        // DOPRI5 and RADAU5 run ahead of the communication points with dense output, unless
-        // an event may come (events are located on landing steps).
-        let dense = matches!(d.method, Method::Dopri5 | Method::Radau5)
-            && M::event_indicator(t, &x, u, p).is_none();
+        // The adaptive methods run ahead of the communication points with dense output,
+        // unless an event may come (events are located on landing steps).
+        let dense_method = matches!(d.method, Method::Dopri5 | Method::Dop853 | Method::Radau5);
+        let dense = dense_method && M::event_indicator(t, &x, u, p).is_none();
         let result = if dense {
             // Never step past the stop time (f may not be defined beyond it).
             let t_limit = d.stop_time.map_or(f64::INFINITY, |stop| stop.max(t_end));
             let mut project = |t: f64, x: &mut [f64]| M::project(t, p, x);
             let state = (&mut t, &mut x);
             let ends = (t_end, t_limit);
-            if d.method == Method::Dopri5 {
-                d.memory.radau5_ahead = None;
-                let rhs = &mut *problem.rhs;
-                advance_dense(rhs, &mut project, state, ends, &settings, &mut d.memory)
-            } else {
-                d.memory.ahead = None;
-                advance_dense_radau5(
-                    &mut problem,
-                    &mut project,
-                    state,
-                    ends,
-                    &settings,
-                    &mut d.memory,
-                )
+            let memory = &mut d.memory;
+            match d.method {
+                Method::Dopri5 => {
+                    let rhs = &mut *problem.rhs;
+                    advance_dense(rhs, &mut project, state, ends, &settings, memory)
+                }
+                Method::Radau5 => {
+                    let p = &mut problem;
+                    advance_dense_radau5(p, &mut project, state, ends, &settings, memory)
+                }
+                _ => {
+                    // DOP853, the last of the dense methods above.
+                    let p = &mut problem;
+                    advance_dense_dop853(p, &mut project, state, ends, &settings, memory)
+                }
             }
         } else {
-            d.memory.ahead = None;
-            d.memory.radau5_ahead = None;
+            drop_ahead(&mut d.memory);
             advance_locating_events::<M>(
                 &mut problem,
                 &mut t,
@@ -660,7 +659,9 @@ fn advance_dense(
     settings: &Settings,
     memory: &mut Memory,
 ) -> Result<(), String> {
-    let mut ahead = match memory.ahead.take() {
+    let kept = memory.ahead.take();
+    drop_ahead(memory);
+    let mut ahead = match kept {
         Some(a) if a.t0 <= *t && *t <= a.t => a,
         _ => Ahead::start(rhs, *t, x, &mut memory.stats).map_err(|e| e.to_string())?,
     };
@@ -698,7 +699,9 @@ fn advance_dense_radau5(
     settings: &Settings,
     memory: &mut Memory,
 ) -> Result<(), String> {
-    let mut ahead = match memory.radau5_ahead.take() {
+    let kept = memory.radau5_ahead.take();
+    drop_ahead(memory);
+    let mut ahead = match kept {
         Some(a) if *t <= a.t => a,
         _ => radau5::Ahead::start(
             problem,
@@ -732,6 +735,50 @@ fn advance_dense_radau5(
             Err(e.to_string())
         }
     }
+}
+
+/// DOP853 with dense output (see [`dop853::Ahead`]), as [`advance_dense`] does for DOPRI5.
+#[allow(clippy::type_complexity)] // the integrators' own closure types, spelled out
+fn advance_dense_dop853(
+    problem: &mut Problem,
+    project: &mut dyn FnMut(f64, &mut [f64]),
+    (t, x): (&mut f64, &mut Vec<f64>),
+    (t_end, t_limit): (f64, f64),
+    settings: &Settings,
+    memory: &mut Memory,
+) -> Result<(), String> {
+    let kept = memory.dop853_ahead.take();
+    drop_ahead(memory);
+    let mut ahead = match kept {
+        Some(a) if a.t0 <= *t && *t <= a.t => a,
+        _ => dop853::Ahead::start(problem, *t, x, &mut memory.stats).map_err(|e| e.to_string())?,
+    };
+    let mut out = vec![0.0; x.len()];
+    match dop853::advance_dense(
+        problem, project, &mut ahead, t_end, t_limit, settings, memory, &mut out,
+    ) {
+        Ok(()) => {
+            *x = out;
+            *t = t_end;
+            memory.dop853_ahead = Some(ahead);
+            Ok(())
+        }
+        Err(e) => {
+            if ahead.t > *t {
+                *t = ahead.t;
+                x.copy_from_slice(&ahead.x);
+            }
+            Err(e.to_string())
+        }
+    }
+}
+
+/// Forgets every integrator's point ahead of the communication time: f changed (an input),
+/// or the mode or method that kept it is not the one running.
+fn drop_ahead(memory: &mut Memory) {
+    memory.ahead = None;
+    memory.radau5_ahead = None;
+    memory.dop853_ahead = None;
 }
 
 /// Most events handled inside one doStep before it gives up (a chattering model).

@@ -8,12 +8,13 @@
 
 use super::Machine;
 use crate::integrators::dopri5::{Ahead, StiffnessMonitor};
-use crate::integrators::{radau5, Memory, Method, Stats};
+use crate::integrators::{dop853, radau5, Memory, Method, Stats};
 
 pub const SNAPSHOT_MAGIC: [u8; 8] = *b"MBFMU\0ST";
 /// 2: adds DOPRI5's dense-output point ([`crate::integrators::dopri5::Ahead`]) and
-/// stiffness monitor. 3: adds RADAU5's loop state ([`radau5::Ahead`]).
-pub const SNAPSHOT_VERSION: u32 = 3;
+/// stiffness monitor. 3: adds RADAU5's loop state ([`radau5::Ahead`]). 4: adds DOP853's
+/// dense-output point ([`dop853::Ahead`]).
+pub const SNAPSHOT_VERSION: u32 = 4;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Snapshot {
@@ -70,6 +71,57 @@ impl<'a> Reader<'a> {
 
 fn put_f64(b: &mut Vec<u8>, v: f64) {
     b.extend_from_slice(&v.to_bits().to_le_bytes());
+}
+
+/// DOP853's point ahead, after its presence flag: the point, then the last step's record
+/// and its extension, each after a flag (empty before the first step / until built).
+fn write_dop853(b: &mut Vec<u8>, a: &dop853::Ahead) {
+    for &v in [a.t, a.t0, a.err_prev].iter().chain(&a.x).chain(&a.f) {
+        put_f64(b, v);
+    }
+    for block in [&a.step, &a.cont] {
+        b.push(!block.is_empty() as u8);
+        for &v in block.iter() {
+            put_f64(b, v);
+        }
+    }
+}
+
+/// Reads what [`write_dop853`] wrote for `n` states, and checks it.
+fn read_dop853(r: &mut Reader, n: usize) -> Result<dop853::Ahead, String> {
+    let (t, t0, err_prev) = (r.f64()?, r.f64()?, r.f64()?);
+    let (x, f) = (r.f64s(n)?, r.f64s(n)?);
+    let step = if r.flag()? {
+        r.f64s(11 * n)?
+    } else {
+        Vec::new()
+    };
+    let cont = if r.flag()? {
+        r.f64s(8 * n)?
+    } else {
+        Vec::new()
+    };
+    let finite = [t, t0, err_prev]
+        .iter()
+        .chain(&x)
+        .chain(&f)
+        .chain(&step)
+        .chain(&cont)
+        .all(|v| v.is_finite());
+    let consistent =
+        t0 <= t && (step.is_empty() == (t0 == t)) && (cont.is_empty() || !step.is_empty());
+    if !finite || !consistent {
+        return Err("FMU state holds an invalid DOP853 integrator point".into());
+    }
+    Ok(dop853::Ahead {
+        t,
+        x,
+        f,
+        t0,
+        err_prev,
+        step,
+        cont,
+    })
 }
 
 /// RADAU5's loop state, after its presence flag.
@@ -183,6 +235,10 @@ impl Snapshot {
         if let Some(a) = &self.memory.radau5_ahead {
             write_radau5(&mut b, a);
         }
+        b.push(self.memory.dop853_ahead.is_some() as u8);
+        if let Some(a) = &self.memory.dop853_ahead {
+            write_dop853(&mut b, a);
+        }
         b.extend_from_slice(&self.machine.code().to_le_bytes());
         b
     }
@@ -277,6 +333,10 @@ impl Snapshot {
             false => None,
             true => Some(read_radau5(&mut r, counts[1])?),
         };
+        let dop853_ahead = match r.flag()? {
+            false => None,
+            true => Some(read_dop853(&mut r, counts[1])?),
+        };
         let code = r.u32()?;
         let machine = Machine::from_code(code)
             .ok_or_else(|| format!("FMU state names unknown machine state {code}"))?;
@@ -307,6 +367,7 @@ impl Snapshot {
                 stats,
                 ahead,
                 radau5_ahead,
+                dop853_ahead,
                 stiffness,
             },
             machine,

@@ -8,6 +8,8 @@
 //! combined error estimator), and Hairer's reference code `dop853.f` (subroutines DP86CO and
 //! HINIT, version of 2004), whose coefficient values (30 digits) and default constants are
 //! reproduced below. The controller is the one of [`super::dopri5`] with dop853.f's defaults.
+//! Dense output (the FMU's dense mode, [`advance_dense`]): dop853.f's order-7 continuous
+//! extension CONTD8 with its three extra stages.
 
 // The coefficients are copied digit for digit from Hairer's Fortran source, so that they can
 // be checked against it; the compiler rounds them to the nearest f64.
@@ -18,9 +20,9 @@ use super::explicit_rk::{
     LANDING_STRETCH,
 };
 use super::problem::{start, Problem};
-use super::{Failure, Memory, Settings};
+use super::{Failure, Memory, Settings, Stats};
 
-// Nodes c_i (dop853.f; c12 = 1; c13..c16 belong to dense output, not implemented).
+// Nodes c_i (dop853.f; c12 = 1; c14..c16 of the dense output are below).
 const C2: f64 = 0.526001519587677318785587544488e-01;
 const C3: f64 = 0.789002279381515978178381316732e-01;
 const C4: f64 = 0.118350341907227396726757197510e+00;
@@ -136,6 +138,95 @@ const ERR3_WEIGHT: f64 = 0.01;
 /// Order of the method, for the initial step `h₁⁸·max(‖f'‖, ‖f‖) = 0.01` (dop853.f IORD = 8).
 const ORDER: i32 = 8;
 
+// Dense output (dop853.f): nodes and stage weights of the three extra stages 14–16, and the
+// coefficients d_ij of the order-7 continuous extension (CONTD8).
+const C14: f64 = 0.1e+00;
+const C15: f64 = 0.2e+00;
+const C16: f64 = 0.777777777777777777777777777778e+00;
+const A141: f64 = 5.61675022830479523392909219681e-2;
+const A147: f64 = 2.53500210216624811088794765333e-1;
+const A148: f64 = -2.46239037470802489917441475441e-1;
+const A149: f64 = -1.24191423263816360469010140626e-1;
+const A1410: f64 = 1.5329179827876569731206322685e-1;
+const A1411: f64 = 8.20105229563468988491666602057e-3;
+const A1412: f64 = 7.56789766054569976138603589584e-3;
+const A1413: f64 = -8.298e-3;
+const A151: f64 = 3.18346481635021405060768473261e-2;
+const A156: f64 = 2.83009096723667755288322961402e-2;
+const A157: f64 = 5.35419883074385676223797384372e-2;
+const A158: f64 = -5.49237485713909884646569340306e-2;
+const A1511: f64 = -1.08347328697249322858509316994e-4;
+const A1512: f64 = 3.82571090835658412954920192323e-4;
+const A1513: f64 = -3.40465008687404560802977114492e-4;
+const A1514: f64 = 1.41312443674632500278074618366e-1;
+const A161: f64 = -4.28896301583791923408573538692e-1;
+const A166: f64 = -4.69762141536116384314449447206e0;
+const A167: f64 = 7.68342119606259904184240953878e0;
+const A168: f64 = 4.06898981839711007970213554331e0;
+const A169: f64 = 3.56727187455281109270669543021e-1;
+const A1613: f64 = -1.39902416515901462129418009734e-3;
+const A1614: f64 = 2.9475147891527723389556272149e0;
+const A1615: f64 = -9.15095847217987001081870187138e0;
+/// Rows d4 … d7, each on the stages (1, 6, 7, 8, 9, 10, 11, 12, 13 = f(t+h, y₁), 14, 15, 16).
+const D: [[f64; 12]; 4] = [
+    [
+        -0.84289382761090128651353491142e+01,
+        0.56671495351937776962531783590e+00,
+        -0.30689499459498916912797304727e+01,
+        0.23846676565120698287728149680e+01,
+        0.21170345824450282767155149946e+01,
+        -0.87139158377797299206789907490e+00,
+        0.22404374302607882758541771650e+01,
+        0.63157877876946881815570249290e+00,
+        -0.88990336451333310820698117400e-01,
+        0.18148505520854727256656404962e+02,
+        -0.91946323924783554000451984436e+01,
+        -0.44360363875948939664310572000e+01,
+    ],
+    [
+        0.10427508642579134603413151009e+02,
+        0.24228349177525818288430175319e+03,
+        0.16520045171727028198505394887e+03,
+        -0.37454675472269020279518312152e+03,
+        -0.22113666853125306036270938578e+02,
+        0.77334326684722638389603898808e+01,
+        -0.30674084731089398182061213626e+02,
+        -0.93321305264302278729567221706e+01,
+        0.15697238121770843886131091075e+02,
+        -0.31139403219565177677282850411e+02,
+        -0.93529243588444783865713862664e+01,
+        0.35816841486394083752465898540e+02,
+    ],
+    [
+        0.19985053242002433820987653617e+02,
+        -0.38703730874935176555105901742e+03,
+        -0.18917813819516756882830838328e+03,
+        0.52780815920542364900561016686e+03,
+        -0.11573902539959630126141871134e+02,
+        0.68812326946963000169666922661e+01,
+        -0.10006050966910838403183860980e+01,
+        0.77771377980534432092869265740e+00,
+        -0.27782057523535084065932004339e+01,
+        -0.60196695231264120758267380846e+02,
+        0.84320405506677161018159903784e+02,
+        0.11992291136182789328035130030e+02,
+    ],
+    [
+        -0.25693933462703749003312586129e+02,
+        -0.15418974869023643374053993627e+03,
+        -0.23152937917604549567536039109e+03,
+        0.35763911791061412378285349910e+03,
+        0.93405324183624310003907691704e+02,
+        -0.37458323136451633156875139351e+02,
+        0.10409964950896230045147246184e+03,
+        0.29840293426660503123344363579e+02,
+        -0.43533456590011143754432175058e+02,
+        0.96324553959188282948394950600e+02,
+        -0.39177261675615439165231486172e+02,
+        -0.14972683625798562581422125276e+03,
+    ],
+];
+
 /// Advance with DOP853 from `*t` to exactly `t_end`, with `settings.rtol`, `settings.atol`
 /// (one per state) and `settings.step` as the maximum step (`settings.method` is not consulted:
 /// it names the methods of [`super::advance`]). Conventions of [`super::advance`]: `*t == t_end`
@@ -156,190 +247,400 @@ pub fn advance(
     if !start("DOP853", *t, x, t_end)? {
         return Ok(());
     }
-    let result = run(problem, t, x, t_end, settings, memory);
+    let mut k1 = vec![0.0; x.len()];
+    let result = if problem.eval(*t, x, &mut k1, &mut memory.stats) {
+        let goal = Goal::Land(t_end);
+        run(problem, t, x, &mut k1, goal, None, None, settings, memory).map(|_| ())
+    } else {
+        Err(Failure::NonFinite { t: *t })
+    };
     if result.is_err() {
         memory.h = 0.0;
     }
     result
 }
 
-fn run(
+/// Dense-output mode, as [`super::dopri5::Ahead`]: the integrator's own point at the end of
+/// its last accepted step, ahead of the communication time, and what the continuous
+/// extension of order 7 of that step (dop853.f CONTD8) is built from. The extension needs
+/// three more stages, so it is built only when a communication point falls inside the step
+/// (as scipy's DOP853 builds it only when its dense output is asked for): a point at a
+/// step's end, or a step no point falls in, costs nothing more. Valid only while f is
+/// unchanged.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Ahead {
+    /// End of the last accepted step: the integrator's own time.
+    pub t: f64,
+    /// State at `t`.
+    pub x: Vec<f64>,
+    /// f(t, x): the first stage of the next step.
+    pub f: Vec<f64>,
+    /// Start of the last accepted step (= `t` before the first step).
+    pub t0: f64,
+    /// The controller's previous error, carried as DOPRI5 does (no effect while dop853.f's
+    /// BETA is 0).
+    pub err_prev: f64,
+    /// The last accepted step, 11 blocks of n (see [`StepBlock`]): x(t0), the step's own
+    /// end y (before any projection), and the stages k1, k6 … k12 and f(t, y); empty before
+    /// the first step.
+    pub step: Vec<f64>,
+    /// The continuous extension of the last step, 8 blocks of n (dop853.f CONT); empty until
+    /// a point inside the step is asked for.
+    pub cont: Vec<f64>,
+}
+
+/// The blocks of [`Ahead::step`], in order.
+#[derive(Clone, Copy)]
+enum StepBlock {
+    X0,
+    Y,
+    K1,
+    /// k6 … k12 follow K6.
+    K6,
+    F1 = 10,
+}
+
+impl Ahead {
+    /// The integrator's point at `(t, x)` before any step; evaluates f once.
+    pub fn start(
+        problem: &mut Problem,
+        t: f64,
+        x: &[f64],
+        stats: &mut Stats,
+    ) -> Result<Ahead, Failure> {
+        let n = x.len();
+        let mut f = vec![0.0; n];
+        if !x.iter().all(|v| v.is_finite()) || !problem.eval(t, x, &mut f, stats) {
+            return Err(Failure::NonFinite { t });
+        }
+        Ok(Ahead {
+            t,
+            x: x.to_vec(),
+            f,
+            t0: t,
+            err_prev: 0.0,
+            step: Vec::new(),
+            cont: Vec::new(),
+        })
+    }
+
+    /// x(`t`) for `t` in [`t0`, `t`] of the last step: the step's end itself, else the
+    /// continuous extension (CONTD8), built first if it is not yet (3 evaluations of f).
+    pub fn point(
+        &mut self,
+        problem: &mut Problem,
+        t: f64,
+        out: &mut [f64],
+        stats: &mut Stats,
+    ) -> Result<(), Failure> {
+        if t == self.t || self.step.is_empty() {
+            out.copy_from_slice(&self.x);
+            return Ok(());
+        }
+        if self.cont.is_empty() {
+            self.cont = extension(problem, self.t0, self.t - self.t0, &self.step, stats)?;
+        }
+        let n = self.x.len();
+        let s = (t - self.t0) / (self.t - self.t0);
+        let s1 = 1.0 - s;
+        let c = |j: usize, i: usize| self.cont[j * n + i];
+        for (i, o) in out.iter_mut().enumerate() {
+            let conpar = c(4, i) + s * (c(5, i) + s1 * (c(6, i) + s * c(7, i)));
+            *o = c(0, i) + s * (c(1, i) + s1 * (c(2, i) + s * (c(3, i) + s1 * conpar)));
+        }
+        Ok(())
+    }
+}
+
+/// Dense mode (see [`Ahead`]): steps `ahead` until its last step covers `t_out`, then
+/// writes x(`t_out`) into `out`. Steps are cut only to land on `t_limit`, which the
+/// integrator never passes; `t_out` must lie in [`ahead.t0`, `t_limit`]. `project` is
+/// applied after every accepted step (f is evaluated again where it changed the state).
+///
+/// Counts: per accepted step 11 stages and f at its end (the next step's first stage); 11
+/// per rejected step; one more for [`hinit`] if `memory.h == 0`; one per step the
+/// projection changed; 3 for the extension of each step a point falls inside (not on its
+/// end). So the work is bounded by the grid-free `15·steps` and shrinks to landing
+/// mode's `12·steps` for points that are step ends. On failure `ahead` holds the last
+/// accepted step and `memory.h` is reset.
+#[allow(clippy::too_many_arguments)]
+pub fn advance_dense(
     problem: &mut Problem,
-    t: &mut f64,
-    x: &mut [f64],
-    t_end: f64,
+    project: &mut dyn FnMut(f64, &mut [f64]),
+    ahead: &mut Ahead,
+    t_out: f64,
+    t_limit: f64,
     settings: &Settings,
     memory: &mut Memory,
+    out: &mut [f64],
 ) -> Result<(), Failure> {
-    let n = x.len();
-    assert_eq!(
-        settings.atol.len(),
-        n,
-        "DOP853 needs one absolute tolerance per state"
-    );
-    let h_max = if settings.step > 0.0 && settings.step.is_finite() {
-        settings.step
-    } else {
-        f64::INFINITY
-    };
-    let stats = &mut memory.stats;
-    let [mut k1, mut k2, mut k3, mut k4, mut k5, mut k6, mut k7, mut k8, mut k9, mut k10, mut k11, mut k12, mut y] =
-        std::array::from_fn(|_| vec![0.0; n]);
-
-    if !problem.eval(*t, x, &mut k1, stats) {
-        return Err(Failure::NonFinite { t: *t });
-    }
-    let carried = memory.h > 0.0 && memory.h.is_finite();
-    let mut h = if carried {
-        memory.h.min(h_max)
-    } else {
-        let mut probe = |t: f64, y: &[f64], k: &mut [f64]| problem.eval(t, y, k, stats);
-        initial_step(
-            &mut probe,
-            *t,
+    if t_out > ahead.t {
+        let Ahead {
+            t,
             x,
-            &k1,
+            f,
+            t0,
+            err_prev,
+            step,
+            cont,
+        } = ahead;
+        let goal = Goal::Pass { t_out, t_limit };
+        let known = (*err_prev > 0.0).then_some(*err_prev);
+        match run(
+            problem,
+            t,
+            x,
+            f,
+            goal,
+            known,
+            Some(project),
             settings,
-            h_max,
-            ORDER,
-            (&mut y, &mut k2),
-        )
-    };
-    // As in DOPRI5: a continuing call assumes the previous error was at tolerance.
-    let mut controller = PiController::new(GAINS, if carried { 1.0 } else { FACOLD_MIN });
-    let mut k1_fresh = true;
-    let mut attempts: u64 = 0;
-
-    loop {
-        check_attempt(*t, h, attempts)?;
-        attempts += 1;
-        let last = *t + LANDING_STRETCH * h >= t_end;
-        let (hs, t_new) = if last {
-            (t_end - *t, t_end)
-        } else {
-            (h, *t + h)
-        };
-        let t0 = *t;
-        let bad = || Failure::NonFinite { t: t0 };
-        if !k1_fresh {
-            // First stage of the step: f at the new state (FSAL evaluated lazily, so the last
-            // step of a call does not pay for it).
-            if !problem.eval(t0, x, &mut k1, stats) {
-                return Err(bad());
+            memory,
+        ) {
+            Ok(Some(last)) => {
+                *t0 = last.t0;
+                *step = last.step;
+                *err_prev = last.err_prev;
+                cont.clear();
             }
-            k1_fresh = true;
+            Ok(None) => unreachable!("a dense run returns its last step"),
+            Err(e) => {
+                memory.h = 0.0;
+                return Err(e);
+            }
         }
+    }
+    let result = ahead.point(problem, t_out, out, &mut memory.stats);
+    if result.is_err() {
+        memory.h = 0.0;
+    }
+    result
+}
 
-        stage(&mut y, x, hs, &[(A21, &k1)]);
-        if !problem.eval(t0 + C2 * hs, &y, &mut k2, stats) {
+/// The continuous extension of an accepted step of size `hs` from `t0` (dop853.f, after
+/// label 62) from its record `step` (see [`Ahead::step`]): three more stages (14, 15, 16),
+/// 8 blocks of n.
+fn extension(
+    problem: &mut Problem,
+    t0: f64,
+    hs: f64,
+    step: &[f64],
+    stats: &mut Stats,
+) -> Result<Vec<f64>, Failure> {
+    let n = step.len() / 11;
+    let block = |b: usize| &step[b * n..(b + 1) * n];
+    let (x, y) = (block(StepBlock::X0 as usize), block(StepBlock::Y as usize));
+    let (k1, f1) = (block(StepBlock::K1 as usize), block(StepBlock::F1 as usize));
+    let [k6, k7, k8, k9, k10, k11, k12] =
+        std::array::from_fn(|j| block(StepBlock::K6 as usize + j));
+    let bad = || Failure::NonFinite { t: t0 };
+    let [mut yk, mut k14, mut k15, mut k16] = std::array::from_fn(|_| vec![0.0; n]);
+    let row14 = [
+        (A141, k1),
+        (A147, k7),
+        (A148, k8),
+        (A149, k9),
+        (A1410, k10),
+        (A1411, k11),
+        (A1412, k12),
+        (A1413, f1),
+    ];
+    stage(&mut yk, x, hs, &row14);
+    if !problem.eval(t0 + C14 * hs, &yk, &mut k14, stats) {
+        return Err(bad());
+    }
+    let row15 = [
+        (A151, k1),
+        (A156, k6),
+        (A157, k7),
+        (A158, k8),
+        (A1511, k11),
+        (A1512, k12),
+        (A1513, f1),
+        (A1514, &k14[..]),
+    ];
+    stage(&mut yk, x, hs, &row15);
+    if !problem.eval(t0 + C15 * hs, &yk, &mut k15, stats) {
+        return Err(bad());
+    }
+    let row16 = [
+        (A161, k1),
+        (A166, k6),
+        (A167, k7),
+        (A168, k8),
+        (A169, k9),
+        (A1613, f1),
+        (A1614, &k14[..]),
+        (A1615, &k15[..]),
+    ];
+    stage(&mut yk, x, hs, &row16);
+    if !problem.eval(t0 + C16 * hs, &yk, &mut k16, stats) {
+        return Err(bad());
+    }
+    let stages: [&[f64]; 12] = [k1, k6, k7, k8, k9, k10, k11, k12, f1, &k14, &k15, &k16];
+    let mut cont = vec![0.0; 8 * n];
+    for i in 0..n {
+        let ydiff = y[i] - x[i];
+        let bspl = hs * k1[i] - ydiff;
+        cont[i] = x[i];
+        cont[n + i] = ydiff;
+        cont[2 * n + i] = bspl;
+        cont[3 * n + i] = ydiff - hs * f1[i] - bspl;
+        for (j, d) in D.iter().enumerate() {
+            let sum = d.iter().zip(&stages).fold(0.0, |s, (dj, k)| s + dj * k[i]);
+            cont[(4 + j) * n + i] = hs * sum;
+        }
+    }
+    Ok(cont)
+}
+
+/// Where a call of [`run`] stops.
+#[derive(Clone, Copy)]
+enum Goal {
+    /// Exactly at this time: the last step is shortened (or stretched ≤ 1 %) to land on it.
+    Land(f64),
+    /// After the first accepted step that reaches `t_out`; steps are cut only at `t_limit`.
+    Pass { t_out: f64, t_limit: f64 },
+}
+
+/// The last accepted step of a dense run, as [`Ahead`] stores it.
+struct LastStep {
+    t0: f64,
+    step: Vec<f64>,
+    err_prev: f64,
+}
+
+/// The work vectors of one DOP853 step: stages k2 … k12 (`k[0]` … `k[10]`) and the new
+/// solution `y`.
+struct Stages {
+    k: [Vec<f64>; 11],
+    y: Vec<f64>,
+}
+
+impl Stages {
+    fn new(n: usize) -> Stages {
+        Stages {
+            k: std::array::from_fn(|_| vec![0.0; n]),
+            y: vec![0.0; n],
+        }
+    }
+
+    /// One attempted step `x → y` of size `hs` from `t0` (ending at `t_new`) with
+    /// `k1 = f(t0, x)`; returns dop853.f's combined error estimate
+    /// err5²/√(err5² + 0.01·err3²) in Hairer's RMS norm.
+    #[allow(clippy::too_many_arguments)]
+    fn attempt(
+        &mut self,
+        problem: &mut Problem,
+        k1: &[f64],
+        (t0, t_new): (f64, f64),
+        x: &[f64],
+        hs: f64,
+        settings: &Settings,
+        stats: &mut Stats,
+    ) -> Result<f64, Failure> {
+        let n = x.len();
+        let bad = || Failure::NonFinite { t: t0 };
+        let [k2, k3, k4, k5, k6, k7, k8, k9, k10, k11, k12] = &mut self.k;
+        let y = &mut self.y;
+        stage(y, x, hs, &[(A21, k1)]);
+        if !problem.eval(t0 + C2 * hs, y, k2, stats) {
             return Err(bad());
         }
-        stage(&mut y, x, hs, &[(A31, &k1), (A32, &k2)]);
-        if !problem.eval(t0 + C3 * hs, &y, &mut k3, stats) {
+        stage(y, x, hs, &[(A31, k1), (A32, k2)]);
+        if !problem.eval(t0 + C3 * hs, y, k3, stats) {
             return Err(bad());
         }
-        stage(&mut y, x, hs, &[(A41, &k1), (A43, &k3)]);
-        if !problem.eval(t0 + C4 * hs, &y, &mut k4, stats) {
+        stage(y, x, hs, &[(A41, k1), (A43, k3)]);
+        if !problem.eval(t0 + C4 * hs, y, k4, stats) {
             return Err(bad());
         }
-        stage(&mut y, x, hs, &[(A51, &k1), (A53, &k3), (A54, &k4)]);
-        if !problem.eval(t0 + C5 * hs, &y, &mut k5, stats) {
+        stage(y, x, hs, &[(A51, k1), (A53, k3), (A54, k4)]);
+        if !problem.eval(t0 + C5 * hs, y, k5, stats) {
             return Err(bad());
         }
-        stage(&mut y, x, hs, &[(A61, &k1), (A64, &k4), (A65, &k5)]);
-        if !problem.eval(t0 + C6 * hs, &y, &mut k6, stats) {
+        stage(y, x, hs, &[(A61, k1), (A64, k4), (A65, k5)]);
+        if !problem.eval(t0 + C6 * hs, y, k6, stats) {
             return Err(bad());
         }
-        stage(
-            &mut y,
-            x,
-            hs,
-            &[(A71, &k1), (A74, &k4), (A75, &k5), (A76, &k6)],
-        );
-        if !problem.eval(t0 + C7 * hs, &y, &mut k7, stats) {
+        stage(y, x, hs, &[(A71, k1), (A74, k4), (A75, k5), (A76, k6)]);
+        if !problem.eval(t0 + C7 * hs, y, k7, stats) {
             return Err(bad());
         }
-        let row8 = [
-            (A81, &k1[..]),
-            (A84, &k4),
-            (A85, &k5),
-            (A86, &k6),
-            (A87, &k7),
-        ];
-        stage(&mut y, x, hs, &row8);
-        if !problem.eval(t0 + C8 * hs, &y, &mut k8, stats) {
+        let row8 = [(A81, k1), (A84, k4), (A85, k5), (A86, k6), (A87, k7)];
+        stage(y, x, hs, &row8);
+        if !problem.eval(t0 + C8 * hs, y, k8, stats) {
             return Err(bad());
         }
         let row9 = [
-            (A91, &k1[..]),
-            (A94, &k4),
-            (A95, &k5),
-            (A96, &k6),
-            (A97, &k7),
-            (A98, &k8),
+            (A91, k1),
+            (A94, k4),
+            (A95, k5),
+            (A96, k6),
+            (A97, k7),
+            (A98, k8),
         ];
-        stage(&mut y, x, hs, &row9);
-        if !problem.eval(t0 + C9 * hs, &y, &mut k9, stats) {
+        stage(y, x, hs, &row9);
+        if !problem.eval(t0 + C9 * hs, y, k9, stats) {
             return Err(bad());
         }
         let row10 = [
-            (A101, &k1[..]),
-            (A104, &k4),
-            (A105, &k5),
-            (A106, &k6),
-            (A107, &k7),
-            (A108, &k8),
-            (A109, &k9),
+            (A101, k1),
+            (A104, k4),
+            (A105, k5),
+            (A106, k6),
+            (A107, k7),
+            (A108, k8),
+            (A109, k9),
         ];
-        stage(&mut y, x, hs, &row10);
-        if !problem.eval(t0 + C10 * hs, &y, &mut k10, stats) {
+        stage(y, x, hs, &row10);
+        if !problem.eval(t0 + C10 * hs, y, k10, stats) {
             return Err(bad());
         }
         let row11 = [
-            (A111, &k1[..]),
-            (A114, &k4),
-            (A115, &k5),
-            (A116, &k6),
-            (A117, &k7),
-            (A118, &k8),
-            (A119, &k9),
-            (A1110, &k10),
+            (A111, k1),
+            (A114, k4),
+            (A115, k5),
+            (A116, k6),
+            (A117, k7),
+            (A118, k8),
+            (A119, k9),
+            (A1110, k10),
         ];
-        stage(&mut y, x, hs, &row11);
-        if !problem.eval(t0 + C11 * hs, &y, &mut k11, stats) {
+        stage(y, x, hs, &row11);
+        if !problem.eval(t0 + C11 * hs, y, k11, stats) {
             return Err(bad());
         }
         let row12 = [
-            (A121, &k1[..]),
-            (A124, &k4),
-            (A125, &k5),
-            (A126, &k6),
-            (A127, &k7),
-            (A128, &k8),
-            (A129, &k9),
-            (A1210, &k10),
-            (A1211, &k11),
+            (A121, k1),
+            (A124, k4),
+            (A125, k5),
+            (A126, k6),
+            (A127, k7),
+            (A128, k8),
+            (A129, k9),
+            (A1210, k10),
+            (A1211, k11),
         ];
-        stage(&mut y, x, hs, &row12);
-        if !problem.eval(t_new, &y, &mut k12, stats) {
+        stage(y, x, hs, &row12);
+        if !problem.eval(t_new, y, k12, stats) {
             return Err(bad());
         }
         let weights = [
-            (B1, &k1[..]),
-            (B6, &k6),
-            (B7, &k7),
-            (B8, &k8),
-            (B9, &k9),
-            (B10, &k10),
-            (B11, &k11),
-            (B12, &k12),
+            (B1, k1),
+            (B6, k6),
+            (B7, k7),
+            (B8, k8),
+            (B9, k9),
+            (B10, k10),
+            (B11, k11),
+            (B12, k12),
         ];
-        stage(&mut y, x, hs, &weights);
+        stage(y, x, hs, &weights);
         if !y.iter().all(|v| v.is_finite()) {
             return Err(bad());
         }
 
-        // dop853.f's combined estimate: err5²/√(err5² + 0.01·err3²), in Hairer's RMS norm.
         let (mut err5, mut err3) = (0.0, 0.0);
         for i in 0..n {
             let sk = settings.atol[i] + settings.rtol * x[i].abs().max(y[i].abs());
@@ -371,22 +672,139 @@ fn run(
         if err.is_nan() {
             return Err(bad());
         }
+        Ok(err)
+    }
+}
 
-        if err <= 1.0 {
-            let h_new = controller.accepted(err, hs, h_max);
-            stats.steps += 1;
-            x.copy_from_slice(&y);
-            *t = t_new;
-            k1_fresh = false;
-            if last {
-                memory.h = carried_proposal(h_new, hs, h);
-                return Ok(());
-            }
-            h = h_new;
+/// The stepping loop of both modes. `k1` holds f(t, x) on entry. Landing mode evaluates f
+/// at the start of each following step (so the last step of a call does not pay for it)
+/// and returns `None`; dense mode evaluates it at once (the extension needs it), leaves it
+/// in `k1`, applies `project` after every accepted step and returns the last step's
+/// record for its extension.
+#[allow(clippy::too_many_arguments)]
+fn run(
+    problem: &mut Problem,
+    t: &mut f64,
+    x: &mut [f64],
+    k1: &mut Vec<f64>,
+    goal: Goal,
+    err_prev: Option<f64>,
+    mut project: Option<&mut dyn FnMut(f64, &mut [f64])>,
+    settings: &Settings,
+    memory: &mut Memory,
+) -> Result<Option<LastStep>, Failure> {
+    let n = x.len();
+    assert_eq!(
+        settings.atol.len(),
+        n,
+        "DOP853 needs one absolute tolerance per state"
+    );
+    let h_max = if settings.step > 0.0 && settings.step.is_finite() {
+        settings.step
+    } else {
+        f64::INFINITY
+    };
+    let stats = &mut memory.stats;
+    let mut w = Stages::new(n);
+    let carried = memory.h > 0.0 && memory.h.is_finite();
+    let mut h = if carried {
+        memory.h.min(h_max)
+    } else {
+        let mut probe = |t: f64, y: &[f64], k: &mut [f64]| problem.eval(t, y, k, stats);
+        initial_step(
+            &mut probe,
+            *t,
+            x,
+            k1,
+            settings,
+            h_max,
+            ORDER,
+            (&mut w.y, &mut w.k[0]),
+        )
+    };
+    // As in DOPRI5: a continuing call assumes the previous error was at tolerance.
+    let facold = match err_prev {
+        Some(e) if carried => e,
+        _ if carried => 1.0,
+        _ => FACOLD_MIN,
+    };
+    let mut controller = PiController::new(GAINS, facold);
+    let mut k1_fresh = true;
+    let mut attempts: u64 = 0;
+
+    loop {
+        check_attempt(*t, h, attempts)?;
+        attempts += 1;
+        let land_on = match goal {
+            Goal::Land(t_end) => t_end,
+            Goal::Pass { t_limit, .. } => t_limit,
+        };
+        let landing = *t + LANDING_STRETCH * h >= land_on;
+        let (hs, t_new) = if landing {
+            (land_on - *t, land_on)
         } else {
+            (h, *t + h)
+        };
+        let t0 = *t;
+        if !k1_fresh {
+            if !problem.eval(t0, x, k1, stats) {
+                return Err(Failure::NonFinite { t: t0 });
+            }
+            k1_fresh = true;
+        }
+        let err = w.attempt(problem, k1, (t0, t_new), x, hs, settings, stats)?;
+        if err > 1.0 {
             stats.rejected += 1;
             h = controller.rejected(err, hs);
+            continue;
         }
+        let h_new = controller.accepted(err, hs, h_max);
+        let Goal::Pass { t_out, .. } = goal else {
+            stats.steps += 1;
+            x.copy_from_slice(&w.y);
+            *t = t_new;
+            k1_fresh = false;
+            if landing {
+                memory.h = carried_proposal(h_new, hs, h);
+                return Ok(None);
+            }
+            h = h_new;
+            continue;
+        };
+        let mut f1 = vec![0.0; n];
+        if !problem.eval(t_new, &w.y, &mut f1, stats) {
+            return Err(Failure::NonFinite { t: t0 });
+        }
+        stats.steps += 1;
+        // The last step of the run is recorded for its extension before x moves on.
+        let passed = t_new >= t_out;
+        let record = passed.then(|| {
+            let [_, _, _, _, k6, k7, k8, k9, k10, k11, k12] = &w.k;
+            let blocks: [&[f64]; 11] = [x, &w.y, k1, k6, k7, k8, k9, k10, k11, k12, &f1];
+            blocks.concat()
+        });
+        x.copy_from_slice(&w.y);
+        *k1 = f1;
+        *t = t_new;
+        if let Some(project) = project.as_mut() {
+            project(t_new, x);
+            if x != &w.y[..] && !problem.eval(t_new, x, k1, stats) {
+                return Err(Failure::NonFinite { t: t_new });
+            }
+        }
+        if let Some(step) = record {
+            memory.h = if landing {
+                carried_proposal(h_new, hs, h)
+            } else {
+                h_new
+            };
+            return Ok(Some(LastStep {
+                t0,
+                step,
+                err_prev: controller.err_prev,
+            }));
+        }
+        h = h_new;
     }
 }
 
@@ -493,6 +911,116 @@ mod tests {
             assert!(e < 100.0 * tol, "tol {tol:e}: err {e:e}");
             assert!(memory.stats.rhs_evals < m5.stats.rhs_evals);
         }
+    }
+
+    /// One dense step of `x' = −x` from x(0) = 1 capped at `step` (loose tolerance: the
+    /// cap binds); the interpolant's error at `θ·step` and the work.
+    fn one_dense_step(step: f64, theta: f64) -> (f64, Stats, Ahead) {
+        let mut rhs = |_: f64, y: &[f64], d: &mut [f64]| d[0] = -y[0];
+        let mut p = Problem::new(&mut rhs);
+        let mut memory = Memory::default();
+        let s = settings(1e3, 1, step);
+        let mut ahead = Ahead::start(&mut p, 0.0, &[1.0], &mut memory.stats).unwrap();
+        let mut out = [0.0];
+        let t = theta * step;
+        advance_dense(
+            &mut p,
+            &mut |_, _| {},
+            &mut ahead,
+            t,
+            10.0,
+            &s,
+            &mut memory,
+            &mut out,
+        )
+        .unwrap();
+        assert_eq!((ahead.t0, ahead.t), (0.0, step));
+        ((out[0] - (-t).exp()).abs(), memory.stats, ahead)
+    }
+
+    #[test]
+    fn continuous_extension_is_of_order_7() {
+        // Local error of an order-7 interpolant: O(h⁸), so halving the step divides the
+        // error inside the step by 2⁸ = 256.
+        for theta in [0.3, 0.5, 0.8] {
+            let (e1, s1, _) = one_dense_step(0.5, theta);
+            let (e2, _, _) = one_dense_step(0.25, theta);
+            let ratio = e1 / e2;
+            eprintln!("θ = {theta}: {e1:e} / {e2:e} = {ratio}");
+            assert!(
+                (200.0..320.0).contains(&ratio),
+                "θ = {theta}: ratio {ratio}"
+            );
+            // f at the start, the initial-step probe, 11 stages, f at the end, 3 extra.
+            assert_eq!(s1.rhs_evals, 1 + 1 + 11 + 1 + 3);
+        }
+        // Both ends of the step are the step's own values; the extension, built once,
+        // costs nothing more.
+        let (_, _, mut ahead) = one_dense_step(0.5, 0.5);
+        let mut rhs = |_: f64, y: &[f64], d: &mut [f64]| d[0] = -y[0];
+        let mut p = Problem::new(&mut rhs);
+        let mut stats = Stats::default();
+        let (mut start, mut end) = ([0.0], [0.0]);
+        ahead.point(&mut p, 0.0, &mut start, &mut stats).unwrap();
+        ahead
+            .point(&mut p, 0.5 - 1e-16, &mut end, &mut stats)
+            .unwrap();
+        assert_eq!(start, [1.0]);
+        assert!((end[0] - ahead.x[0]).abs() < 1e-15, "{end:?} {:?}", ahead.x);
+        assert_eq!(stats.rhs_evals, 0);
+    }
+
+    #[test]
+    fn a_point_at_a_step_end_does_not_build_the_extension() {
+        // The point is the step's end (the limit cuts the step): landing mode's count.
+        let (_, s, ahead) = one_dense_step(0.5, 1.0);
+        assert!(ahead.cont.is_empty());
+        assert_eq!(s.rhs_evals, 1 + 1 + 11 + 1);
+        let (_, s, ahead) = one_dense_step(0.5, 0.999);
+        assert!(!ahead.cont.is_empty());
+        assert_eq!(s.rhs_evals, 1 + 1 + 11 + 1 + 3);
+    }
+
+    #[test]
+    fn dense_points_are_as_accurate_as_the_steps_at_tight_tolerance() {
+        // rtol 1e-10 over 10 s of the oscillator: the worst error at 1000 interpolated
+        // points against the worst at the step ends (the integration's own error).
+        let mut rhs = oscillator;
+        let mut p = Problem::new(&mut rhs);
+        let mut memory = Memory::default();
+        let s = settings(1e-10, 2, f64::INFINITY);
+        let mut ahead = Ahead::start(&mut p, 0.0, &[1.0, 0.0], &mut memory.stats).unwrap();
+        let (mut dense, mut ends) = (0.0f64, 0.0f64);
+        let mut out = [0.0; 2];
+        // Steps a point fell strictly inside: each built its extension once.
+        let mut extended = std::collections::BTreeSet::new();
+        for i in 1..=1000 {
+            let t = i as f64 / 100.0;
+            advance_dense(
+                &mut p,
+                &mut |_, _| {},
+                &mut ahead,
+                t,
+                10.0,
+                &s,
+                &mut memory,
+                &mut out,
+            )
+            .unwrap();
+            dense = dense.max(oscillator_error(t, &out));
+            ends = ends.max(oscillator_error(ahead.t, &ahead.x));
+            if t < ahead.t {
+                extended.insert(ahead.t0.to_bits());
+            }
+        }
+        let st = memory.stats;
+        let built = extended.len() as u64;
+        eprintln!("rtol 1e-10: dense {dense:e}, step ends {ends:e}, {st:?}, {built} extensions");
+        assert!(dense < 1.5 * ends && dense < 1e-8, "{dense:e} vs {ends:e}");
+        assert_eq!(
+            st.rhs_evals,
+            2 + 12 * st.steps + 11 * st.rejected + 3 * built
+        );
     }
 
     #[test]

@@ -243,11 +243,14 @@ pub struct Memory {
     pub h: f64,
     pub stats: Stats,
     /// DOPRI5's own point ahead of the communication time, in dense-output mode (see
-    /// [`dopri5::Ahead`]); `None` in every other mode and whenever f has changed.
+    /// [`dopri5::Ahead`]); `None` in every other mode and whenever f has changed. At most
+    /// one of the three points ahead is kept, the running method's.
     pub ahead: Option<dopri5::Ahead>,
     /// RADAU5's loop state ahead of the communication time, in dense-output mode (see
     /// [`radau5::Ahead`]); `None` likewise.
     pub radau5_ahead: Option<radau5::Ahead>,
+    /// DOP853's point ahead, in dense-output mode (see [`dop853::Ahead`]); `None` likewise.
+    pub dop853_ahead: Option<dop853::Ahead>,
     /// DOPRI5's stiffness detection (see [`dopri5::StiffnessMonitor`]).
     pub stiffness: dopri5::StiffnessMonitor,
 }
