@@ -666,23 +666,12 @@ fn advance_dense(
         _ => Ahead::start(rhs, *t, x, &mut memory.stats).map_err(|e| e.to_string())?,
     };
     let mut out = vec![0.0; x.len()];
-    match dopri5::advance_dense(
+    let result = dopri5::advance_dense(
         rhs, project, &mut ahead, t_end, t_limit, settings, memory, &mut out,
-    ) {
-        Ok(()) => {
-            *x = out;
-            *t = t_end;
-            memory.ahead = Some(ahead);
-            Ok(())
-        }
-        Err(e) => {
-            if ahead.t > *t {
-                *t = ahead.t;
-                x.copy_from_slice(&ahead.x);
-            }
-            Err(e.to_string())
-        }
-    }
+    );
+    settle_dense(result, out, (ahead.t, &ahead.x), (t, x), t_end)?;
+    memory.ahead = Some(ahead);
+    Ok(())
 }
 
 /// RADAU5 with dense output (see [`radau5::Ahead`]), as [`advance_dense`] does for DOPRI5:
@@ -718,23 +707,12 @@ fn advance_dense_radau5(
         })?,
     };
     let mut out = vec![0.0; x.len()];
-    match radau5::advance_dense(
+    let result = radau5::advance_dense(
         problem, project, &mut ahead, t_end, t_limit, settings, memory, &mut out,
-    ) {
-        Ok(()) => {
-            *x = out;
-            *t = t_end;
-            memory.radau5_ahead = Some(ahead);
-            Ok(())
-        }
-        Err(e) => {
-            if ahead.t > *t {
-                *t = ahead.t;
-                x.copy_from_slice(&ahead.x);
-            }
-            Err(e.to_string())
-        }
-    }
+    );
+    settle_dense(result, out, (ahead.t, &ahead.x), (t, x), t_end)?;
+    memory.radau5_ahead = Some(ahead);
+    Ok(())
 }
 
 /// DOP853 with dense output (see [`dop853::Ahead`]), as [`advance_dense`] does for DOPRI5.
@@ -754,19 +732,35 @@ fn advance_dense_dop853(
         _ => dop853::Ahead::start(problem, *t, x, &mut memory.stats).map_err(|e| e.to_string())?,
     };
     let mut out = vec![0.0; x.len()];
-    match dop853::advance_dense(
+    let result = dop853::advance_dense(
         problem, project, &mut ahead, t_end, t_limit, settings, memory, &mut out,
-    ) {
+    );
+    settle_dense(result, out, (ahead.t, &ahead.x), (t, x), t_end)?;
+    memory.dop853_ahead = Some(ahead);
+    Ok(())
+}
+
+/// The end of a dense advance to `t_end`: on success the communication point `out` becomes
+/// the state; on failure the state is the last accepted step `(t_ahead, x_ahead)` if the
+/// integrator got past `*t`, and the error is returned (the caller then drops its state
+/// ahead).
+fn settle_dense(
+    result: Result<(), integrators::Failure>,
+    out: Vec<f64>,
+    (t_ahead, x_ahead): (f64, &[f64]),
+    (t, x): (&mut f64, &mut Vec<f64>),
+    t_end: f64,
+) -> Result<(), String> {
+    match result {
         Ok(()) => {
             *x = out;
             *t = t_end;
-            memory.dop853_ahead = Some(ahead);
             Ok(())
         }
         Err(e) => {
-            if ahead.t > *t {
-                *t = ahead.t;
-                x.copy_from_slice(&ahead.x);
+            if t_ahead > *t {
+                *t = t_ahead;
+                x.copy_from_slice(x_ahead);
             }
             Err(e.to_string())
         }
