@@ -216,7 +216,10 @@ fn step(
     z.rows_mut(n, n).copy_from(&q1);
 
     // Residual of the first half: (p½, q₁, λ) ↦ R, 2n + m equations.
-    // `None`: not finite, or M(q₁) singular (either way no step from here).
+    // `None`: not finite, or M(q₁) singular (either way no step from here). F(t₀, q₀, v₀)
+    // depends on p½ alone: the last value is kept, so the Jacobian's q₁ and λ columns and
+    // a repeated p½ cost no evaluation of F.
+    let mut last_force: Option<(DVector<f64>, DVector<f64>)> = None;
     let mut residual = |mech: &mut dyn Mechanics, z: &DVector<f64>| -> Option<DVector<f64>> {
         let ph = z.rows(0, n).into_owned();
         let q1 = z.rows(n, n).into_owned();
@@ -224,7 +227,14 @@ fn step(
         let at1 = AtQ::new(mech, q1.as_slice())?;
         let v0 = at0.velocity(&ph);
         let v1 = at1.velocity(&ph);
-        let f0 = force(mech, stats, ta, &q0, &v0);
+        let f0 = match &last_force {
+            Some((p, f)) if *p == ph => f.clone(),
+            _ => {
+                let f = force(mech, stats, ta, &q0, &v0);
+                last_force = Some((ph.clone(), f.clone()));
+                f
+            }
+        };
         let mut r = DVector::zeros(2 * n + m);
         let rp = &ph - &p0 - (f0 - at0.jac.transpose() * &lambda) * hh;
         let rq = &q1 - &q0 - (v0 + v1) * hh;
