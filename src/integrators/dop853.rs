@@ -324,6 +324,18 @@ impl Ahead {
         })
     }
 
+    /// Forgets the last step: the point goes back to its start (t0, x(t0), f there).
+    fn back_to_step_start(&mut self) {
+        let n = self.x.len();
+        if !self.step.is_empty() {
+            let block = |b: StepBlock| self.step[b as usize * n..(b as usize + 1) * n].to_vec();
+            (self.x, self.f) = (block(StepBlock::X0), block(StepBlock::K1));
+            self.t = self.t0;
+            self.step.clear();
+            self.cont.clear();
+        }
+    }
+
     /// x(`t`) for `t` in [`t0`, `t`] of the last step: the step's end itself, else the
     /// continuous extension (CONTD8), built first if it is not yet (3 evaluations of f).
     pub fn point(
@@ -412,7 +424,10 @@ pub fn advance_dense(
     }
     let result = ahead.point(problem, t_out, out, &mut memory.stats);
     if result.is_err() {
+        // The step ends past `t_out` but its extension failed: the last good point not
+        // past `t_out` is the step's start.
         memory.h = 0.0;
+        ahead.back_to_step_start();
     }
     result
 }
@@ -1021,6 +1036,46 @@ mod tests {
             st.rhs_evals,
             2 + 12 * st.steps + 11 * st.rejected + 3 * built
         );
+    }
+
+    #[test]
+    fn a_failing_extension_goes_back_to_the_step_start() {
+        // f is not finite only near the extension's stage 16 (t = 0.7778 h, h = 0.5 capped),
+        // between the step's own nodes 0.6513 h and 0.8571 h: the step succeeds, the
+        // extension for a point inside it does not.
+        let mut rhs = |t: f64, y: &[f64], d: &mut [f64]| {
+            d[0] = if (0.37..0.40).contains(&t) {
+                f64::NAN
+            } else {
+                -y[0]
+            };
+        };
+        let mut p = Problem::new(&mut rhs);
+        let mut memory = Memory::default();
+        let s = settings(1e3, 1, 0.5);
+        let mut ahead = Ahead::start(&mut p, 0.0, &[1.0], &mut memory.stats).unwrap();
+        let mut out = [0.0];
+        let r = advance_dense(
+            &mut p,
+            &mut |_, _| {},
+            &mut ahead,
+            0.25,
+            10.0,
+            &s,
+            &mut memory,
+            &mut out,
+        );
+        assert_eq!(r, Err(Failure::NonFinite { t: 0.0 }));
+        assert_eq!(
+            (ahead.t, ahead.x.as_slice(), ahead.f.as_slice()),
+            (0.0, &[1.0][..], &[-1.0][..])
+        );
+        assert!(ahead.step.is_empty() && ahead.cont.is_empty());
+        assert_eq!(memory.h, 0.0);
+        // The step itself was accepted (its 12 evaluations finite); stage 14 (t = 0.05)
+        // and 15 (t = 0.1) were evaluated, 16 failed.
+        assert_eq!(memory.stats.steps, 1);
+        assert_eq!(memory.stats.rhs_evals, 1 + 1 + 12 + 3);
     }
 
     #[test]
