@@ -9,18 +9,8 @@ use mbfmu::model::System;
 use mbfmu::systems::{CompoundPendulum, DoublePendulum};
 use nalgebra::DMatrix;
 
-/// A small deterministic generator (xorshift64*): uniform in [lo, hi).
-struct Rng(u64);
-
-impl Rng {
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        let bits = self.0.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11;
-        lo + (hi - lo) * (bits as f64 / (1u64 << 53) as f64)
-    }
-}
+mod support;
+use support::Rng;
 
 fn rhs<M: System>(x: &[f64], u: &[f64], p: &[f64]) -> Vec<f64> {
     let mut dx = vec![0.0; x.len()];

@@ -9,6 +9,9 @@ use mbfmu::model::lagrangian::{self, Lagrangian};
 use mbfmu::model::{Scalar, Scene, System, Var};
 use mbfmu::systems::RollingDisk;
 
+mod support;
+use support::Rng;
+
 /// The rolling disk from its energies: q = (x, y, θ, φ), inputs (τ_φ, τ_θ) as RollingDisk.
 struct DiskLagrangian;
 
@@ -66,19 +69,6 @@ impl Lagrangian for DiskLagrangian {
     fn extra_outputs<S: Scalar>(_t: f64, _q: &[S], _qd: &[S], _u: &[S], _p: &[S], _y: &mut [S]) {}
     fn scenes() -> Vec<Scene> {
         Vec::new()
-    }
-}
-
-/// A small deterministic generator (xorshift64*): uniform in [lo, hi).
-struct Rng(u64);
-
-impl Rng {
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        let bits = self.0.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11;
-        lo + (hi - lo) * (bits as f64 / (1u64 << 53) as f64)
     }
 }
 

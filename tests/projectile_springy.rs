@@ -9,6 +9,9 @@ use mbfmu::model::System;
 use mbfmu::systems::springy_pendulum::cartesian_rhs;
 use mbfmu::systems::{Projectile, SpringyPendulum};
 
+mod support;
+use support::Rng;
+
 /// The operating point (states, inputs, parameters) of a scene of `M`.
 fn scene<M: System>(name: &str) -> OperatingPoint {
     let scene = M::scenes()
@@ -60,18 +63,6 @@ fn energy(op: &OperatingPoint, x: &[f64]) -> f64 {
     let mut y = [0.0; 3];
     SpringyPendulum::extra_outputs(0.0, x, &op.u, &op.p, &mut y);
     y[2]
-}
-
-/// A small deterministic generator (xorshift64*), uniform in [lo, hi).
-struct Rng(u64);
-impl Rng {
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        let bits = self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11;
-        lo + (hi - lo) * (bits as f64 / (1u64 << 53) as f64)
-    }
 }
 
 // ---------------------------------------------------------------------------------------

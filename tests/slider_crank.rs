@@ -6,21 +6,11 @@
 use mbfmu::integrators::{advance, Memory, Method, Settings};
 use mbfmu::model::lagrangian;
 use mbfmu::model::System;
-use mbfmu::systems::slider_crank::{closure, closure_rates, static_torque};
+use mbfmu::systems::slider_crank::{closure_rates, static_torque};
 use mbfmu::systems::{SliderCrank, SliderCrankSurplus};
 
-/// A small deterministic generator (xorshift64*): uniform in [lo, hi).
-struct Rng(u64);
-
-impl Rng {
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        let bits = self.0.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11;
-        lo + (hi - lo) * (bits as f64 / (1u64 << 53) as f64)
-    }
-}
+mod support;
+use support::{surplus_state, Rng};
 
 /// Random parameters `(m1, l1, m2, l2, m3, g)` with l2 ≥ 1.5 l1 (β stays below 42°).
 fn random_parameters(rng: &mut Rng) -> [f64; 6] {
@@ -33,13 +23,6 @@ fn random_parameters(rng: &mut Rng) -> [f64; 6] {
         rng.uniform(0.1, 3.0),
         rng.uniform(0.0, 20.0),
     ]
-}
-
-/// The surplus state (θ, β, x, θ̇, β̇, ẋ) on the constraints for crank angle and rate.
-fn surplus_state(theta: f64, omega: f64, p: &[f64]) -> [f64; 6] {
-    let (beta, x) = closure(theta, p);
-    let (bed, xd) = closure_rates(theta, omega, p);
-    [theta, beta, x, omega, bed, xd]
 }
 
 fn outputs<M: System>(x: &[f64], u: &[f64], p: &[f64]) -> Vec<f64> {
