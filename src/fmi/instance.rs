@@ -28,6 +28,9 @@ pub struct Instance<M: System> {
     data: Snapshot,
     /// The values at instantiation, restored by fmi2Reset.
     initial: Snapshot,
+    /// Bound on the adaptive methods' step (∞: none). Rust API only, for reference runs
+    /// ([`Instance::cap_adaptive_step`]); not an FMU variable, not part of the FMU state.
+    adaptive_max_step: f64,
     _model: PhantomData<M>,
 }
 
@@ -63,6 +66,7 @@ impl<M: System> Instance<M> {
             logger,
             initial: data.clone(),
             data,
+            adaptive_max_step: f64::INFINITY,
             _model: PhantomData,
         }
     }
@@ -82,6 +86,15 @@ impl<M: System> Instance<M> {
 
     pub fn stats(&self) -> integrators::Stats {
         self.data.memory.stats
+    }
+
+    /// Bounds the adaptive methods' step by `h_max` (> 0; ∞ removes the bound). For
+    /// reference runs that must be more accurate than their tolerance alone makes them
+    /// (`mbfmu bench`); importers have no such variable: the adaptive step is the
+    /// controller's.
+    pub fn cap_adaptive_step(&mut self, h_max: f64) {
+        assert!(h_max > 0.0, "a step bound is positive");
+        self.adaptive_max_step = h_max;
     }
 
     /// Fails unless the current state is in `mask`.
@@ -414,9 +427,10 @@ impl<M: System> Instance<M> {
             rtol: d.tolerance,
             atol,
             // The step parameter is the fixed step of fixed-step methods; adaptive ones
-            // are bounded only by the communication interval.
+            // are bounded only by the communication interval in landing mode (and by
+            // `cap_adaptive_step`, unbounded for importers).
             step: if d.method.is_adaptive() {
-                f64::INFINITY
+                self.adaptive_max_step
             } else {
                 d.solver_step
             },
