@@ -97,3 +97,27 @@ fn a_changed_input_restarts_at_the_communication_point() {
     println!("METRIC DOP853 input step at t = 1 s: error {err:.2e}");
     assert!(err < DENSE_BOUND, "{err:e}");
 }
+
+#[test]
+fn a_step_the_method_cannot_finish_keeps_the_last_good_state() {
+    // k = 1e14 N/m: ω = 1e7 rad/s; at rtol 1e-10 the steps are ~3e-9 s (DOPRI5) and
+    // ~3e-8 s (DOP853), so a doStep of 1 s needs more than MAX_STEPS (1e6) attempts. The
+    // dense methods give up with the last accepted step as the state: finite, inside the
+    // doStep, never past it (measured: t = 3.3e-3 s and 3.3e-2 s).
+    const DOPRI5: i32 = 2;
+    let case = msd();
+    for solver in [DOPRI5, DOP853] {
+        let mut inst = case.started(solver, 1.0, 0.0, &[("k", 1e14)]);
+        let outcome = inst.do_step(0.0, 1.0).unwrap();
+        let StepOutcome::Discarded(why) = outcome else {
+            panic!("solver {solver}: {outcome:?}");
+        };
+        let (t, x) = (inst.time(), case.state(&inst));
+        println!("METRIC solver {solver} k = 1e14: discarded at t = {t:.3e}: {why}");
+        assert!(why.contains("steps"), "{why}");
+        assert!(0.0 < t && t < 1.0, "t = {t}");
+        // On the oscillation: |x| ≤ x0 = 0.1 m and |v| ≤ ω x0 = 1e6 m/s (it is accurate).
+        let (amplitude, speed) = (x[0].abs() / 0.1, x[1].abs() / 1e6);
+        assert!(amplitude <= 1.0 + 1e-6 && speed <= 1.0 + 1e-6, "{x:?}");
+    }
+}
