@@ -16,8 +16,7 @@
 #![allow(clippy::excessive_precision)]
 
 use super::explicit_rk::{
-    carried_proposal, check_attempt, initial_step, stage, PiController, PiGains, FACOLD_MIN,
-    LANDING_STRETCH,
+    carried_proposal, check_attempt, initial_step, max_step, stage, Goal, PiController, PiGains,
 };
 use super::problem::{start, Problem};
 use super::{Failure, Memory, Settings, Stats};
@@ -509,15 +508,6 @@ fn extension(
     Ok(cont)
 }
 
-/// Where a call of [`run`] stops.
-#[derive(Clone, Copy)]
-enum Goal {
-    /// Exactly at this time: the last step is shortened (or stretched ≤ 1 %) to land on it.
-    Land(f64),
-    /// After the first accepted step that reaches `t_out`; steps are cut only at `t_limit`.
-    Pass { t_out: f64, t_limit: f64 },
-}
-
 /// The last accepted step of a dense run, as [`Ahead`] stores it.
 struct LastStep {
     t0: f64,
@@ -714,11 +704,7 @@ fn run(
         n,
         "DOP853 needs one absolute tolerance per state"
     );
-    let h_max = if settings.step > 0.0 && settings.step.is_finite() {
-        settings.step
-    } else {
-        f64::INFINITY
-    };
+    let h_max = max_step(settings);
     let stats = &mut memory.stats;
     let mut w = Stages::new(n);
     let carried = memory.h > 0.0 && memory.h.is_finite();
@@ -737,29 +723,16 @@ fn run(
             (&mut w.y, &mut w.k[0]),
         )
     };
-    // As in DOPRI5: a continuing call assumes the previous error was at tolerance.
-    let facold = match err_prev {
-        Some(e) if carried => e,
-        _ if carried => 1.0,
-        _ => FACOLD_MIN,
-    };
-    let mut controller = PiController::new(GAINS, facold);
+    let mut controller = PiController::resuming(GAINS, carried, err_prev);
     let mut k1_fresh = true;
+    // f at the end of an accepted step, in dense mode (then swapped into `k1`).
+    let mut f1 = vec![0.0; n];
     let mut attempts: u64 = 0;
 
     loop {
         check_attempt(*t, h, attempts)?;
         attempts += 1;
-        let land_on = match goal {
-            Goal::Land(t_end) => t_end,
-            Goal::Pass { t_limit, .. } => t_limit,
-        };
-        let landing = *t + LANDING_STRETCH * h >= land_on;
-        let (hs, t_new) = if landing {
-            (land_on - *t, land_on)
-        } else {
-            (h, *t + h)
-        };
+        let (hs, t_new, landing) = goal.step_from(*t, h);
         let t0 = *t;
         if !k1_fresh {
             if !problem.eval(t0, x, k1, stats) {
@@ -774,32 +747,31 @@ fn run(
             continue;
         }
         let h_new = controller.accepted(err, hs, h_max);
-        let Goal::Pass { t_out, .. } = goal else {
+        let done = goal.reached(t_new, landing);
+        if let Goal::Land(_) = goal {
             stats.steps += 1;
             x.copy_from_slice(&w.y);
             *t = t_new;
             k1_fresh = false;
-            if landing {
-                memory.h = carried_proposal(h_new, hs, h);
+            if done {
+                memory.h = carried_proposal(landing, h_new, hs, h);
                 return Ok(None);
             }
             h = h_new;
             continue;
-        };
-        let mut f1 = vec![0.0; n];
+        }
         if !problem.eval(t_new, &w.y, &mut f1, stats) {
             return Err(Failure::NonFinite { t: t0 });
         }
         stats.steps += 1;
         // The last step of the run is recorded for its extension before x moves on.
-        let passed = t_new >= t_out;
-        let record = passed.then(|| {
+        let record = done.then(|| {
             let [_, _, _, _, k6, k7, k8, k9, k10, k11, k12] = &w.k;
             let blocks: [&[f64]; 11] = [x, &w.y, k1, k6, k7, k8, k9, k10, k11, k12, &f1];
             blocks.concat()
         });
         x.copy_from_slice(&w.y);
-        *k1 = f1;
+        std::mem::swap(k1, &mut f1);
         *t = t_new;
         if let Some(project) = project.as_mut() {
             project(t_new, x);
@@ -808,11 +780,7 @@ fn run(
             }
         }
         if let Some(step) = record {
-            memory.h = if landing {
-                carried_proposal(h_new, hs, h)
-            } else {
-                h_new
-            };
+            memory.h = carried_proposal(landing, h_new, hs, h);
             return Ok(Some(LastStep {
                 t0,
                 step,

@@ -8,8 +8,8 @@
 //! (subroutines DOPCOR and HINIT), whose default constants are reproduced below.
 
 use super::explicit_rk::{
-    carried_proposal, check_attempt, eval, initial_step, stage, PiController, PiGains, FACOLD_MIN,
-    LANDING_STRETCH,
+    carried_proposal, check_attempt, eval, initial_step, max_step, stage, Goal, PiController,
+    PiGains,
 };
 use super::{Failure, Memory, Settings, Stats};
 
@@ -279,15 +279,6 @@ pub fn advance_dense(
     Ok(())
 }
 
-/// Where a call of [`run`] stops.
-#[derive(Clone, Copy)]
-enum Goal {
-    /// Exactly at this time: the last step is shortened (or stretched ≤ 1 %) to land on it.
-    Land(f64),
-    /// After the first accepted step that reaches `t_out`; steps are cut only at `t_limit`.
-    Pass { t_out: f64, t_limit: f64 },
-}
-
 /// The last accepted step's continuous extension, as [`Ahead`] stores it.
 struct Dense {
     t0: f64,
@@ -395,14 +386,9 @@ fn run(
         n,
         "DOPRI5 needs one absolute tolerance per state"
     );
-    let h_max = if settings.step > 0.0 && settings.step.is_finite() {
-        settings.step
-    } else {
-        f64::INFINITY
-    };
+    let h_max = max_step(settings);
     let stats = &mut memory.stats;
     let mut w = Stages::new(n);
-
     let carried = memory.h > 0.0 && memory.h.is_finite();
     let mut h = if carried {
         memory.h.min(h_max)
@@ -419,33 +405,14 @@ fn run(
             (&mut w.y, &mut w.k[0]),
         )
     };
-    // Previous error for the PI term. A cold start uses Hairer's FACOLD_MIN, which damps the
-    // first growth (~30 %). A call continuing with a carried step does not know the previous
-    // error (it is not part of the FMU state); assuming it was at tolerance (1) makes the first
-    // update a plain I-controller instead of shrinking the proposal at every call.
-    let facold = match err_prev {
-        Some(e) if carried => e,
-        _ if carried => 1.0,
-        _ => FACOLD_MIN,
-    };
-    let mut controller = PiController::new(GAINS, facold);
+    let mut controller = PiController::resuming(GAINS, carried, err_prev);
     let mut attempts: u64 = 0;
 
     loop {
         check_attempt(*t, h, attempts)?;
         attempts += 1;
-        // `h` stays the controller's proposal; `hs` is the step actually taken (shortened or
-        // stretched to land on the end or the limit).
-        let land_on = match goal {
-            Goal::Land(t_end) => t_end,
-            Goal::Pass { t_limit, .. } => t_limit,
-        };
-        let landing = *t + LANDING_STRETCH * h >= land_on;
-        let (hs, t_new) = if landing {
-            (land_on - *t, land_on)
-        } else {
-            (h, *t + h)
-        };
+        // `h` stays the controller's proposal; `hs` is the step actually taken.
+        let (hs, t_new, landing) = goal.step_from(*t, h);
         let t0 = *t;
         let err = w.attempt(rhs, k1, (t0, t_new), x, hs, settings, stats)?;
 
@@ -459,10 +426,7 @@ fn run(
         memory
             .stiffness
             .observe(hs, (&w.k[5], &w.k[4]), (&w.y, &w.y6), t_new);
-        let done = match goal {
-            Goal::Land(_) => landing,
-            Goal::Pass { t_out, .. } => t_new >= t_out,
-        };
+        let done = goal.reached(t_new, landing);
         let [_, k3, k4, k5, k6, k7] = &w.k;
         let dense = done.then(|| continuous_extension(x, &w.y, hs, [k1, k3, k4, k5, k6, k7]));
         x.copy_from_slice(&w.y);
@@ -476,11 +440,7 @@ fn run(
             }
         }
         if let Some(rcont) = dense {
-            memory.h = if landing {
-                carried_proposal(h_new, hs, h)
-            } else {
-                h_new
-            };
+            memory.h = carried_proposal(landing, h_new, hs, h);
             return Ok(Dense {
                 t0,
                 rcont,

@@ -18,6 +18,50 @@ pub(super) const MIN_STEP_ULPS: f64 = 16.0;
 /// `facold^β` away from 0 after an exact (error 0) step (both Fortran codes: 1e-4).
 pub(super) const FACOLD_MIN: f64 = 1e-4;
 
+/// Where a call of a stepping loop stops (DOPRI5 and DOP853 alike).
+#[derive(Clone, Copy)]
+pub(super) enum Goal {
+    /// Exactly at this time: the last step is shortened (or stretched ≤ 1 %) to land on it.
+    Land(f64),
+    /// After the first accepted step that reaches `t_out`; steps are cut only at `t_limit`.
+    Pass { t_out: f64, t_limit: f64 },
+}
+
+impl Goal {
+    /// The step taken from `t` for the controller's proposal `h`: `(hs, t_new, landing)`,
+    /// shortened (or stretched ≤ 1 %, [`LANDING_STRETCH`]) to land on the end (`Land`) or
+    /// the limit (`Pass`); `h` itself stays the proposal.
+    pub(super) fn step_from(self, t: f64, h: f64) -> (f64, f64, bool) {
+        let land_on = match self {
+            Goal::Land(t_end) => t_end,
+            Goal::Pass { t_limit, .. } => t_limit,
+        };
+        if t + LANDING_STRETCH * h >= land_on {
+            (land_on - t, land_on, true)
+        } else {
+            (h, t + h, false)
+        }
+    }
+
+    /// Whether the accepted step ending at `t_new` (`landing` as [`Goal::step_from`] said)
+    /// ends the call.
+    pub(super) fn reached(self, t_new: f64, landing: bool) -> bool {
+        match self {
+            Goal::Land(_) => landing,
+            Goal::Pass { t_out, .. } => t_new >= t_out,
+        }
+    }
+}
+
+/// The largest step `settings.step` allows: itself if positive and finite, else none (∞).
+pub(super) fn max_step(settings: &Settings) -> f64 {
+    if settings.step > 0.0 && settings.step.is_finite() {
+        settings.step
+    } else {
+        f64::INFINITY
+    }
+}
+
 /// Whether `h` is below the smallest usable step at `t` (or NaN).
 pub(super) fn step_too_small(t: f64, h: f64) -> bool {
     h.is_nan() || h < MIN_STEP_ULPS * f64::EPSILON * t.abs().max(1.0)
@@ -137,7 +181,18 @@ pub(super) struct PiController {
 }
 
 impl PiController {
-    pub(super) fn new(gains: PiGains, err_prev: f64) -> PiController {
+    /// The controller at the start of a call. The previous error for the PI term: a cold
+    /// start uses Hairer's [`FACOLD_MIN`], which damps the first growth (~30 %). A call
+    /// continuing with a carried step uses `err_prev` when it is known (dense mode keeps
+    /// it); otherwise (landing mode: it is not part of the FMU state) it assumes the
+    /// previous error was at tolerance (1), which makes the first update a plain
+    /// I-controller instead of shrinking the proposal at every call.
+    pub(super) fn resuming(gains: PiGains, carried: bool, err_prev: Option<f64>) -> PiController {
+        let err_prev = match err_prev {
+            Some(e) if carried => e,
+            _ if carried => 1.0,
+            _ => FACOLD_MIN,
+        };
         PiController {
             gains,
             err_prev,
@@ -171,11 +226,12 @@ impl PiController {
     }
 }
 
-/// The proposal carried to the next call after a landing step `hs` that was planned as
-/// `h`: the cut-short step's easy error must not shrink it, so keep the planned step
-/// unless the controller asks to reduce.
-pub(super) fn carried_proposal(h_new: f64, hs: f64, h: f64) -> f64 {
-    if h_new < hs {
+/// The proposal carried to the next call after the last accepted step `hs`, planned as
+/// `h`, for which the controller proposed `h_new`. After a landing step the cut-short
+/// step's easy error must not shrink it, so keep the planned step unless the controller
+/// asks to reduce.
+pub(super) fn carried_proposal(landing: bool, h_new: f64, hs: f64, h: f64) -> f64 {
+    if !landing || h_new < hs {
         h_new
     } else {
         h_new.max(h)
