@@ -233,6 +233,17 @@ impl Model {
     }
 }
 
+/// `(tol, step)` for [`run`] of a benchmarked `method` at `setting`: the tolerance of an
+/// adaptive method (its step unbounded), or the fixed step of a fixed-step one (its
+/// tolerance, unused, the model's default).
+fn tol_and_step<M: System>(method: Method, setting: f64) -> (f64, f64) {
+    if method.is_adaptive() {
+        (setting, 0.0)
+    } else {
+        (M::default_experiment().1, setting)
+    }
+}
+
 /// An instance with the scene's start values, `method` (`tol` for adaptive methods, `step`
 /// for fixed ones; a positive `step` caps an adaptive one's), set up to `stop` and
 /// initialised. Setup errors are returned as `Err`.
@@ -411,11 +422,7 @@ fn long_runs<M: System>(
             &long.steps
         };
         for &setting in settings {
-            let (tol, step) = if method.is_adaptive() {
-                (setting, 0.0)
-            } else {
-                (M::default_experiment().1, setting)
-            };
+            let (tol, step) = tol_and_step::<M>(method, setting);
             let (kind, mut best) = (
                 if method.is_adaptive() { "tol" } else { "step" },
                 f64::INFINITY,
@@ -522,12 +529,12 @@ fn reference_run_with<M: System>(
     // Both kinds step at most `fine`: the adaptive one capped there (with dense output it
     // would otherwise take the steps its tolerance allows: measured ref_error 1e2 times
     // larger on CompoundPendulum/inverted, 1e6 times on WhippleBicycle/capsize).
-    let (tol, step) = if method.is_adaptive() {
-        (tol, fine)
+    let tol = if method.is_adaptive() {
+        tol
     } else {
-        (M::default_experiment().1, fine)
+        M::default_experiment().1
     };
-    let mut r = run::<M>(model, scene, method, tol, step, fine, stop)?;
+    let mut r = run::<M>(model, scene, method, tol, fine, fine, stop)?;
     fn keep<T>(v: &mut Vec<T>, substeps: usize) {
         let last = v.len() - 1;
         let mut k = 0;
@@ -695,12 +702,7 @@ pub fn bench_system<M: System>(config: &BenchConfig) -> Vec<BenchRow> {
                 .iter()
                 .flat_map(|s| comms.iter().map(move |c| (s, c)))
             {
-                let (tol, step) = if method.is_adaptive() {
-                    (setting, 0.0)
-                } else {
-                    // The tolerance is unused by fixed-step methods.
-                    (M::default_experiment().1, setting)
-                };
+                let (tol, step) = tol_and_step::<M>(method, setting);
                 let mut best = f64::INFINITY;
                 let mut outcome = None;
                 for _ in 0..config.reps.max(1) {
@@ -778,11 +780,7 @@ pub fn energy_history<M: System>(
     scene.stop_time = horizon;
     let mut rows = Vec::new();
     for &(method, setting) in runs {
-        let (tol, step) = if method.is_adaptive() {
-            (setting, 0.0)
-        } else {
-            (M::default_experiment().1, setting)
-        };
+        let (tol, step) = tol_and_step::<M>(method, setting);
         let r = run::<M>(&model, &scene, method, tol, step, comm_step, horizon)?;
         let traj = &r.trajectory;
         let e0 = traj.energy[0];

@@ -141,11 +141,7 @@ fn sweep<M: System>(
             ("step", &config.steps, config.comm_step)
         };
         for &setting in settings {
-            let (tol, step) = if method.is_adaptive() {
-                (setting, 0.0)
-            } else {
-                (M::default_experiment().1, setting)
-            };
+            let (tol, step) = tol_and_step::<M>(method, setting);
             let mut best = f64::INFINITY;
             let mut outcome = None;
             for _ in 0..config.reps.max(1) {
