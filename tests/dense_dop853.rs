@@ -20,7 +20,8 @@
 mod dense_common;
 
 use dense_common::{
-    check_sweep, grids_agree, rollback, steps, sweep, worst_error, Case, DOP853, EXACT_LINEAR,
+    check_sweep, fresh_from, grids_agree, rollback, steps, sweep, worst_error, Case, DOP853,
+    EXACT_LINEAR,
 };
 use mbfmu::fmi::StepOutcome;
 use mbfmu::systems::{MassSpringDamper, TwoMassChain};
@@ -78,21 +79,14 @@ fn a_changed_input_restarts_at_the_communication_point() {
     inst.set_real(&[case.vr("F")], &[1.0]).unwrap();
     assert!(inst.snapshot().memory.dop853_ahead.is_none());
     let got = steps(&case, &mut inst, comm, 100, 200);
-    let start: Vec<(&str, f64)> = case
-        .states
-        .iter()
-        .copied()
-        .zip(at_switch)
-        .chain([("F", 1.0)])
-        .collect();
-    let mut exact = case.started(EXACT_LINEAR, comm, 1.0, &start);
-    let reference: Vec<Vec<f64>> = (0..100)
-        .map(|i| {
-            let t = 1.0 + i as f64 * comm;
-            assert_eq!(exact.do_step(t, comm).unwrap(), StepOutcome::Completed);
-            case.state(&exact)
-        })
-        .collect();
+    let reference = fresh_from(
+        &case,
+        EXACT_LINEAR,
+        (1.0, &at_switch),
+        ("F", 1.0),
+        comm,
+        100,
+    );
     let err = worst_error(&got, &reference, &case.scale());
     println!("METRIC DOP853 input step at t = 1 s: error {err:.2e}");
     assert!(err < DENSE_BOUND, "{err:e}");

@@ -20,9 +20,9 @@
 mod dense_common;
 
 use dense_common::{
-    bits, check_sweep, grids_agree, rollback, steps, sweep, worst_error, Case, EXACT_LINEAR, RADAU5,
+    bits, check_sweep, fresh_from, grids_agree, rollback, steps, sweep, worst_error, Case,
+    EXACT_LINEAR, RADAU5,
 };
-use mbfmu::fmi::StepOutcome;
 use mbfmu::systems::{MassSpringDamper, RigidBody, TwoMassChain};
 
 const TOL: f64 = 1e-6;
@@ -87,23 +87,7 @@ fn a_changed_input_restarts_at_the_communication_point() {
 
     // Against the exact propagator and a RADAU5 run started afresh at t = 1 s from the
     // same state with F = 1 N.
-    let start: Vec<(&str, f64)> = case
-        .states
-        .iter()
-        .copied()
-        .zip(at_switch)
-        .chain([("F", 1.0)])
-        .collect();
-    let fresh = |solver: i32| {
-        let mut inst = case.started(solver, comm, 1.0, &start);
-        (0..100)
-            .map(|i| {
-                let t = 1.0 + i as f64 * comm;
-                assert_eq!(inst.do_step(t, comm).unwrap(), StepOutcome::Completed);
-                case.state(&inst)
-            })
-            .collect::<Vec<_>>()
-    };
+    let fresh = |solver| fresh_from(&case, solver, (1.0, &at_switch), ("F", 1.0), comm, 100);
     let (exact, restarted) = (fresh(EXACT_LINEAR), fresh(RADAU5));
     // Positions only: the force step on m1 excites the fast mode (relative velocity
     // amplitude ~F/(m·ω_fast) ≈ 4e-4 m/s at ω_fast = 1414 rad/s), which RADAU5's L-stable

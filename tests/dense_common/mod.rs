@@ -110,6 +110,33 @@ impl<S: System> Case<S> {
     }
 }
 
+/// After an input switch: `solver` started afresh at `t0` from the states `x0` with the
+/// input `(name, value)`, then `n` doSteps of `comm`; the states after each.
+pub fn fresh_from<S: System>(
+    case: &Case<S>,
+    solver: i32,
+    (t0, x0): (f64, &[f64]),
+    input: (&str, f64),
+    comm: f64,
+    n: usize,
+) -> Vec<Vec<f64>> {
+    let start: Vec<(&str, f64)> = case
+        .states
+        .iter()
+        .copied()
+        .zip(x0.iter().copied())
+        .chain([input])
+        .collect();
+    let mut inst = case.started(solver, comm, t0, &start);
+    (0..n)
+        .map(|i| {
+            let t = t0 + i as f64 * comm;
+            assert_eq!(inst.do_step(t, comm).unwrap(), StepOutcome::Completed);
+            case.state(&inst)
+        })
+        .collect()
+}
+
 /// The largest error over a grid, component i scaled by `scale[i]`.
 pub fn worst_error(got: &[Vec<f64>], reference: &[Vec<f64>], scale: &[f64]) -> f64 {
     let dim = scale.len();
