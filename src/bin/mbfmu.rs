@@ -206,6 +206,9 @@ fn linearize(args: &[String]) -> Result<(), String> {
     overrides.extend(sets);
     overrides.extend(ats);
     let lin = (entry.linearize)(&overrides, trim)?;
+    for line in &lin.warnings {
+        eprintln!("warning: {line}");
+    }
     let text = match format.as_str() {
         "json" => to_json(&lin),
         "py" => to_py(&lin),

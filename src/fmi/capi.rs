@@ -256,7 +256,7 @@ pub fn enter_initialization_mode<E: Export>(c: Component) -> Status {
 
 pub fn exit_initialization_mode<E: Export>(c: Component) -> Status {
     call::<E>(c, "fmi2ExitInitializationMode", |inst| {
-        ok(inst.exit_initialization_mode())
+        inst.exit_initialization_mode()
     })
 }
 

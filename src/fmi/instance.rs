@@ -10,6 +10,7 @@ use crate::integrators::problem::Problem;
 use crate::integrators::{
     self, dop853, dopri5, dopri5::Ahead, radau5, rattle::Mechanics, Memory, Method, Settings,
 };
+use crate::model::consistent;
 use crate::model::jacobian::{directional, Direction};
 use crate::model::{Slot, System, VarKind};
 use std::marker::PhantomData;
@@ -31,6 +32,9 @@ pub struct Instance<M: System> {
     /// Bound on the adaptive methods' step (∞: none). Rust API only, for reference runs
     /// ([`Instance::cap_adaptive_step`]); not an FMU variable, not part of the FMU state.
     adaptive_max_step: f64,
+    /// Which states the user set since instantiation (or fmi2Reset): a dependent state
+    /// set to a value the constraints contradict is reported at initialisation.
+    states_set: Vec<bool>,
     _model: PhantomData<M>,
 }
 
@@ -67,6 +71,7 @@ impl<M: System> Instance<M> {
             initial: data.clone(),
             data,
             adaptive_max_step: f64::INFINITY,
+            states_set: vec![false; layout.n_states],
             _model: PhantomData,
         }
     }
@@ -148,11 +153,22 @@ impl<M: System> Instance<M> {
         Ok(())
     }
 
-    pub fn exit_initialization_mode(&mut self) -> Res {
+    /// fmi2Warning when a value the user set had to give way to the constraints (logged).
+    pub fn exit_initialization_mode(&mut self) -> Res<Status> {
         self.require(machine::EXIT_INIT, "fmi2ExitInitializationMode")?;
         let d = &self.data;
         let mut x = d.x.clone();
-        M::project(d.time, &d.params, &mut x);
+        // A constrained system keeps the independent states as set and solves the
+        // constraints for the dependent ones; a dependent value set that the constraints
+        // contradict is reported (a warning), never silently replaced.
+        let mut adjusted = Vec::new();
+        if M::STATE_CONSTRAINTS > 0 {
+            consistent::solve::<M>(d.time, &d.params, &mut x)
+                .map_err(|e| format!("fmi2ExitInitializationMode: {e}"))?;
+            adjusted = consistent::overridden::<M>(d.time, &d.params, &self.states_set, &d.x, &x);
+        } else {
+            M::project(d.time, &d.params, &mut x);
+        }
         let mut dx = vec![0.0; x.len()];
         M::derivatives(d.time, &x, &d.u, &d.params, &mut dx);
         if let Some(i) = x.iter().chain(&dx).position(|v| !v.is_finite()) {
@@ -168,10 +184,20 @@ impl<M: System> Instance<M> {
                 M::NAME
             ));
         }
+        for line in &adjusted {
+            self.logger.failure(
+                Status::Warning,
+                &format!("fmi2ExitInitializationMode: {line}"),
+            );
+        }
         self.data.x = x;
         self.data.memory = Memory::default();
         self.data.machine = Machine::StepComplete;
-        Ok(())
+        Ok(if adjusted.is_empty() {
+            Status::Ok
+        } else {
+            Status::Warning
+        })
     }
 
     pub fn terminate(&mut self) -> Res {
@@ -183,6 +209,7 @@ impl<M: System> Instance<M> {
     pub fn reset(&mut self) -> Res {
         self.require(machine::RESET, "fmi2Reset")?;
         self.data = self.initial.clone();
+        self.states_set.fill(false);
         Ok(())
     }
 
@@ -281,18 +308,8 @@ impl<M: System> Instance<M> {
                 }
                 VarKind::Input => {}
             }
-            if !value.is_finite() {
-                return Err(format!(
-                    "fmi2SetReal: value {value} for {name} (value reference {vr}) is not finite"
-                ));
-            }
-            if var.min.is_some_and(|min| value < min) || var.max.is_some_and(|max| value > max) {
-                return Err(format!(
-                    "fmi2SetReal: value {value} for {name} (value reference {vr}) is outside [{}, {}]",
-                    var.min.unwrap_or(f64::NEG_INFINITY),
-                    var.max.unwrap_or(f64::INFINITY)
-                ));
-            }
+            var.check(value)
+                .map_err(|e| format!("fmi2SetReal: {e} (value reference {vr})"))?;
             slots.push(slot);
         }
         let d = &mut self.data;
@@ -300,7 +317,10 @@ impl<M: System> Instance<M> {
             match slot.kind {
                 VarKind::Parameter => d.params[slot.index] = value,
                 VarKind::SolverStep => d.solver_step = value,
-                VarKind::State => d.x[slot.index] = value,
+                VarKind::State => {
+                    d.x[slot.index] = value;
+                    self.states_set[slot.index] = true;
+                }
                 VarKind::Input => {
                     // A new input value changes f: the integrator's point ahead of the
                     // communication time no longer holds. The same value keeps it.

@@ -11,6 +11,7 @@ mod format;
 
 pub use format::{to_csv, to_json, to_py};
 
+use crate::model::consistent;
 use crate::model::jacobian::{directional, Direction};
 use crate::model::{Layout, System, VarKind};
 use nalgebra::{DMatrix, DVector};
@@ -51,12 +52,33 @@ impl OperatingPoint {
                     ))
                 }
             };
-            if !value.is_finite() {
-                return Err(format!("{name} = {value} is not finite"));
-            }
+            // The FMU's own check and message (fmi2SetReal), so the CLI refuses what the
+            // FMU refuses.
+            layout.vars[vr as usize]
+                .1
+                .check(*value)
+                .map_err(|e| format!("{e} (value reference {vr})"))?;
             target[slot.index] = *value;
         }
         Ok(op)
+    }
+
+    /// [`OperatingPoint::from_start_values`], then the dependent states of a constrained
+    /// system solved from the independent ones, as fmi2ExitInitializationMode does
+    /// ([`consistent::solve`]). Returns the point and one line per dependent state that an
+    /// override set to a value the constraints contradict (the FMU's warning).
+    pub fn consistent<M: System>(
+        overrides: &[(String, f64)],
+    ) -> Result<(Self, Vec<String>), String> {
+        let mut op = Self::from_start_values::<M>(overrides)?;
+        let set: Vec<bool> = M::states()
+            .iter()
+            .map(|v| overrides.iter().any(|(name, _)| *name == v.name))
+            .collect();
+        let before = op.x.clone();
+        consistent::solve::<M>(op.t, &op.p, &mut op.x)?;
+        let warnings = consistent::overridden::<M>(op.t, &op.p, &set, &before, &op.x);
+        Ok((op, warnings))
     }
 }
 
@@ -78,6 +100,9 @@ pub struct Linearization {
     pub c: DMatrix<f64>,
     pub d: DMatrix<f64>,
     pub method: &'static str,
+    /// What had to give at the operating point (a dependent state set against its
+    /// constraints), one line each; empty when everything set was used as set.
+    pub warnings: Vec<String>,
 }
 
 /// Columns of `[∂f/∂x ∂f/∂u]` and `[∂g/∂x ∂g/∂u]`, one dual-number pass per column.
@@ -148,6 +173,7 @@ pub fn linearize<M: System>(op: &OperatingPoint) -> Linearization {
         d,
         point: op.clone(),
         method: "exact: forward-mode dual numbers (num-dual)",
+        warnings: Vec::new(),
     }
 }
 

@@ -538,6 +538,25 @@ impl<L: Lagrangian> System for L {
             project_onto_constraints::<L>(x, p);
         }
     }
+
+    /// Φ(q), G q̇ and A(q) q̇: the coordinates and velocities a user sets must satisfy
+    /// all three; the dependent ones are declared on `coordinates` and `velocities`.
+    const STATE_CONSTRAINTS: usize = 2 * L::CONSTRAINTS + L::VELOCITY_CONSTRAINTS;
+
+    fn state_constraints<S: Scalar>(_t: f64, x: &[S], p: &[S], residual: &mut [S]) -> bool {
+        let (q, qd) = x.split_at(x.len() / 2);
+        let m = L::CONSTRAINTS;
+        L::constraints(q, p, &mut residual[..m]);
+        // G q̇ = d/dε Φ(q + ε q̇): one dual evaluation.
+        let qdual: Vec<Dual<S>> = q.iter().zip(qd).map(|(&a, &b)| Dual::new(a, b)).collect();
+        let mut phi = vec![Dual::from_re(S::from(0.0)); m];
+        L::constraints(&qdual, &lift_dual(p), &mut phi);
+        for (r, v) in residual[m..2 * m].iter_mut().zip(&phi) {
+            *r = v.eps;
+        }
+        L::velocity_constraints(q, qd, p, &mut residual[2 * m..]);
+        true
+    }
 }
 
 #[cfg(test)]

@@ -82,6 +82,7 @@ impl Layout {
                 min: None,
                 max: None,
                 nominal: None,
+                dependent: false,
             })
             .collect();
         push(VarKind::Derivative, &derivs);

@@ -6,6 +6,7 @@
 //! dual numbers, and ships its scenes. Value references, modelDescription.xml,
 //! ModelStructure and the C glue are all derived from this declaration.
 
+pub mod consistent;
 pub mod jacobian;
 pub mod lagrangian;
 mod layout;
@@ -35,6 +36,10 @@ pub struct Var {
     pub max: Option<f64>,
     /// Typical magnitude; scales the integrator's absolute tolerance for states.
     pub nominal: Option<f64>,
+    /// A state the constraints determine from the others (see [`consistent`]):
+    /// initialisation solves for it, and its start value is only the guess that picks
+    /// the root (FMI `initial="approx"`).
+    pub dependent: bool,
 }
 
 impl Var {
@@ -56,6 +61,7 @@ impl Var {
             min: None,
             max: None,
             nominal: None,
+            dependent: false,
         }
     }
 
@@ -72,6 +78,31 @@ impl Var {
     pub const fn nominal(mut self, nominal: f64) -> Self {
         self.nominal = Some(nominal);
         self
+    }
+
+    /// Marks a state as dependent: computed from the independent states through the
+    /// system's [`System::state_constraints`] at initialisation.
+    pub const fn dependent(mut self) -> Self {
+        self.dependent = true;
+        self
+    }
+
+    /// Whether `value` is a legal value of this variable: finite and inside
+    /// `[min, max]`. The message names the variable and is the same wherever a value
+    /// comes in (fmi2SetReal, a restored FMU state, `mbfmu linearize --set`).
+    pub fn check(&self, value: f64) -> Result<(), String> {
+        if !value.is_finite() {
+            return Err(format!("value {value} for {} is not finite", self.name));
+        }
+        if self.min.is_some_and(|min| value < min) || self.max.is_some_and(|max| value > max) {
+            return Err(format!(
+                "value {value} for {} is outside [{:?}, {:?}]",
+                self.name,
+                self.min.unwrap_or(f64::NEG_INFINITY),
+                self.max.unwrap_or(f64::INFINITY)
+            ));
+        }
+        Ok(())
     }
 }
 
@@ -116,6 +147,19 @@ pub trait System: 'static {
     /// cannot accumulate across communication steps. Unconstrained systems keep the
     /// default, which does nothing.
     fn project(_t: f64, _p: &[f64], _x: &mut [f64]) {}
+
+    /// How many residuals [`System::state_constraints`] returns: as many as states
+    /// declared [`Var::dependent`]. 0 (the default): no constraints on the state.
+    const STATE_CONSTRAINTS: usize = 0;
+
+    /// The constraints the state must satisfy, as residuals that vanish on them (position
+    /// constraints Φ(q) = 0 and velocity constraints G q̇ = 0, A(q) q̇ = 0), generic over
+    /// the scalar so that initialisation solves them for the dependent states with an
+    /// exact Jacobian ([`consistent::solve`]). Returns false where the system holds no
+    /// constraint at this state (a mode: SphereSlide in free flight). Default: none.
+    fn state_constraints<S: Scalar>(_t: f64, _x: &[S], _p: &[S], _residual: &mut [S]) -> bool {
+        false
+    }
 
     /// The mechanical structure RATTLE needs (mass matrix, generalized force, holonomic
     /// constraints) with these inputs and parameters, for systems written as a

@@ -52,11 +52,12 @@ fn linearize_at<M: System>(
     overrides: &[(String, f64)],
     trim: Option<Trim>,
 ) -> Result<Linearization, String> {
-    let mut op = OperatingPoint::from_start_values::<M>(overrides)?;
+    let (mut op, warnings) = OperatingPoint::consistent::<M>(overrides)?;
     if let Some(what) = trim {
         linearize::trim::<M>(&mut op, what)?;
     }
-    let lin = linearize::linearize::<M>(&op);
+    let mut lin = linearize::linearize::<M>(&op);
+    lin.warnings = warnings;
     let finite = |m: &nalgebra::DMatrix<f64>| m.iter().all(|v| v.is_finite());
     let all_finite = finite(&lin.a)
         && finite(&lin.b)

@@ -120,16 +120,18 @@ impl System for RollingDisk {
                 "x_dot",
                 Some("m/s"),
                 0.0,
-                "Velocity of the contact point, x",
+                "Velocity of the contact point, x (computed: a φ̇ cos θ)",
             )
-            .nominal(1.0),
+            .nominal(1.0)
+            .dependent(),
             Var::new(
                 "y_dot",
                 Some("m/s"),
                 0.0,
-                "Velocity of the contact point, y",
+                "Velocity of the contact point, y (computed: a φ̇ sin θ)",
             )
-            .nominal(1.0),
+            .nominal(1.0)
+            .dependent(),
             Var::new("theta_dot", Some("rad/s"), 0.0, "Heading rate").nominal(1.0),
             Var::new("phi_dot", Some("rad/s"), 0.0, "Spin rate").nominal(1.0),
         ]
@@ -226,6 +228,17 @@ impl System for RollingDisk {
     /// (Gauss's principle for an impulsive constraint). Exact in one step; θ̇ is untouched
     /// (G has no θ column); a state that satisfies the constraints is left unchanged up to
     /// rounding.
+    /// Rolling without slip: `ẋ = a φ̇ cos θ`, `ẏ = a φ̇ sin θ`; a user sets θ̇ and φ̇
+    /// (and the positions), the contact point's velocity follows.
+    const STATE_CONSTRAINTS: usize = 2;
+
+    fn state_constraints<S: Scalar>(_t: f64, x: &[S], p: &[S], residual: &mut [S]) -> bool {
+        let a = p[A];
+        residual[0] = x[XD] - a * x[PHD] * x[TH].cos();
+        residual[1] = x[YD] - a * x[PHD] * x[TH].sin();
+        true
+    }
+
     fn project(_t: f64, p: &[f64], x: &mut [f64]) {
         let (m, a) = (p[M], p[A]);
         if !(m > 0.0 && a > 0.0 && m.is_finite() && a.is_finite()) {

@@ -92,15 +92,23 @@ impl System for RollingHoop {
                 "Distance of the hoop's centre down the slope",
             )
             .nominal(1.0),
-            Var::new("theta", Some("rad"), 0.0, "Rotation angle of the hoop").nominal(1.0),
+            Var::new(
+                "theta",
+                Some("rad"),
+                0.0,
+                "Rotation angle of the hoop (computed: x / r)",
+            )
+            .nominal(1.0)
+            .dependent(),
             Var::new("x_dot", Some("m/s"), 0.0, "Speed down the slope").nominal(1.0),
             Var::new(
                 "theta_dot",
                 Some("rad/s"),
                 0.0,
-                "Angular velocity of the hoop",
+                "Angular velocity of the hoop (computed: ẋ / r)",
             )
-            .nominal(1.0),
+            .nominal(1.0)
+            .dependent(),
         ]
     }
 
@@ -166,6 +174,16 @@ impl System for RollingHoop {
     /// `q ← q − M⁻¹ Cᵀ (C M⁻¹ Cᵀ)⁻¹ (C q − c)`; with `C = (−1, r)` this moves x by half the
     /// residual and r θ by minus half of it (the mass cancels). Exact in one step (the
     /// constraints are linear); a state on the manifold is left unchanged up to rounding.
+    /// Rolling from the start: `r θ = x` and `r θ̇ = ẋ`; a user sets x and ẋ.
+    const STATE_CONSTRAINTS: usize = 2;
+
+    fn state_constraints<S: Scalar>(_t: f64, x: &[S], p: &[S], residual: &mut [S]) -> bool {
+        let r = p[R];
+        residual[0] = r * x[1] - x[0];
+        residual[1] = r * x[3] - x[2];
+        true
+    }
+
     fn project(_t: f64, p: &[f64], x: &mut [f64]) {
         let (m, r) = (p[M], p[R]);
         if !(m > 0.0 && r > 0.0 && m.is_finite() && r.is_finite()) {

@@ -255,8 +255,12 @@ impl Lagrangian for SliderCrankSurplus {
     fn coordinates() -> Vec<Var> {
         vec![
             Var::new("theta", Some("rad"), 0.0, "Crank angle from the x axis").nominal(1.0),
-            Var::new("beta", Some("rad"), 0.0, "Rod angle below the x axis").nominal(1.0),
-            Var::new("x", Some("m"), L1_DEFAULT + L2_DEFAULT, "Piston position").nominal(0.1),
+            Var::new("beta", Some("rad"), 0.0, "Rod angle below the x axis")
+                .nominal(1.0)
+                .dependent(),
+            Var::new("x", Some("m"), L1_DEFAULT + L2_DEFAULT, "Piston position")
+                .nominal(0.1)
+                .dependent(),
         ]
     }
 
@@ -269,8 +273,11 @@ impl Lagrangian for SliderCrankSurplus {
                 OMEGA0 * L1_DEFAULT / L2_DEFAULT,
                 "Rod angular velocity",
             )
-            .nominal(10.0),
-            Var::new("x_dot", Some("m/s"), 0.0, "Piston velocity").nominal(1.0),
+            .nominal(10.0)
+            .dependent(),
+            Var::new("x_dot", Some("m/s"), 0.0, "Piston velocity")
+                .nominal(1.0)
+                .dependent(),
         ]
     }
 

@@ -89,11 +89,19 @@ impl System for SphereSlide {
                 "h",
                 Some("m"),
                 THETA0.cos(),
-                "Height above the sphere's centre (start: R cos θ0)",
+                "Height above the sphere's centre (start: R cos θ0; on the surface computed: √(R² − x²))",
             )
-            .nominal(1.0),
+            .nominal(1.0)
+            .dependent(),
             Var::new("vx", Some("m/s"), 0.0, "Horizontal velocity").nominal(1.0),
-            Var::new("vh", Some("m/s"), 0.0, "Vertical velocity").nominal(1.0),
+            Var::new(
+                "vh",
+                Some("m/s"),
+                0.0,
+                "Vertical velocity (on the surface computed: −x vx / h)",
+            )
+            .nominal(1.0)
+            .dependent(),
             Var::new(
                 "on_surface",
                 None,
@@ -176,6 +184,16 @@ impl System for SphereSlide {
     /// then the radial component of the velocity removed (the nearest tangent velocity);
     /// the mass metric is m times the identity, so both are orthogonal projections in it.
     /// In free flight: nothing.
+    /// On the surface: `x² + h² = R²` and `x vx + h vh = 0`; a user sets x and vx (and
+    /// the mode), h and vh follow (h on the side of its start value: above the centre).
+    const STATE_CONSTRAINTS: usize = 2;
+
+    fn state_constraints<S: Scalar>(_t: f64, x: &[S], p: &[S], residual: &mut [S]) -> bool {
+        residual[0] = (x[X] * x[X] + x[H] * x[H] - p[R] * p[R]) * 0.5;
+        residual[1] = x[X] * x[VX] + x[H] * x[VH];
+        on_surface(x[ON].re())
+    }
+
     fn project(_t: f64, p: &[f64], x: &mut [f64]) {
         if !on_surface(x[ON]) {
             return;

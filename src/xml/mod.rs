@@ -176,7 +176,12 @@ fn render<M: System>(guid: &str) -> String {
             ("valueReference", s(vr)),
             ("description", s(&var.description)),
         ];
-        let (causality, variability, initial) = fmi_attributes(*slot);
+        let (causality, variability, mut initial) = fmi_attributes(*slot);
+        if var.dependent {
+            // Computed from the constraints; the start value is the guess that picks
+            // the root.
+            initial = Some("approx");
+        }
         attrs.push(("causality", s(causality)));
         attrs.push(("variability", s(variability)));
         if let Some(initial) = initial {

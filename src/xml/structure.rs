@@ -3,8 +3,10 @@
 //! non-zero at any of a few random points (random states, inputs, parameters and time,
 //! so a parameter that happens to be zero in a scene cannot hide a dependency).
 
+use crate::model::consistent;
 use crate::model::jacobian::{directional, Direction};
 use crate::model::{Layout, System, VarKind};
+use num_dual::Dual64;
 
 /// `(ScalarVariable index, indices it depends on)`, 1-based as in the XML.
 pub type Unknowns = Vec<(usize, Vec<usize>)>;
@@ -34,6 +36,9 @@ impl SplitMix {
 struct Sparsity {
     /// `[unknown][known]`, unknowns = derivatives then extra outputs, knowns = x, u, p.
     nonzero: Vec<Vec<bool>>,
+    /// `[known]`: whether any state constraint depends on it (x, u, p). The dependent
+    /// states are solved from these at initialisation.
+    constrained: Vec<bool>,
 }
 
 fn sparsity<M: System>(layout: &Layout) -> Sparsity {
@@ -45,6 +50,7 @@ fn sparsity<M: System>(layout: &Layout) -> Sparsity {
     );
     let n_known = n + m + np;
     let mut nonzero = vec![vec![false; n_known]; n + ny];
+    let mut constrained = vec![false; n_known];
     let mut rng = SplitMix(0x5EED);
     for _point in 0..3 {
         let t = rng.uniform(0.1, 10.0);
@@ -68,9 +74,22 @@ fn sparsity<M: System>(layout: &Layout) -> Sparsity {
                     row[j] = true;
                 }
             }
+            if j < n || j >= n + m {
+                let seed = |v: &[f64], dv: &[f64]| -> Vec<Dual64> {
+                    v.iter().zip(dv).map(|(&a, &b)| Dual64::new(a, b)).collect()
+                };
+                let mut r = vec![Dual64::from(0.0); M::STATE_CONSTRAINTS];
+                // The residuals are written whether or not they hold at this point (a
+                // mode): the structure is that of the constrained mode.
+                M::state_constraints(t, &seed(&x, &e[..n]), &seed(&p, &e[n + m..]), &mut r);
+                constrained[j] |= r.iter().any(|v| v.eps != 0.0);
+            }
         }
     }
-    Sparsity { nonzero }
+    Sparsity {
+        nonzero,
+        constrained,
+    }
 }
 
 /// The ModelStructure of `M`.
@@ -106,6 +125,22 @@ pub fn dependencies<M: System>(layout: &Layout) -> Dependencies {
         v.sort_unstable();
         v
     };
+    // In initialization mode a dependent state is not a known: it is computed from the
+    // independent states and parameters its constraints involve (their union: the
+    // implicit function couples every dependent state to all of them in general).
+    let dependent = consistent::dependent_states::<M>();
+    let solved_from: Vec<bool> = (0..sp.constrained.len())
+        .map(|j| sp.constrained[j] && !dependent.contains(&j))
+        .collect();
+    let init_row = |row: &[bool]| -> Vec<bool> {
+        let through_dependent = dependent.iter().any(|&d| row[d]);
+        row.iter()
+            .enumerate()
+            .map(|(j, &nz)| {
+                (nz && !dependent.contains(&j)) || (through_dependent && solved_from[j])
+            })
+            .collect()
+    };
     let init = |j| Some(init_known(j));
 
     let mut outputs = Vec::new();
@@ -128,10 +163,18 @@ pub fn dependencies<M: System>(layout: &Layout) -> Dependencies {
         })
         .collect();
     let mut initial_unknowns: Unknowns = (0..n)
-        .map(|i| (index(VarKind::Derivative, i), list(&sp.nonzero[i], &init)))
+        .map(|i| {
+            let row = init_row(&sp.nonzero[i]);
+            (index(VarKind::Derivative, i), list(&row, &init))
+        })
+        .chain((0..layout.n_outputs).map(|k| {
+            let row = init_row(&sp.nonzero[n + k]);
+            (index(VarKind::Output, k), list(&row, &init))
+        }))
         .chain(
-            (0..layout.n_outputs)
-                .map(|k| (index(VarKind::Output, k), list(&sp.nonzero[n + k], &init))),
+            dependent
+                .iter()
+                .map(|&d| (index(VarKind::State, d), list(&solved_from, &init))),
         )
         .collect();
     initial_unknowns.sort_by_key(|(i, _)| *i);
