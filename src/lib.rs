@@ -7,8 +7,11 @@
 //! - [`xml`]: modelDescription.xml and its ModelStructure, generated from a system.
 //! - [`package`]: the FMU archive and its documentation page.
 //! - [`linearize`]: A, B, C, D at an operating point, exact, and their export formats.
+//! - [`bench`]: the work–precision sweeps of `mbfmu bench`.
+//! - [`catalogue`]: every system with an FMU, and what the CLI does with each.
 
 pub mod bench;
+pub mod catalogue;
 pub mod fmi;
 pub mod integrators;
 pub mod linearize;

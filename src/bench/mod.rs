@@ -907,7 +907,14 @@ fn reference_rows<M: System>(
 /// conservative scenes (`longrun.csv`, `invariant.csv`); unless `--no-springy` or when the
 /// selection leaves out SpringyPendulum/stiff, the springy-vs-rigid comparison
 /// (`springy_rigid*.csv`).
-pub fn cli(args: &[String], default_out: &Path) -> Result<(), String> {
+/// One system's sweep, as the catalogue hands it to [`cli`].
+pub type BenchFn = fn(&BenchConfig) -> Vec<BenchRow>;
+
+pub fn cli(
+    args: &[String],
+    default_out: &Path,
+    systems: &[(&'static str, BenchFn)],
+) -> Result<(), String> {
     let clock = Instant::now();
     let mut quick = false;
     let mut out = default_out.to_path_buf();
@@ -957,22 +964,22 @@ pub fn cli(args: &[String], default_out: &Path) -> Result<(), String> {
     if quick && only.is_empty() {
         only = vec!["MassSpringDamper".into(), "TwoMassChain".into()];
     }
-    let entries: Vec<_> = crate::systems::all()
-        .into_iter()
-        .filter(|e| only.is_empty() || only.iter().any(|n| n == e.name))
+    let entries: Vec<_> = systems
+        .iter()
+        .filter(|(name, _)| only.is_empty() || only.iter().any(|n| n == name))
         .collect();
     if entries.is_empty() {
         return Err(format!("bench: no system matches {}", only.join(", ")));
     }
     std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
     let mut rows = Vec::new();
-    for e in &entries {
+    for (name, bench) in &entries {
         let start = Instant::now();
-        let mine = (e.bench)(&config);
+        let mine = bench(&config);
         let failed = mine.iter().filter(|r| r.status != "ok").count();
         eprintln!(
             "bench: {:<18} {:>4} runs ({failed} failed or refused) in {:.1} s",
-            e.name,
+            name,
             mine.len(),
             start.elapsed().as_secs_f64()
         );

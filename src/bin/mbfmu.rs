@@ -10,7 +10,7 @@
 //! - `mbfmu bench [--quick] [--out DIR]`: work–precision of every method on every scene
 //!   (`results.csv`, default DIR docs/bench); see `benches/` for the peers and the charts.
 
-use mbfmu::systems::{self, Entry};
+use mbfmu::catalogue::{self, Entry};
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
@@ -33,7 +33,7 @@ fn target_dir() -> PathBuf {
 }
 
 fn select(names: &[String], all: bool) -> Result<Vec<Entry>, String> {
-    let entries = systems::all();
+    let entries = catalogue::all();
     if all {
         return Ok(entries);
     }
@@ -115,7 +115,7 @@ fn xml(args: &[String]) -> Result<(), String> {
     };
     let dir = workspace_root().join("modelDescription");
     let mut stale = Vec::new();
-    for e in systems::all() {
+    for e in catalogue::all() {
         let path = dir.join(format!("{}.xml", e.name));
         let text = (e.model_description)();
         if check {
@@ -158,7 +158,7 @@ fn parse_assignment(text: &str) -> Result<(String, f64), String> {
 fn linearize(args: &[String]) -> Result<(), String> {
     use mbfmu::linearize::{to_csv, to_json, to_py, Trim};
     let (model, rest) = args.split_first().ok_or(USAGE)?;
-    let entry = systems::all()
+    let entry = catalogue::all()
         .into_iter()
         .find(|e| e.name == model)
         .ok_or_else(|| format!("unknown model {model}"))?;
@@ -227,7 +227,7 @@ fn linearize(args: &[String]) -> Result<(), String> {
 fn list(args: &[String]) -> Result<(), String> {
     match args {
         [] => {
-            for e in systems::all() {
+            for e in catalogue::all() {
                 println!("{}: {}", e.name, e.description);
                 for s in (e.scenes)() {
                     println!("  {:<18} {}", s.name, s.description);
@@ -243,7 +243,7 @@ fn list(args: &[String]) -> Result<(), String> {
 /// `mbfmu list --json`: every system and its scenes (start values, stop time), for scripts.
 fn list_json() -> String {
     let q = |s: &str| format!("\"{}\"", s.replace('\\', "\\\\").replace('"', "\\\""));
-    let models: Vec<String> = systems::all()
+    let models: Vec<String> = catalogue::all()
         .iter()
         .map(|e| {
             let scenes: Vec<String> = (e.scenes)()
@@ -281,7 +281,10 @@ fn main() -> ExitCode {
         Some("build") => build(&args[1..]),
         Some("xml") => xml(&args[1..]),
         Some("linearize") => linearize(&args[1..]),
-        Some("bench") => mbfmu::bench::cli(&args[1..], &workspace_root().join("docs/bench")),
+        Some("bench") => {
+            let systems: Vec<_> = catalogue::all().iter().map(|e| (e.name, e.bench)).collect();
+            mbfmu::bench::cli(&args[1..], &workspace_root().join("docs/bench"), &systems)
+        }
         Some("-h" | "--help" | "help") => {
             println!("{USAGE}");
             Ok(())
