@@ -900,6 +900,9 @@ fn reference_rows<M: System>(
     s
 }
 
+/// One system's sweep, as the catalogue hands it to [`cli`].
+pub type BenchFn = fn(&BenchConfig) -> Vec<BenchRow>;
+
 /// `mbfmu bench [--quick] [--out DIR] [--system NAME]... [--scene NAME]... [--reps N]
 /// [--no-energy] [--no-springy]`; `default_out` is docs/bench of the workspace.
 ///
@@ -907,9 +910,6 @@ fn reference_rows<M: System>(
 /// conservative scenes (`longrun.csv`, `invariant.csv`); unless `--no-springy` or when the
 /// selection leaves out SpringyPendulum/stiff, the springy-vs-rigid comparison
 /// (`springy_rigid*.csv`).
-/// One system's sweep, as the catalogue hands it to [`cli`].
-pub type BenchFn = fn(&BenchConfig) -> Vec<BenchRow>;
-
 pub fn cli(
     args: &[String],
     default_out: &Path,
