@@ -3,6 +3,7 @@
 //! layers it ties together, beside the CLI: `systems` is physics only and knows none
 //! of them.
 
+use crate::bench::speed::{self, SpeedRow};
 use crate::bench::{BenchConfig, BenchRow};
 use crate::linearize::{self, Linearization, OperatingPoint, Trim};
 use crate::model::{Scene, System};
@@ -23,6 +24,8 @@ pub struct Entry {
     pub linearize: LinearizeFn,
     /// Work–precision runs of every scene and method (`mbfmu bench`).
     pub bench: fn(&BenchConfig) -> Vec<BenchRow>,
+    /// Cost of one doStep, RHS and Jacobian, best of this many repetitions (`mbfmu speed`).
+    pub speed: fn(usize) -> SpeedRow,
 }
 
 fn linearize_at<M: System>(
@@ -60,6 +63,7 @@ fn entry<M: System>(crate_name: &'static str) -> Entry {
         scenes: M::scenes,
         linearize: linearize_at::<M>,
         bench: crate::bench::bench_system::<M>,
+        speed: |reps| speed::measure::<M>(reps, speed::floor_of(M::NAME)),
     }
 }
 

@@ -100,3 +100,64 @@ fn csv_has_one_line_per_row() {
         assert_eq!(line.split(',').count(), columns, "{line}");
     }
 }
+
+/// The hand-written floors of `mbfmu speed` compute what the models compute (otherwise
+/// a ratio to them means nothing): equal right-hand sides at random states.
+#[test]
+fn the_speed_floors_compute_what_the_models_compute() {
+    use mbfmu::bench::floors::{self, Floor};
+    use mbfmu::model::System;
+    use mbfmu::systems::{CompoundPendulum, DoublePendulum};
+    fn agree<M: System, F: Floor<N>, const N: usize>(seed: u64) {
+        let mut s = seed;
+        let mut uniform = |lo: f64, hi: f64| {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            lo + (hi - lo) * ((s >> 11) as f64 / (1u64 << 53) as f64)
+        };
+        let mut p: Vec<f64> = M::parameters().iter().map(|v| v.start).collect();
+        if M::NAME == "MassSpringDamper" {
+            p[3] = 0.0; // the floor has no harmonic forcing
+        }
+        let u = vec![0.0; M::inputs().len()];
+        for _ in 0..50 {
+            let x: [f64; N] = std::array::from_fn(|_| uniform(-2.0, 2.0));
+            let mut dx = vec![0.0; N];
+            M::derivatives(0.0, &x, &u, &p, &mut dx);
+            let floor = F::rhs(&x, &p);
+            let scale = dx.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+            for i in 0..N {
+                assert!(
+                    (dx[i] - floor[i]).abs() <= 1e-13 * scale,
+                    "{}: {dx:?} vs {floor:?}",
+                    M::NAME
+                );
+            }
+        }
+    }
+    agree::<MassSpringDamper, floors::MassSpringDamper, 2>(1);
+    agree::<CompoundPendulum, floors::CompoundPendulum, 2>(2);
+    agree::<DoublePendulum, floors::DoublePendulum, 4>(3);
+}
+
+/// `mbfmu speed`'s row for one system is complete (times are measured, never asserted).
+#[test]
+fn a_speed_row_is_complete() {
+    use mbfmu::bench::speed;
+    let row = speed::measure::<MassSpringDamper>(1, speed::floor_of("MassSpringDamper"));
+    let (floor_step, floor_rhs) = row.floor.expect("MassSpringDamper has a floor");
+    for v in [
+        row.dostep_ns,
+        row.rhs_ns,
+        row.jacobian_ns,
+        floor_step,
+        floor_rhs,
+    ] {
+        assert!(v.is_finite() && v > 0.0, "{row:?}");
+    }
+    assert_eq!(
+        speed::csv_line(&row).split(',').count(),
+        speed::CSV_HEADER.split(',').count()
+    );
+}

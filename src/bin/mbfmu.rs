@@ -20,6 +20,7 @@ const USAGE: &str = "usage:
   mbfmu xml [--check]
   mbfmu linearize MODEL [--scene S] [--set PARAM=VALUE]... [--at STATE_OR_INPUT=VALUE]...
                   [--trim | --trim-inputs] [--format json|py|csv] [--out FILE]
+  mbfmu speed [--system MODEL]... [--reps N] [--out DIR]
   mbfmu bench [--quick] [--out DIR] [--system MODEL]... [--scene S]... [--reps N] [--no-energy] [--no-springy]";
 
 fn workspace_root() -> PathBuf {
@@ -274,6 +275,43 @@ fn list_json() -> String {
     format!("[\n{}\n]\n", models.join(",\n"))
 }
 
+/// `mbfmu speed [--system MODEL]... [--reps N] [--out DIR]`: ns per doStep (RK4, 1 ms),
+/// per RHS and per Jacobian of every system beside the hand-written floors, into
+/// `DIR/speed.csv` (default docs/bench) and as a markdown table on stdout.
+fn speed(args: &[String]) -> Result<(), String> {
+    use mbfmu::bench::speed;
+    let mut only = Vec::new();
+    let mut reps = 5;
+    let mut out = workspace_root().join("docs/bench");
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        let mut value = || it.next().ok_or_else(|| format!("{a} needs a value"));
+        match a.as_str() {
+            "--system" => only.push(value()?.clone()),
+            "--reps" => {
+                reps = value()?
+                    .parse::<usize>()
+                    .ok()
+                    .filter(|&r| r > 0)
+                    .ok_or("--reps needs a positive integer")?
+            }
+            "--out" => out = PathBuf::from(value()?),
+            other => return Err(format!("unknown option {other}\n{USAGE}")),
+        }
+    }
+    let entries = select(&only, only.is_empty())?;
+    println!("| system | states | doStep ns | floor doStep ns (ratio) | RHS ns | floor RHS ns (ratio) | Jacobian ns | Jacobian / (n RHS) |");
+    println!("|---|---|---|---|---|---|---|---|");
+    let mut csv = String::from(speed::CSV_HEADER);
+    for e in &entries {
+        let row = (e.speed)(reps);
+        println!("{}", speed::markdown_line(&row));
+        csv.push_str(&speed::csv_line(&row));
+    }
+    std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
+    write(&out.join("speed.csv"), &csv)
+}
+
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let result = match args.first().map(String::as_str) {
@@ -285,6 +323,7 @@ fn main() -> ExitCode {
             let systems: Vec<_> = catalogue::all().iter().map(|e| (e.name, e.bench)).collect();
             mbfmu::bench::cli(&args[1..], &workspace_root().join("docs/bench"), &systems)
         }
+        Some("speed") => speed(&args[1..]),
         Some("-h" | "--help" | "help") => {
             println!("{USAGE}");
             Ok(())

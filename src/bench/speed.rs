@@ -1,0 +1,250 @@
+//! `mbfmu speed`: what one doStep, one right-hand side and one Jacobian cost, for every
+//! system, beside hand-written floors ([`floors`](super::floors)) measured in the same run.
+//!
+//! - doStep: RK4 at `solver_step` = h = 1 ms (one internal step per doStep), logging off,
+//!   through the same `capi::do_step` an exported `fmi2DoStep` forwards to (state
+//!   machine, argument checks, the step, the outputs' finiteness check).
+//! - RHS: `System::derivatives` in `f64` at the scene's start point.
+//! - Jacobian: the n dual-number columns of ∂f/∂x, as the implicit methods and
+//!   `fmi2GetDirectionalDerivative` build it; reported against n × one RHS.
+//!
+//! Times are the best of several repetitions of a loop long enough (~20 ms) for the clock
+//! not to matter; the ratios to the floor are what to read (a slower machine moves both).
+
+use super::floors::{self, Floor};
+use crate::fmi::{capi, Export, Instance, Logger, ModelInfo, Status};
+use crate::model::jacobian::{directional, Direction};
+use crate::model::{System, VarKind};
+use std::any::TypeId;
+use std::collections::HashMap;
+use std::hint::black_box;
+use std::marker::PhantomData;
+use std::sync::Mutex;
+use std::time::Instant;
+
+/// The communication step and RK4 step of the doStep measurement (s).
+const H: f64 = 1e-3;
+/// RK4's code of the `solver` Enumeration.
+const RK4: i32 = 1;
+
+/// One system's costs (ns).
+#[derive(Clone, Debug)]
+pub struct SpeedRow {
+    pub system: &'static str,
+    pub states: usize,
+    pub dostep_ns: f64,
+    pub rhs_ns: f64,
+    pub jacobian_ns: f64,
+    /// The hand-written floor's doStep and RHS, where the bench has one.
+    pub floor: Option<(f64, f64)>,
+}
+
+/// An [`Export`] for any system, so the bench calls the same generic C-API function the
+/// exported symbols forward to.
+struct Exported<M>(PhantomData<M>);
+
+impl<M: System> Export for Exported<M> {
+    type Model = M;
+    fn info() -> &'static ModelInfo {
+        info::<M>()
+    }
+}
+
+fn info<M: System>() -> &'static ModelInfo {
+    static INFOS: Mutex<Option<HashMap<TypeId, &'static ModelInfo>>> = Mutex::new(None);
+    let mut infos = INFOS.lock().expect("bench info map");
+    infos
+        .get_or_insert_with(HashMap::new)
+        .entry(TypeId::of::<M>())
+        .or_insert_with(|| Box::leak(Box::new(ModelInfo::of::<M>())))
+}
+
+/// Best time per call (ns) of `f`, over `reps` loops of about 20 ms each.
+fn best_ns(reps: usize, mut f: impl FnMut()) -> f64 {
+    let probe = Instant::now();
+    let mut calls = 0u64;
+    while probe.elapsed().as_secs_f64() < 2e-3 {
+        f();
+        calls += 1;
+    }
+    let per_call = probe.elapsed().as_secs_f64() / calls as f64;
+    let iters = ((20e-3 / per_call) as u64).max(1);
+    (0..reps)
+        .map(|_| {
+            let t0 = Instant::now();
+            for _ in 0..iters {
+                f();
+            }
+            t0.elapsed().as_secs_f64() * 1e9 / iters as f64
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// An instance in step mode at the first scene's start values, RK4 at h = [`H`].
+fn started<M: System>() -> Instance<M> {
+    let info = info::<M>();
+    let mut inst = Instance::<M>::new(info, Logger::silent("speed"));
+    inst.setup_experiment(Some(1e-8), 0.0, None).expect("setup");
+    inst.enter_initialization_mode().expect("init mode");
+    if let Some(scene) = M::scenes().first() {
+        for (name, value) in &scene.start_values {
+            let vr = info.layout.vr_of(name).expect("scene variable");
+            inst.set_real(&[vr], &[*value]).expect("scene value");
+        }
+    }
+    let step = info.layout.vr_of("solver_step").expect("solver_step");
+    inst.set_real(&[step], &[H]).expect("solver_step");
+    let solver = info.layout.vr_of("solver").expect("solver");
+    inst.set_integer(&[solver], &[RK4]).expect("RK4");
+    inst.exit_initialization_mode().expect("exit init");
+    inst
+}
+
+/// The values of one kind of variable of a started instance.
+fn values<M: System>(inst: &Instance<M>, kind: VarKind) -> Vec<f64> {
+    let layout = &inst.info.layout;
+    let vrs: Vec<u32> = (0..layout.vars.len() as u32)
+        .filter(|&vr| layout.slot(vr).is_some_and(|s| s.kind == kind))
+        .collect();
+    let mut v = vec![0.0; vrs.len()];
+    inst.get_real(&vrs, &mut v).expect("values");
+    v
+}
+
+/// The costs of `M` (see the module notes), and of its floor when given.
+pub fn measure<M: System>(
+    reps: usize,
+    floor: Option<fn(&[f64], &[f64], usize) -> (f64, f64)>,
+) -> SpeedRow {
+    let probe = started::<M>();
+    let (x, u, p) = (
+        values(&probe, VarKind::State),
+        values(&probe, VarKind::Input),
+        values(&probe, VarKind::Parameter),
+    );
+    let n = x.len();
+
+    // doStep: a fresh instance per repetition, so no run goes on long enough to leave
+    // the scene's regime (a capsizing bicycle, a particle falling for minutes).
+    let dostep_ns = (0..reps)
+        .map(|_| {
+            let inst = Box::leak(Box::new(started::<M>()));
+            let c = inst as *mut Instance<M> as capi::Component;
+            let mut t = 0.0;
+            best_ns(1, || {
+                let status = capi::do_step::<Exported<M>>(c, black_box(t), H, 1);
+                debug_assert_eq!(status, Status::Ok);
+                t += H;
+            })
+        })
+        .fold(f64::INFINITY, f64::min);
+
+    let mut dx = vec![0.0; n];
+    let rhs_ns = best_ns(reps, || {
+        M::derivatives(0.0, black_box(&x), &u, &p, &mut dx);
+        black_box(&dx);
+    });
+
+    let (zero_u, zero_p) = (vec![0.0; u.len()], vec![0.0; p.len()]);
+    let mut e = vec![0.0; n];
+    let jacobian_ns = best_ns(reps, || {
+        for j in 0..n {
+            e.fill(0.0);
+            e[j] = 1.0;
+            let (column, _) = directional::<M>(
+                &Direction {
+                    t: 0.0,
+                    x: (black_box(&x), &e),
+                    u: (&u, &zero_u),
+                    p: (&p, &zero_p),
+                },
+                0,
+            );
+            black_box(column);
+        }
+    });
+
+    SpeedRow {
+        system: M::NAME,
+        states: n,
+        dostep_ns,
+        rhs_ns,
+        jacobian_ns,
+        floor: floor.map(|f| f(&x, &p, reps)),
+    }
+}
+
+/// The floor's (doStep, RHS) in ns from the same start point.
+fn floor_costs<F: Floor<N>, const N: usize>(x0: &[f64], p: &[f64], reps: usize) -> (f64, f64) {
+    let start: [f64; N] = x0.try_into().expect("floor of the same size");
+    let dostep = (0..reps)
+        .map(|_| {
+            let mut x = start;
+            best_ns(1, || {
+                black_box(floors::rk4_step::<F, N>(&mut x, black_box(p), H));
+            })
+        })
+        .fold(f64::INFINITY, f64::min);
+    let rhs = best_ns(reps, || {
+        black_box(F::rhs(black_box(&start), p));
+    });
+    (dostep, rhs)
+}
+
+/// The floor of a system, by name, where the bench has one.
+pub fn floor_of(system: &str) -> Option<fn(&[f64], &[f64], usize) -> (f64, f64)> {
+    match system {
+        "MassSpringDamper" => Some(floor_costs::<floors::MassSpringDamper, 2>),
+        "CompoundPendulum" => Some(floor_costs::<floors::CompoundPendulum, 2>),
+        "DoublePendulum" => Some(floor_costs::<floors::DoublePendulum, 4>),
+        _ => None,
+    }
+}
+
+pub const CSV_HEADER: &str =
+    "system,states,dostep_ns,rhs_ns,jacobian_ns,jacobian_over_n_rhs,floor_dostep_ns,floor_rhs_ns,dostep_over_floor,rhs_over_floor\n";
+
+fn fmt_opt(v: Option<f64>) -> String {
+    v.map_or(String::new(), |v| format!("{v:.3}"))
+}
+
+/// One CSV line (see [`CSV_HEADER`]).
+pub fn csv_line(r: &SpeedRow) -> String {
+    let jac_ratio = r.jacobian_ns / (r.states as f64 * r.rhs_ns);
+    format!(
+        "{},{},{:.1},{:.1},{:.1},{:.2},{},{},{},{}\n",
+        r.system,
+        r.states,
+        r.dostep_ns,
+        r.rhs_ns,
+        r.jacobian_ns,
+        jac_ratio,
+        fmt_opt(r.floor.map(|f| f.0)),
+        fmt_opt(r.floor.map(|f| f.1)),
+        fmt_opt(r.floor.map(|f| r.dostep_ns / f.0)),
+        fmt_opt(r.floor.map(|f| r.rhs_ns / f.1)),
+    )
+}
+
+/// The README's table row (markdown).
+pub fn markdown_line(r: &SpeedRow) -> String {
+    let ratio = |a: f64, b: f64| format!("{:.1}×", a / b);
+    let (floor_step, floor_rhs) = match r.floor {
+        Some((s, f)) => (
+            format!("{s:.0} ({})", ratio(r.dostep_ns, s)),
+            format!("{f:.0} ({})", ratio(r.rhs_ns, f)),
+        ),
+        None => ("—".into(), "—".into()),
+    };
+    format!(
+        "| {} | {} | {:.0} | {} | {:.0} | {} | {:.0} | {:.1} |",
+        r.system,
+        r.states,
+        r.dostep_ns,
+        floor_step,
+        r.rhs_ns,
+        floor_rhs,
+        r.jacobian_ns,
+        r.jacobian_ns / (r.states as f64 * r.rhs_ns)
+    )
+}
