@@ -111,11 +111,11 @@ fn values<M: System>(inst: &Instance<M>, kind: VarKind) -> Vec<f64> {
     v
 }
 
+/// A floor's measurement: (start state, parameters, repetitions) → (doStep, RHS) in ns.
+pub type FloorFn = fn(&[f64], &[f64], usize) -> (f64, f64);
+
 /// The costs of `M` (see the module notes), and of its floor when given.
-pub fn measure<M: System>(
-    reps: usize,
-    floor: Option<fn(&[f64], &[f64], usize) -> (f64, f64)>,
-) -> SpeedRow {
+pub fn measure<M: System>(reps: usize, floor: Option<FloorFn>) -> SpeedRow {
     let probe = started::<M>();
     let (x, u, p) = (
         values(&probe, VarKind::State),
@@ -192,7 +192,7 @@ fn floor_costs<F: Floor<N>, const N: usize>(x0: &[f64], p: &[f64], reps: usize) 
 }
 
 /// The floor of a system, by name, where the bench has one.
-pub fn floor_of(system: &str) -> Option<fn(&[f64], &[f64], usize) -> (f64, f64)> {
+pub fn floor_of(system: &str) -> Option<FloorFn> {
     match system {
         "MassSpringDamper" => Some(floor_costs::<floors::MassSpringDamper, 2>),
         "CompoundPendulum" => Some(floor_costs::<floors::CompoundPendulum, 2>),
