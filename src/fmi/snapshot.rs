@@ -3,8 +3,11 @@
 //!
 //! Serialized layout (little-endian): magic (8 bytes), format version (u32), GUID
 //! (u32 length + UTF-8), counts of parameters, states, inputs (u32 each), then the
-//! fields in the order of [`Snapshot::write`]. A blob from another model (GUID), another
-//! format version, or of the wrong length is rejected.
+//! fields in the order of [`Snapshot::serialize`], then the CRC-32 (IEEE, as zip and
+//! PNG use it) of every byte before it (u32). A blob from another model (GUID), another
+//! format version, of the wrong length, or whose checksum does not match (a corrupted
+//! copy: CRC-32 detects every single-bit error and every burst of up to 32 bits) is
+//! rejected.
 
 use super::Machine;
 use crate::integrators::dopri5::{Ahead, StiffnessMonitor};
@@ -13,8 +16,11 @@ use crate::integrators::{dop853, radau5, Memory, Method, Stats};
 pub const SNAPSHOT_MAGIC: [u8; 8] = *b"MBFMU\0ST";
 /// 2: adds DOPRI5's dense-output point ([`crate::integrators::dopri5::Ahead`]) and
 /// stiffness monitor. 3: adds RADAU5's loop state ([`radau5::Ahead`]). 4: adds DOP853's
-/// dense-output point ([`dop853::Ahead`]).
-pub const SNAPSHOT_VERSION: u32 = 4;
+/// dense-output point ([`dop853::Ahead`]). 5: ends with a CRC-32 of the blob.
+pub const SNAPSHOT_VERSION: u32 = 5;
+
+/// Bytes of the checksum that ends a blob.
+const CRC_LEN: usize = 4;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Snapshot {
@@ -43,6 +49,10 @@ impl<'a> Reader<'a> {
         let (head, rest) = self.bytes.split_at(n);
         self.bytes = rest;
         Ok(head)
+    }
+    /// How many bytes of `all` (the slice this reader started on) were read.
+    fn offset(&self, all: &[u8]) -> usize {
+        all.len() - self.bytes.len()
     }
     fn u32(&mut self) -> Result<u32, String> {
         Ok(u32::from_le_bytes(
@@ -240,6 +250,8 @@ impl Snapshot {
             write_dop853(&mut b, a);
         }
         b.extend_from_slice(&self.machine.code().to_le_bytes());
+        let crc = crc32fast::hash(&b);
+        b.extend_from_slice(&crc.to_le_bytes());
         b
     }
 
@@ -259,6 +271,21 @@ impl Snapshot {
                 "FMU state format version {version}, this FMU reads version {SNAPSHOT_VERSION}"
             ));
         }
+        // The checksum covers everything before it; checked before any field is read
+        // (after the version: a blob of another version may not have one).
+        let body_len = bytes.len().saturating_sub(CRC_LEN).max(r.offset(bytes));
+        let (body, stored) = bytes.split_at(body_len);
+        if stored.len() != CRC_LEN {
+            return Err("serialized FMU state is truncated".into());
+        }
+        let stored = u32::from_le_bytes(stored.try_into().expect("4 bytes"));
+        let computed = crc32fast::hash(body);
+        if stored != computed {
+            return Err(format!(
+                "serialized FMU state is corrupted: its CRC-32 is {stored:#010x}, its bytes give {computed:#010x}"
+            ));
+        }
+        r.bytes = &body[r.offset(bytes)..];
         let n = r.u32()? as usize;
         let blob_guid = r.take(n)?;
         if blob_guid != guid.as_bytes() {
