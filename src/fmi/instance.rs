@@ -11,7 +11,7 @@ use crate::integrators::{
     self, dop853, dopri5, dopri5::Ahead, radau5, rattle::Mechanics, Memory, Method, Settings,
 };
 use crate::model::jacobian::{directional, Direction};
-use crate::model::{Slot, System, VarKind};
+use crate::model::{Slot, System, Var, VarKind};
 use std::marker::PhantomData;
 
 /// How a doStep ended when it did not fail on its arguments.
@@ -116,25 +116,8 @@ impl<M: System> Instance<M> {
         stop_time: Option<f64>,
     ) -> Res {
         self.require(machine::SETUP_EXPERIMENT, "fmi2SetupExperiment")?;
-        if let Some(tol) = tolerance {
-            if !(tol.is_finite() && tol > 0.0 && tol < 1.0) {
-                return Err(format!(
-                    "fmi2SetupExperiment: tolerance must be in (0, 1), got {tol}"
-                ));
-            }
-        }
-        if !start_time.is_finite() {
-            return Err(format!(
-                "fmi2SetupExperiment: startTime must be finite, got {start_time}"
-            ));
-        }
-        if let Some(stop) = stop_time {
-            if !(stop.is_finite() && stop >= start_time) {
-                return Err(format!(
-                    "fmi2SetupExperiment: stopTime must be finite and ≥ startTime = {start_time}, got {stop}"
-                ));
-            }
-        }
+        check_experiment(tolerance, start_time, stop_time)
+            .map_err(|e| format!("fmi2SetupExperiment: {e}"))?;
         self.data.tolerance = tolerance.unwrap_or(self.info.default_tolerance);
         self.data.start_time = start_time;
         self.data.time = start_time;
@@ -281,18 +264,7 @@ impl<M: System> Instance<M> {
                 }
                 VarKind::Input => {}
             }
-            if !value.is_finite() {
-                return Err(format!(
-                    "fmi2SetReal: value {value} for {name} (value reference {vr}) is not finite"
-                ));
-            }
-            if var.min.is_some_and(|min| value < min) || var.max.is_some_and(|max| value > max) {
-                return Err(format!(
-                    "fmi2SetReal: value {value} for {name} (value reference {vr}) is outside [{}, {}]",
-                    var.min.unwrap_or(f64::NEG_INFINITY),
-                    var.max.unwrap_or(f64::INFINITY)
-                ));
-            }
+            check_real(var, vr, value).map_err(|e| format!("fmi2SetReal: {e}"))?;
             slots.push(slot);
         }
         let d = &mut self.data;
@@ -345,27 +317,9 @@ impl<M: System> Instance<M> {
                 )
             })?;
         }
-        if method.needs_linear_time_invariant() && !M::linear_time_invariant(&self.data.params) {
-            return Err(format!(
-                "fmi2SetInteger: solver {} needs a linear time-invariant system; {} is not (with these parameters)",
-                method.name(),
-                M::NAME
-            ));
-        }
-        if method.needs_mechanics() && M::mechanics(&self.data.u, &self.data.params).is_none() {
-            return Err(format!(
-                "fmi2SetInteger: solver {} needs a system written as a Lagrangian with holonomic constraints only; {} is not",
-                method.name(),
-                M::NAME
-            ));
-        }
-        if method.needs_second_order() && !M::SECOND_ORDER {
-            return Err(format!(
-                "fmi2SetInteger: solver {} needs states of the form (q, q̇); {} has none",
-                method.name(),
-                M::NAME
-            ));
-        }
+        let d = &self.data;
+        check_method::<M>(method, &d.u, &d.params, true)
+            .map_err(|e| format!("fmi2SetInteger: {e}"))?;
         self.data.method = method;
         Ok(())
     }
@@ -533,6 +487,8 @@ impl<M: System> Instance<M> {
                 Ok(StepOutcome::Completed)
             }
             Ok(()) => {
+                // The state stays at `now`: the point ahead of `t_end` no longer goes with it.
+                drop_ahead(&mut d.memory);
                 d.machine = Machine::StepFailed;
                 Ok(StepOutcome::Discarded(format!(
                     "fmi2DoStep: outputs became non-finite at t = {t_end}; state kept at t = {now}"
@@ -636,15 +592,20 @@ impl<M: System> Instance<M> {
         self.data.clone()
     }
 
+    /// fmi2SetFMUstate: the instance becomes `snapshot`, after the checks of
+    /// [`Instance::check_snapshot`].
     pub fn restore(&mut self, snapshot: &Snapshot) -> Res {
-        self.require(machine::FMU_STATE, "fmi2SetFMUstate")?;
+        const F: &str = "fmi2SetFMUstate";
+        self.require(machine::FMU_STATE, F)?;
         let l = &self.info.layout;
         if snapshot.params.len() != l.n_params
             || snapshot.x.len() != l.n_states
             || snapshot.u.len() != l.n_inputs
         {
-            return Err("fmi2SetFMUstate: the FMU state belongs to another model".into());
+            return Err(format!("{F}: the FMU state belongs to another model"));
         }
+        self.check_snapshot(snapshot)
+            .map_err(|e| format!("{F}: refused, in the FMU state: {e}"))?;
         self.data = snapshot.clone();
         Ok(())
     }
@@ -653,11 +614,211 @@ impl<M: System> Instance<M> {
         snapshot.serialize(&self.info.guid)
     }
 
+    /// fmi2DeSerializeFMUstate: the state a blob holds, refused unless its layout is
+    /// intact ([`Snapshot::deserialize`]) and its values pass [`Instance::check_snapshot`].
     pub fn deserialize(&self, bytes: &[u8]) -> Res<Snapshot> {
+        const F: &str = "fmi2DeSerializeFMUstate";
         let l = &self.info.layout;
-        Snapshot::deserialize(bytes, &self.info.guid, [l.n_params, l.n_states, l.n_inputs])
-            .map_err(|e| format!("fmi2DeSerializeFMUstate: {e}"))
+        let snapshot =
+            Snapshot::deserialize(bytes, &self.info.guid, [l.n_params, l.n_states, l.n_inputs])
+                .map_err(|e| format!("{F}: {e}"))?;
+        self.check_snapshot(&snapshot)
+            .map_err(|e| format!("{F}: refused, in the FMU state: {e}"))?;
+        Ok(snapshot)
     }
+
+    /// Whether an FMU state (of this model's counts) is one this instance could have been
+    /// in: every value passes the check of its setter (fmi2SetReal: finite and inside its
+    /// [min, max]; fmi2SetInteger: a method this system accepts; fmi2SetupExperiment: the
+    /// tolerance and times), the time fits the state machine and the experiment, and an
+    /// integrator state ahead of the communication time belongs to the method and agrees
+    /// with the state (see [`Instance::check_ahead`]). A state made by fmi2GetFMUstate always
+    /// passes; the message says what does not.
+    pub fn check_snapshot(&self, s: &Snapshot) -> Res {
+        let layout = &self.info.layout;
+        let before_init = machine::BEFORE_INIT_DONE & s.machine.code() != 0;
+        for (vr, (slot, var)) in layout.vars.iter().enumerate() {
+            let value = match slot.kind {
+                VarKind::Parameter => s.params[slot.index],
+                VarKind::Input => s.u[slot.index],
+                VarKind::SolverStep => s.solver_step,
+                // After initialisation the states are the integration's: finite only.
+                VarKind::State if before_init => s.x[slot.index],
+                VarKind::State if !s.x[slot.index].is_finite() => {
+                    return Err(format!(
+                        "the state {} = {} is not finite",
+                        var.name, s.x[slot.index]
+                    ))
+                }
+                _ => continue,
+            };
+            check_real(var, vr as u32, value)?;
+        }
+        check_method::<M>(s.method, &s.u, &s.params, !before_init)?;
+        check_experiment(Some(s.tolerance), s.start_time, s.stop_time)?;
+        let (time, start) = (s.time, s.start_time);
+        if before_init {
+            if time != start || s.memory != Memory::default() {
+                return Err(format!(
+                    "machine state {:?} (before initialisation) goes with the time at startTime = {start} and no integrator memory; found time {time}",
+                    s.machine
+                ));
+            }
+            return Ok(());
+        }
+        let beyond_stop = s
+            .stop_time
+            .is_some_and(|stop| time > stop + 1e-9 * stop.abs().max(1.0));
+        if !time.is_finite() || time < start || beyond_stop {
+            return Err(format!(
+                "the time {time} is outside the experiment [{start}, {}]",
+                s.stop_time.unwrap_or(f64::INFINITY)
+            ));
+        }
+        let m = &s.memory;
+        if !(m.h.is_finite() && m.h >= 0.0) {
+            return Err(format!("the step-size proposal {} is not a step", m.h));
+        }
+        self.check_ahead(s)
+    }
+
+    /// An integrator state ahead of the communication time (dense output) is kept only by
+    /// the running method, and only while it agrees with the instance: its last step covers
+    /// the time, the communication point it gives there (projected, as doStep projects it)
+    /// is the state, bit for bit, and its f(t, x) is the model's with the state's inputs and
+    /// parameters (so neither changed under it). Costs one evaluation of f (DOP853: up to 3
+    /// more, for an extension not yet built).
+    fn check_ahead(&self, s: &Snapshot) -> Res {
+        let m = &s.memory;
+        let kept = [
+            (Method::Dopri5, m.ahead.is_some()),
+            (Method::Radau5, m.radau5_ahead.is_some()),
+            (Method::Dop853, m.dop853_ahead.is_some()),
+        ];
+        let Some(&(owner, _)) = kept.iter().find(|(_, present)| *present) else {
+            return Ok(());
+        };
+        if kept.iter().filter(|(_, present)| *present).count() > 1 {
+            return Err("integrator states ahead of two methods are kept".into());
+        }
+        if owner != s.method {
+            return Err(format!(
+                "an integrator state ahead of {} is kept for solver {}",
+                owner.name(),
+                s.method.name()
+            ));
+        }
+        let (u, p, time, n) = (&s.u, &s.params, s.time, s.x.len());
+        let mut rhs = |t: f64, x: &[f64], dx: &mut [f64]| M::derivatives(t, x, u, p, dx);
+        let mut point = vec![0.0; n];
+        // (end of the last step, state and f there, whether f must be f(t, x) there,
+        // whether the last step covers the time)
+        let (t_ahead, x_ahead, f_ahead, f_holds, covers) = if let Some(a) = &m.ahead {
+            a.interpolate(time, &mut point);
+            (a.t, &a.x, &a.f, true, a.t0 <= time && time <= a.t)
+        } else if let Some(a) = &m.radau5_ahead {
+            a.interpolate(time, &mut point);
+            // After landing on the stop time radau5.f has no f at the end (not needed).
+            (a.t, &a.x, &a.f, !a.landed, time <= a.t)
+        } else {
+            let a = m.dop853_ahead.as_ref().expect("the one kept");
+            let mut scratch = a.clone();
+            let mut problem = Problem::new(&mut rhs);
+            let mut stats = integrators::Stats::default();
+            let built = scratch.point(&mut problem, time, &mut point, &mut stats);
+            let covers = a.t0 <= time && time <= a.t && built.is_ok();
+            (a.t, &a.x, &a.f, true, covers)
+        };
+        if !covers {
+            return Err(format!(
+                "the {} state ahead (at t = {t_ahead}) does not cover the time {time}",
+                owner.name()
+            ));
+        }
+        M::project(time, p, &mut point);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        if bits(&point) != bits(&s.x) {
+            return Err(format!(
+                "the {} state ahead gives another state at t = {time} than the one held",
+                owner.name()
+            ));
+        }
+        let mut f = vec![0.0; n];
+        rhs(t_ahead, x_ahead, &mut f);
+        if f_holds && bits(&f) != bits(f_ahead) {
+            return Err(format!(
+                "the {} state ahead was computed with other inputs or parameters than the ones held",
+                owner.name()
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The check fmi2SetReal makes of a value for `var` (value reference `vr`), shared with a
+/// restored FMU state: finite and inside [min, max].
+fn check_real(var: &Var, vr: u32, value: f64) -> Res {
+    let name = &var.name;
+    if !value.is_finite() {
+        return Err(format!(
+            "value {value} for {name} (value reference {vr}) is not finite"
+        ));
+    }
+    if var.min.is_some_and(|min| value < min) || var.max.is_some_and(|max| value > max) {
+        return Err(format!(
+            "value {value} for {name} (value reference {vr}) is outside [{}, {}]",
+            var.min.unwrap_or(f64::NEG_INFINITY),
+            var.max.unwrap_or(f64::INFINITY)
+        ));
+    }
+    Ok(())
+}
+
+/// The checks of fmi2SetupExperiment, shared with a restored FMU state.
+fn check_experiment(tolerance: Option<f64>, start_time: f64, stop_time: Option<f64>) -> Res {
+    if let Some(tol) = tolerance {
+        if !(tol.is_finite() && tol > 0.0 && tol < 1.0) {
+            return Err(format!("tolerance must be in (0, 1), got {tol}"));
+        }
+    }
+    if !start_time.is_finite() {
+        return Err(format!("startTime must be finite, got {start_time}"));
+    }
+    if let Some(stop) = stop_time {
+        if !(stop.is_finite() && stop >= start_time) {
+            return Err(format!(
+                "stopTime must be finite and ≥ startTime = {start_time}, got {stop}"
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Whether system `M` accepts `method` with inputs `u` and parameters `p` (fmi2SetInteger,
+/// shared with a restored FMU state): the structure it needs, and with `lti` a linear
+/// time-invariant system for ExactLinear (before initialisation parameters may still
+/// change; fmi2ExitInitializationMode checks that again).
+fn check_method<M: System>(method: Method, u: &[f64], p: &[f64], lti: bool) -> Res {
+    let name = method.name();
+    if lti && method.needs_linear_time_invariant() && !M::linear_time_invariant(p) {
+        return Err(format!(
+            "solver {name} needs a linear time-invariant system; {} is not (with these parameters)",
+            M::NAME
+        ));
+    }
+    if method.needs_mechanics() && M::mechanics(u, p).is_none() {
+        return Err(format!(
+            "solver {name} needs a system written as a Lagrangian with holonomic constraints only; {} is not",
+            M::NAME
+        ));
+    }
+    if method.needs_second_order() && !M::SECOND_ORDER {
+        return Err(format!(
+            "solver {name} needs states of the form (q, q̇); {} has none",
+            M::NAME
+        ));
+    }
+    Ok(())
 }
 
 /// DOPRI5 with dense output (see [`dopri5::Ahead`]): continues from the integrator's own
