@@ -360,11 +360,26 @@ fn dopri5_warns_once_when_the_problem_is_stiff() {
     // Heavily overdamped (c = 1e5): eigenvalues ≈ −k/c = −1e-3 and −c/m = −1e5 s⁻¹.
     // After the fast transient the tolerance would allow long steps, but DOPRI5's
     // stability region caps h|λ| near 3.3: Hairer's detection fires, once per run.
+    // The doStep that logs the warning returns fmi2Warning (FMI 2.0, 2.1.3), the others
+    // fmi2OK.
     let f = Fmu::new("stiff_warning");
     f.init(&[("c", 1e5), ("x", 0.1)]);
+    let mut statuses = Vec::new();
     for i in 0..10 {
-        assert_eq!(fmi2DoStep(f.c, i as f64 * 0.01, 0.01, 1), Status::Ok);
+        let before = f.errors();
+        statuses.push(fmi2DoStep(f.c, i as f64 * 0.01, 0.01, 1));
+        let expected = if f.errors() > before {
+            Status::Warning
+        } else {
+            Status::Ok
+        };
+        assert_eq!(statuses[i], expected, "doStep {i}: {statuses:?}");
     }
+    assert_eq!(
+        statuses.iter().filter(|s| **s == Status::Warning).count(),
+        1,
+        "{statuses:?}"
+    );
     let log = log_of("stiff_warning");
     let warnings: Vec<_> = log
         .iter()
@@ -373,6 +388,10 @@ fn dopri5_warns_once_when_the_problem_is_stiff() {
     assert_eq!(warnings.len(), 1, "{log:?}");
     assert_eq!(warnings[0].1, "logStatusWarning");
     assert_eq!(log.len(), 1, "{log:?}");
+    // The calls after it return fmi2OK again.
+    assert_eq!(fmi2DoStep(f.c, 0.1, 0.01, 1), Status::Ok);
+    let mut x = 0.0;
+    assert_eq!(unsafe { fmi2GetReal(f.c, &vr("x"), 1, &mut x) }, Status::Ok);
     // The default damped oscillator is not stiff: nothing is said.
     let g = Fmu::new("not_stiff");
     g.init(&[("x", 0.1)]);

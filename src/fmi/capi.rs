@@ -4,7 +4,8 @@
 //! `extern "C"` symbol from [`export_fmu!`](crate::export_fmu). Each one:
 //! - rejects NULL pointers and impossible lengths before touching memory,
 //! - runs its body under `catch_unwind`, so no panic crosses into the host,
-//! - turns every `Err` into fmi2Error and one line through the logger.
+//! - turns every `Err` into fmi2Error and one line through the logger,
+//! - returns fmi2Warning from a call that logged a warning and would return fmi2OK.
 
 use super::logger::CallbackFunctions;
 use super::machine;
@@ -43,7 +44,8 @@ fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
         .unwrap_or_else(|| "unknown panic".into())
 }
 
-/// Runs `body` on the instance behind `c`: NULL check, debug log, panic guard, error log.
+/// Runs `body` on the instance behind `c`: NULL check, debug log, panic guard, error log,
+/// and fmi2OK raised to fmi2Warning when the body logged a warning.
 fn call<E: Export>(
     c: Component,
     function: &str,
@@ -57,6 +59,7 @@ fn call<E: Export>(
         // SAFETY: `c` came from our fmi2Instantiate (a Box<Instance>) and the standard
         // forbids using it after fmi2FreeInstance or from two threads at once.
         let inst = unsafe { &mut *ptr };
+        inst.logger.take_warned(); // this call's warnings only
         if inst.logger.debug_enabled() {
             inst.logger.debug(&format!("{function} called"));
         }
@@ -65,6 +68,7 @@ fn call<E: Export>(
     // SAFETY: as above; the body's borrow has ended.
     let inst = unsafe { &mut *ptr };
     match outcome {
+        Ok(Ok(Status::Ok)) if inst.logger.take_warned() => Status::Warning,
         Ok(Ok(status)) => status,
         Ok(Err(message)) => {
             inst.logger.failure(Status::Error, &message);
