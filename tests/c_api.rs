@@ -191,10 +191,69 @@ fn fmu_state_rollback_and_serialization_are_bit_exact() {
     assert!(s3.is_null());
     assert_eq!(log_of("state2").len(), 3);
 
-    for mut p in [s, s2] {
-        assert_eq!(unsafe { fmi2FreeFMUstate(f.c, &mut p) }, Status::Ok);
+    // A state is freed by the instance that made it.
+    for (inst, mut p) in [(&f, s), (&g, s2)] {
+        assert_eq!(unsafe { fmi2FreeFMUstate(inst.c, &mut p) }, Status::Ok);
         assert!(p.is_null());
     }
+}
+
+/// fmi2FreeFMUstate frees only a live state of the calling instance: a pointer freed
+/// already, made by another instance, or never made by this FMU is refused with fmi2Error
+/// and one log line (never read, never freed twice). Any instance may set a live state.
+#[test]
+fn only_live_states_of_the_instance_are_freed() {
+    let f = Fmu::new("owner");
+    let g = Fmu::new("other");
+    f.init(&[]);
+    g.init(&[]);
+    run_to(&f, 0.0, 0.1, 0.01);
+    let (mut s, mut t): (*mut c_void, *mut c_void) = (std::ptr::null_mut(), std::ptr::null_mut());
+    assert_eq!(unsafe { fmi2GetFMUstate(f.c, &mut s) }, Status::Ok);
+    assert_eq!(unsafe { fmi2GetFMUstate(f.c, &mut t) }, Status::Ok);
+    // Another instance of the model may restore it (it only reads it) …
+    assert_eq!(unsafe { fmi2SetFMUstate(g.c, s) }, Status::Ok);
+    assert_eq!(g.get("x"), f.get("x"));
+    // … but neither free it nor overwrite it.
+    let (fc, gc) = (f.c, g.c);
+    let mut local = 0u64;
+    let never_ours = &mut local as *mut u64 as *mut c_void;
+    type Call = Box<dyn Fn() -> Status>;
+    let refusals: [(&str, Call); 3] = [
+        (
+            "free by another instance",
+            Box::new(move || unsafe { fmi2FreeFMUstate(gc, &mut { s }) }),
+        ),
+        (
+            "overwrite by another instance",
+            Box::new(move || unsafe { fmi2GetFMUstate(gc, &mut { s }) }),
+        ),
+        (
+            "free of a pointer this FMU never made",
+            Box::new(move || unsafe { fmi2FreeFMUstate(fc, &mut { never_ours }) }),
+        ),
+    ];
+    for (what, call) in refusals {
+        let n = (f.errors(), g.errors());
+        assert_eq!(call(), Status::Error, "{what}");
+        assert_eq!(
+            f.errors() + g.errors(),
+            n.0 + n.1 + 1,
+            "{what}: one log line"
+        );
+    }
+    assert_eq!(local, 0);
+    // Freed once by its maker; a second free through a copy of the pointer is refused.
+    let mut copy = s;
+    assert_eq!(unsafe { fmi2FreeFMUstate(f.c, &mut s) }, Status::Ok);
+    assert!(s.is_null());
+    let n = f.errors();
+    assert_eq!(unsafe { fmi2FreeFMUstate(f.c, &mut copy) }, Status::Error);
+    assert_eq!(unsafe { fmi2SetFMUstate(f.c, copy) }, Status::Error);
+    assert_eq!(f.errors(), n + 2);
+    assert!(log_of("owner")[n].2.contains("freed already"));
+    // `t` is left to fmi2FreeInstance (tests/state_memory.rs counts the bytes).
+    assert!(!t.is_null());
 }
 
 #[test]
