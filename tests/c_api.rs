@@ -2,7 +2,7 @@
 
 mod common;
 use common::*;
-use mbfmu::fmi::Status;
+use mbfmu::fmi::{Export, Status};
 use std::ffi::{c_char, c_int, c_void, CString};
 
 /// Underdamped closed form from x0, v0 = 0.
@@ -458,4 +458,70 @@ fn dopri5_warns_once_when_the_problem_is_stiff() {
         assert_eq!(fmi2DoStep(g.c, i as f64 * 0.01, 0.01, 1), Status::Ok);
     }
     assert!(log_of("not_stiff").is_empty(), "{:?}", log_of("not_stiff"));
+}
+
+/// `solver_max_steps` (an Integer after the outputs, so no older value reference moved)
+/// bounds the internal steps of one doStep: a doStep that needs more returns fmi2Discard
+/// naming it, and a fixed-step method refuses a plan above it before taking any step.
+#[test]
+fn solver_max_steps_bounds_a_do_step_and_is_named_when_it_stops_one() {
+    let layout = &ExportedModel::info().layout;
+    let max_vr = vr("solver_max_steps");
+    assert_eq!(max_vr as usize, layout.vars.len() - 1, "appended last");
+    assert_eq!(vr("E") + 1, max_vr, "right after the outputs");
+    let (solver, max) = (vr("solver"), max_vr);
+    // Both Integers read back through one call; the default is 50 000.
+    let f = Fmu::new("max_steps");
+    let mut got = [0; 2];
+    f.init(&[]);
+    assert_eq!(
+        unsafe { fmi2GetInteger(f.c, [solver, max].as_ptr(), 2, got.as_mut_ptr()) },
+        Status::Ok
+    );
+    assert_eq!(got, [2, 50_000]);
+    // Fixed before initialisation, at least 1, and not a Real.
+    let n = f.errors();
+    assert_eq!(unsafe { fmi2SetInteger(f.c, &max, 1, &10) }, Status::Error);
+    assert!(log_of("max_steps")[n]
+        .2
+        .contains("before fmi2ExitInitializationMode"));
+    let g = Fmu::new("max_steps_set");
+    assert_eq!(unsafe { fmi2SetInteger(g.c, &max, 1, &0) }, Status::Error);
+    assert_eq!(unsafe { fmi2SetInteger(g.c, &max, 1, &-5) }, Status::Error);
+    assert_eq!(g.set("solver_max_steps", 10.0), Status::Error);
+    assert_eq!(log_of("max_steps_set").len(), 3);
+
+    // DOPRI5 with 100 attempts at rtol 1e-10 cannot cover 10 s of the oscillator.
+    assert_eq!(unsafe { fmi2SetInteger(g.c, &max, 1, &100) }, Status::Ok);
+    g.init(&[]);
+    assert_eq!(fmi2DoStep(g.c, 0.0, 10.0, 1), Status::Discard);
+    let why = log_of("max_steps_set").pop().unwrap().2;
+    assert!(
+        why.contains("after 100 steps")
+            && why.contains(&format!(
+                "raise solver_max_steps (value reference {max}, now 100)"
+            )),
+        "{why}"
+    );
+    let mut t = 0.0;
+    assert_eq!(unsafe { fmi2GetRealStatus(g.c, 2, &mut t) }, Status::Ok);
+    assert!(
+        0.0 < t && t < 10.0,
+        "stopped at the last good step, t = {t}"
+    );
+
+    // RK4 at 1e-3 s asked for 1e6 s: 1e9 steps planned, none taken.
+    let h = Fmu::new("max_steps_plan");
+    let rk4 = mbfmu::integrators::Method::Rk4.code();
+    assert_eq!(unsafe { fmi2SetInteger(h.c, &solver, 1, &rk4) }, Status::Ok);
+    h.init(&[]);
+    assert_eq!(fmi2DoStep(h.c, 0.0, 1e6, 1), Status::Discard);
+    let why = log_of("max_steps_plan").pop().unwrap().2;
+    assert_eq!(
+        why,
+        format!(
+            "fmi2DoStep: refused to plan 1000000000 fixed steps of 1e-3 s from t = 0 s, more than the limit of 50000: took none; raise solver_max_steps (value reference {max}, now 50000) or shorten the communication step; state kept at t = 0"
+        )
+    );
+    assert_eq!(h.get("x"), 0.1);
 }

@@ -126,6 +126,16 @@ fn bad_states() -> Vec<(&'static str, &'static str, Change)> {
             "solver_step",
             Box::new(|s| s.solver_step = -1e-3),
         ),
+        (
+            "solver_max_steps 0",
+            "solver_max_steps",
+            Box::new(|s| s.max_steps = 0),
+        ),
+        (
+            "solver_max_steps above an Integer",
+            "solver_max_steps",
+            Box::new(|s| s.max_steps = 1 << 40),
+        ),
         ("mass 0", "for m ", Box::new(|s| s.params[0] = 0.0)),
         (
             "stiffness < 0",

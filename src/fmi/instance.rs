@@ -14,6 +14,31 @@ use crate::model::jacobian::{directional, Direction};
 use crate::model::{Slot, System, Var, VarKind};
 use std::marker::PhantomData;
 
+/// Why an integration inside doStep stopped early: the reason (one line), and whether it
+/// was the step limit (`solver_max_steps`), which the importer can raise.
+struct Stop {
+    reason: String,
+    step_limit: bool,
+}
+
+impl From<integrators::Failure> for Stop {
+    fn from(f: integrators::Failure) -> Self {
+        Stop {
+            step_limit: f.is_step_limit(),
+            reason: f.to_string(),
+        }
+    }
+}
+
+impl From<integrators::ImplicitFailure> for Stop {
+    fn from(f: integrators::ImplicitFailure) -> Self {
+        Stop {
+            step_limit: f.is_step_limit(),
+            reason: f.to_string(),
+        }
+    }
+}
+
 /// How a doStep ended when it did not fail on its arguments.
 #[derive(Debug, PartialEq)]
 pub enum StepOutcome {
@@ -54,6 +79,7 @@ impl<M: System> Instance<M> {
             method: Method::from_code(start(VarKind::SolverMethod)[0] as i32)
                 .expect("default method exists"),
             solver_step: start(VarKind::SolverStep)[0],
+            max_steps: start(VarKind::SolverMaxSteps)[0] as u64,
             time: 0.0,
             start_time: 0.0,
             stop_time: None,
@@ -198,9 +224,9 @@ impl<M: System> Instance<M> {
             .iter()
             .map(|&vr| {
                 let s = self.slot("fmi2GetReal", vr)?;
-                if s.kind == VarKind::SolverMethod {
+                if let Some(kind) = integer_kind(s.kind) {
                     return Err(format!(
-                        "fmi2GetReal: value reference {vr} ({}) is an Enumeration, read it with fmi2GetInteger",
+                        "fmi2GetReal: value reference {vr} ({}) is an {kind}, read it with fmi2GetInteger",
                         self.name(vr)
                     ));
                 }
@@ -230,7 +256,7 @@ impl<M: System> Instance<M> {
                     }
                     y[slot.index]
                 }
-                VarKind::SolverMethod => unreachable!("rejected above"),
+                VarKind::SolverMethod | VarKind::SolverMaxSteps => unreachable!("rejected above"),
             };
         }
         Ok(())
@@ -249,10 +275,11 @@ impl<M: System> Instance<M> {
                         "fmi2SetReal: {name} (value reference {vr}) is calculated by the model and cannot be set"
                     ))
                 }
-                VarKind::SolverMethod => {
+                VarKind::SolverMethod | VarKind::SolverMaxSteps => {
+                    let kind = integer_kind(slot.kind).expect("an Integer");
                     return Err(format!(
-                        "fmi2SetReal: {name} (value reference {vr}) is an Enumeration, set it with fmi2SetInteger"
-                    ))
+                        "fmi2SetReal: {name} (value reference {vr}) is an {kind}, set it with fmi2SetInteger"
+                    ));
                 }
                 VarKind::Parameter | VarKind::SolverStep | VarKind::State => {
                     if machine::BEFORE_INIT_DONE & self.data.machine.code() == 0 {
@@ -289,26 +316,40 @@ impl<M: System> Instance<M> {
 
     pub fn get_integer(&self, vrs: &[u32], values: &mut [i32]) -> Res {
         self.require(machine::GET, "fmi2GetInteger")?;
-        for &vr in vrs {
-            self.integer_slot("fmi2GetInteger", vr)?;
+        let slots = vrs
+            .iter()
+            .map(|&vr| self.integer_slot("fmi2GetInteger", vr))
+            .collect::<Res<Vec<Slot>>>()?;
+        for (value, slot) in values.iter_mut().zip(slots) {
+            *value = match slot.kind {
+                VarKind::SolverMethod => self.data.method.code(),
+                // At most i32::MAX: the setter's range (and a restored state's).
+                _ => self.data.max_steps as i32,
+            };
         }
-        values.fill(self.data.method.code());
         Ok(())
     }
 
     pub fn set_integer(&mut self, vrs: &[u32], values: &[i32]) -> Res {
         self.require(machine::SET_INTEGER, "fmi2SetInteger")?;
-        let mut method = self.data.method;
+        let (mut method, mut max_steps) = (self.data.method, self.data.max_steps);
         for (&vr, &value) in vrs.iter().zip(values) {
-            self.integer_slot("fmi2SetInteger", vr)?;
+            let slot = self.integer_slot("fmi2SetInteger", vr)?;
+            let (_, var) = &self.info.layout.vars[vr as usize];
+            let name = &var.name;
             if machine::BEFORE_INIT_DONE & self.data.machine.code() == 0 {
                 return Err(format!(
-                    "fmi2SetInteger: solver (value reference {vr}) can only be set before fmi2ExitInitializationMode"
+                    "fmi2SetInteger: {name} (value reference {vr}) can only be set before fmi2ExitInitializationMode"
                 ));
+            }
+            if slot.kind == VarKind::SolverMaxSteps {
+                check_real(var, vr, value as f64).map_err(|e| format!("fmi2SetInteger: {e}"))?;
+                max_steps = value as u64;
+                continue;
             }
             method = Method::from_code(value).ok_or_else(|| {
                 format!(
-                    "fmi2SetInteger: {value} is not a method code for solver (value reference {vr}); valid: {}",
+                    "fmi2SetInteger: {value} is not a method code for {name} (value reference {vr}); valid: {}",
                     Method::ALL
                         .iter()
                         .map(|m| format!("{} = {}", m.code(), m.name()))
@@ -321,18 +362,19 @@ impl<M: System> Instance<M> {
         check_method::<M>(method, &d.u, &d.params, true)
             .map_err(|e| format!("fmi2SetInteger: {e}"))?;
         self.data.method = method;
+        self.data.max_steps = max_steps;
         Ok(())
     }
 
-    fn integer_slot(&self, function: &str, vr: u32) -> Res {
+    fn integer_slot(&self, function: &str, vr: u32) -> Res<Slot> {
         let slot = self.slot(function, vr)?;
-        if slot.kind != VarKind::SolverMethod {
+        if integer_kind(slot.kind).is_none() {
             return Err(format!(
                 "{function}: value reference {vr} ({}) is a Real, not an Integer/Enumeration",
                 self.name(vr)
             ));
         }
-        Ok(())
+        Ok(slot)
     }
 
     /// fmi2Get/SetBoolean and fmi2Get/SetString: this model has no such variables.
@@ -388,6 +430,7 @@ impl<M: System> Instance<M> {
             } else {
                 d.solver_step
             },
+            max_steps: d.max_steps,
         };
         let (u, p) = (&d.u, &d.params);
         let n = d.x.len();
@@ -494,19 +537,27 @@ impl<M: System> Instance<M> {
                     "fmi2DoStep: outputs became non-finite at t = {t_end}; state kept at t = {now}"
                 )))
             }
-            Err(failure) if x.iter().chain(&y).all(|v| v.is_finite()) => {
-                d.x = x;
-                d.time = t;
+            Err(stop) => {
                 d.machine = Machine::StepFailed;
-                Ok(StepOutcome::Discarded(format!(
-                    "fmi2DoStep: {failure}; integration stopped at the last good state, t = {t}"
-                )))
-            }
-            Err(failure) => {
-                d.machine = Machine::StepFailed;
-                Ok(StepOutcome::Discarded(format!(
-                    "fmi2DoStep: {failure}; state kept at t = {now}"
-                )))
+                let mut why = stop.reason;
+                if stop.step_limit {
+                    let vr = layout.vr_of_slot(VarKind::SolverMaxSteps, 0);
+                    why += &format!(
+                        "; raise solver_max_steps (value reference {vr}, now {}) or shorten the communication step",
+                        d.max_steps
+                    );
+                }
+                if t > now && x.iter().chain(&y).all(|v| v.is_finite()) {
+                    d.x = x;
+                    d.time = t;
+                    Ok(StepOutcome::Discarded(format!(
+                        "fmi2DoStep: {why}; integration stopped at the last good state, t = {t}"
+                    )))
+                } else {
+                    Ok(StepOutcome::Discarded(format!(
+                        "fmi2DoStep: {why}; state kept at t = {now}"
+                    )))
+                }
             }
         }
     }
@@ -642,6 +693,7 @@ impl<M: System> Instance<M> {
                 VarKind::Parameter => s.params[slot.index],
                 VarKind::Input => s.u[slot.index],
                 VarKind::SolverStep => s.solver_step,
+                VarKind::SolverMaxSteps => s.max_steps as f64,
                 // After initialisation the states are the integration's: finite only.
                 VarKind::State if before_init => s.x[slot.index],
                 VarKind::State if !s.x[slot.index].is_finite() => {
@@ -755,6 +807,15 @@ impl<M: System> Instance<M> {
     }
 }
 
+/// The FMI type of the variables of `kind` read with fmi2GetInteger (None: a Real).
+fn integer_kind(kind: VarKind) -> Option<&'static str> {
+    match kind {
+        VarKind::SolverMethod => Some("Enumeration"),
+        VarKind::SolverMaxSteps => Some("Integer"),
+        _ => None,
+    }
+}
+
 /// The check fmi2SetReal makes of a value for `var` (value reference `vr`), shared with a
 /// restored FMU state: finite and inside [min, max].
 fn check_real(var: &Var, vr: u32, value: f64) -> Res {
@@ -833,12 +894,12 @@ fn advance_dense(
     (t_end, t_limit): (f64, f64),
     settings: &Settings,
     memory: &mut Memory,
-) -> Result<(), String> {
+) -> Result<(), Stop> {
     let kept = memory.ahead.take();
     drop_ahead(memory);
     let mut ahead = match kept {
         Some(a) if a.t0 <= *t && *t <= a.t => a,
-        _ => Ahead::start(rhs, *t, x, &mut memory.stats).map_err(|e| e.to_string())?,
+        _ => Ahead::start(rhs, *t, x, &mut memory.stats)?,
     };
     let mut out = vec![0.0; x.len()];
     let result = dopri5::advance_dense(
@@ -862,7 +923,7 @@ fn advance_dense_radau5(
     (t_end, t_limit): (f64, f64),
     settings: &Settings,
     memory: &mut Memory,
-) -> Result<(), String> {
+) -> Result<(), Stop> {
     let kept = memory.radau5_ahead.take();
     drop_ahead(memory);
     let mut ahead = match kept {
@@ -878,7 +939,7 @@ fn advance_dense_radau5(
         )
         .map_err(|e| {
             memory.h = 0.0;
-            e.to_string()
+            Stop::from(e)
         })?,
     };
     let mut out = vec![0.0; x.len()];
@@ -899,12 +960,12 @@ fn advance_dense_dop853(
     (t_end, t_limit): (f64, f64),
     settings: &Settings,
     memory: &mut Memory,
-) -> Result<(), String> {
+) -> Result<(), Stop> {
     let kept = memory.dop853_ahead.take();
     drop_ahead(memory);
     let mut ahead = match kept {
         Some(a) if a.t0 <= *t && *t <= a.t => a,
-        _ => dop853::Ahead::start(problem, *t, x, &mut memory.stats).map_err(|e| e.to_string())?,
+        _ => dop853::Ahead::start(problem, *t, x, &mut memory.stats)?,
     };
     let mut out = vec![0.0; x.len()];
     let result = dop853::advance_dense(
@@ -925,7 +986,7 @@ fn settle_dense(
     (t_ahead, x_ahead): (f64, &[f64]),
     (t, x): (&mut f64, &mut Vec<f64>),
     t_end: f64,
-) -> Result<(), String> {
+) -> Result<(), Stop> {
     match result {
         Ok(()) => {
             *x = out;
@@ -937,7 +998,7 @@ fn settle_dense(
                 *t = t_ahead;
                 x.copy_from_slice(x_ahead);
             }
-            Err(e.to_string())
+            Err(e.into())
         }
     }
 }
@@ -974,7 +1035,7 @@ fn advance_locating_events<M: System>(
     settings: &Settings,
     memory: &mut Memory,
     (u, p): (&[f64], &[f64]),
-) -> Result<(), String> {
+) -> Result<(), Stop> {
     let indicator = |t: f64, x: &[f64]| M::event_indicator(t, x, u, p);
     for _ in 0..MAX_EVENTS_PER_STEP {
         let (t0, x0, m0) = (*t, x.clone(), memory.clone());
@@ -985,12 +1046,12 @@ fn advance_locating_events<M: System>(
         }
         // Work already spent past the event; the bisection adds to it.
         let mut extra_evals = memory.stats.rhs_evals - m0.stats.rhs_evals;
-        let mut rerun = |to: f64, extra: &mut u64| -> Result<(Vec<f64>, Memory), String> {
+        let mut rerun = |to: f64, extra: &mut u64| -> Result<(Vec<f64>, Memory), Stop> {
             let (mut tt, mut xx, mut mm) = (t0, x0.clone(), m0.clone());
             let result =
                 integrators::advance_with(problem, &mut tt, &mut xx, to, settings, &mut mm);
             *extra += mm.stats.rhs_evals - m0.stats.rhs_evals;
-            result.map(|()| (xx, mm))
+            result.map(|()| (xx, mm)).map_err(Stop::from)
         };
         // The event lies in (lo, hi]: bisect on re-integrations from (t0, x0).
         let (mut lo, mut hi) = (t0, *t);
@@ -1017,7 +1078,8 @@ fn advance_locating_events<M: System>(
             return Ok(());
         }
     }
-    Err(format!(
-        "more than {MAX_EVENTS_PER_STEP} events in one communication step"
-    ))
+    Err(Stop {
+        reason: format!("more than {MAX_EVENTS_PER_STEP} events in one communication step"),
+        step_limit: false,
+    })
 }

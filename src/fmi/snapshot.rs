@@ -16,8 +16,9 @@ use crate::integrators::{dop853, radau5, Memory, Method, Stats};
 pub const SNAPSHOT_MAGIC: [u8; 8] = *b"MBFMU\0ST";
 /// 2: adds DOPRI5's dense-output point ([`crate::integrators::dopri5::Ahead`]) and
 /// stiffness monitor. 3: adds RADAU5's loop state ([`radau5::Ahead`]). 4: adds DOP853's
-/// dense-output point ([`dop853::Ahead`]). 5: ends with a CRC-32 of the blob.
-pub const SNAPSHOT_VERSION: u32 = 5;
+/// dense-output point ([`dop853::Ahead`]). 5: ends with a CRC-32 of the blob. 6: adds
+/// `solver_max_steps` after `solver_step`.
+pub const SNAPSHOT_VERSION: u32 = 6;
 
 /// Bytes of the checksum that ends a blob.
 const CRC_LEN: usize = 4;
@@ -29,6 +30,8 @@ pub struct Snapshot {
     pub u: Vec<f64>,
     pub method: Method,
     pub solver_step: f64,
+    /// `solver_max_steps`: most internal steps in one doStep.
+    pub max_steps: u64,
     pub time: f64,
     pub start_time: f64,
     pub stop_time: Option<f64>,
@@ -216,6 +219,7 @@ impl Snapshot {
         }
         b.extend_from_slice(&(self.method.code() as u32).to_le_bytes());
         f(&mut b, self.solver_step);
+        b.extend_from_slice(&self.max_steps.to_le_bytes());
         f(&mut b, self.time);
         f(&mut b, self.start_time);
         b.push(self.stop_time.is_some() as u8);
@@ -309,6 +313,7 @@ impl Snapshot {
         let method = Method::from_code(code as i32)
             .ok_or_else(|| format!("FMU state names unknown method {code}"))?;
         let solver_step = r.f64()?;
+        let max_steps = r.u64()?;
         let time = r.f64()?;
         let start_time = r.f64()?;
         let has_stop = r.take(1)?[0];
@@ -383,6 +388,7 @@ impl Snapshot {
             u,
             method,
             solver_step,
+            max_steps,
             time,
             start_time,
             stop_time: (has_stop == 1).then_some(stop),
