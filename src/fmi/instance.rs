@@ -350,11 +350,7 @@ impl<M: System> Instance<M> {
             method = Method::from_code(value).ok_or_else(|| {
                 format!(
                     "fmi2SetInteger: {value} is not a method code for {name} (value reference {vr}); valid: {}",
-                    Method::ALL
-                        .iter()
-                        .map(|m| format!("{} = {}", m.code(), m.name()))
-                        .collect::<Vec<_>>()
-                        .join(", ")
+                    Method::codes()
                 )
             })?;
         }

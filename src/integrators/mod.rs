@@ -72,6 +72,25 @@ impl Method {
         Method::Rattle,
     ];
 
+    /// Every method as `code = name`, in code order: "1 = RK4, 2 = DOPRI5, …".
+    pub fn codes() -> String {
+        Method::ALL
+            .iter()
+            .map(|m| format!("{} = {}", m.code(), m.name()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
+    /// The names of the methods that do (`adaptive`) or do not choose their own step.
+    pub fn names_where_adaptive(adaptive: bool) -> String {
+        Method::ALL
+            .iter()
+            .filter(|m| m.is_adaptive() == adaptive)
+            .map(|m| m.name())
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
     /// The method with this `solver` code, if any.
     pub fn from_code(code: i32) -> Option<Method> {
         Method::ALL.into_iter().find(|m| m.code() == code)
@@ -411,6 +430,13 @@ mod tests {
         }
         assert_eq!(Method::Rk4.name(), "RK4");
         assert_eq!(Method::Dopri5.name(), "DOPRI5");
+        let codes = Method::codes();
+        assert!(
+            codes.starts_with("1 = RK4, 2 = DOPRI5, 3 = ExplicitEuler"),
+            "{codes}"
+        );
+        assert!(codes.ends_with("11 = ExactLinear, 12 = RATTLE"), "{codes}");
+        assert_eq!(Method::names_where_adaptive(true), "DOPRI5, DOP853, RADAU5");
     }
 
     #[test]

@@ -7,6 +7,7 @@
 //! existing value reference stays what it was, since tools outside script them.
 
 use super::{System, Var};
+use crate::integrators::Method;
 
 /// What a variable is for the FMI layer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -67,25 +68,24 @@ impl Layout {
             }
         };
         push(VarKind::Parameter, &params);
-        push(
-            VarKind::SolverMethod,
-            &[Var::new(
-                "solver",
-                None,
-                2.0,
-                "Integration method inside doStep: 1 = RK4 (fixed step solver_step), 2 = DOPRI5 (adaptive, tolerance from fmi2SetupExperiment or the DefaultExperiment)",
-            )],
-        );
-        push(
-            VarKind::SolverStep,
-            &[Var::new(
-                "solver_step",
-                Some("s"),
-                DEFAULT_SOLVER_STEP,
-                "Step of fixed-step methods (RK4); adaptive methods choose their own",
-            )
-            .min(1e-12)],
-        );
+        // The descriptions list every method, from Method::ALL (so they cannot fall behind).
+        let mut solver = Var::new("solver", None, Method::Dopri5.code() as f64, "");
+        solver.description = format!(
+            "Integration method inside doStep: {}. The adaptive ones ({}) take the tolerance of fmi2SetupExperiment (else of the DefaultExperiment); the others step by solver_step. A method the system cannot run is refused (see the Solver items)",
+            Method::codes(),
+            Method::names_where_adaptive(true)
+        )
+        .into();
+        push(VarKind::SolverMethod, &[solver]);
+        let mut solver_step =
+            Var::new("solver_step", Some("s"), DEFAULT_SOLVER_STEP, "").min(1e-12);
+        solver_step.description = format!(
+            "Step of the fixed-step methods ({}); the adaptive ones ({}) choose their own",
+            Method::names_where_adaptive(false),
+            Method::names_where_adaptive(true)
+        )
+        .into();
+        push(VarKind::SolverStep, &[solver_step]);
         push(VarKind::State, &states);
         let derivs: Vec<Var> = states
             .iter()
