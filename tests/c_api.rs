@@ -2,7 +2,7 @@
 
 mod common;
 use common::*;
-use mbfmu::fmi::Status;
+use mbfmu::fmi::{Export, Status};
 use std::ffi::{c_char, c_int, c_void, CString};
 
 /// Underdamped closed form from x0, v0 = 0.
@@ -191,10 +191,69 @@ fn fmu_state_rollback_and_serialization_are_bit_exact() {
     assert!(s3.is_null());
     assert_eq!(log_of("state2").len(), 3);
 
-    for mut p in [s, s2] {
-        assert_eq!(unsafe { fmi2FreeFMUstate(f.c, &mut p) }, Status::Ok);
+    // A state is freed by the instance that made it.
+    for (inst, mut p) in [(&f, s), (&g, s2)] {
+        assert_eq!(unsafe { fmi2FreeFMUstate(inst.c, &mut p) }, Status::Ok);
         assert!(p.is_null());
     }
+}
+
+/// fmi2FreeFMUstate frees only a live state of the calling instance: a pointer freed
+/// already, made by another instance, or never made by this FMU is refused with fmi2Error
+/// and one log line (never read, never freed twice). Any instance may set a live state.
+#[test]
+fn only_live_states_of_the_instance_are_freed() {
+    let f = Fmu::new("owner");
+    let g = Fmu::new("other");
+    f.init(&[]);
+    g.init(&[]);
+    run_to(&f, 0.0, 0.1, 0.01);
+    let (mut s, mut t): (*mut c_void, *mut c_void) = (std::ptr::null_mut(), std::ptr::null_mut());
+    assert_eq!(unsafe { fmi2GetFMUstate(f.c, &mut s) }, Status::Ok);
+    assert_eq!(unsafe { fmi2GetFMUstate(f.c, &mut t) }, Status::Ok);
+    // Another instance of the model may restore it (it only reads it) …
+    assert_eq!(unsafe { fmi2SetFMUstate(g.c, s) }, Status::Ok);
+    assert_eq!(g.get("x"), f.get("x"));
+    // … but neither free it nor overwrite it.
+    let (fc, gc) = (f.c, g.c);
+    let mut local = 0u64;
+    let never_ours = &mut local as *mut u64 as *mut c_void;
+    type Call = Box<dyn Fn() -> Status>;
+    let refusals: [(&str, Call); 3] = [
+        (
+            "free by another instance",
+            Box::new(move || unsafe { fmi2FreeFMUstate(gc, &mut { s }) }),
+        ),
+        (
+            "overwrite by another instance",
+            Box::new(move || unsafe { fmi2GetFMUstate(gc, &mut { s }) }),
+        ),
+        (
+            "free of a pointer this FMU never made",
+            Box::new(move || unsafe { fmi2FreeFMUstate(fc, &mut { never_ours }) }),
+        ),
+    ];
+    for (what, call) in refusals {
+        let n = (f.errors(), g.errors());
+        assert_eq!(call(), Status::Error, "{what}");
+        assert_eq!(
+            f.errors() + g.errors(),
+            n.0 + n.1 + 1,
+            "{what}: one log line"
+        );
+    }
+    assert_eq!(local, 0);
+    // Freed once by its maker; a second free through a copy of the pointer is refused.
+    let mut copy = s;
+    assert_eq!(unsafe { fmi2FreeFMUstate(f.c, &mut s) }, Status::Ok);
+    assert!(s.is_null());
+    let n = f.errors();
+    assert_eq!(unsafe { fmi2FreeFMUstate(f.c, &mut copy) }, Status::Error);
+    assert_eq!(unsafe { fmi2SetFMUstate(f.c, copy) }, Status::Error);
+    assert_eq!(f.errors(), n + 2);
+    assert!(log_of("owner")[n].2.contains("freed already"));
+    // `t` is left to fmi2FreeInstance (tests/state_memory.rs counts the bytes).
+    assert!(!t.is_null());
 }
 
 #[test]
@@ -360,11 +419,26 @@ fn dopri5_warns_once_when_the_problem_is_stiff() {
     // Heavily overdamped (c = 1e5): eigenvalues ≈ −k/c = −1e-3 and −c/m = −1e5 s⁻¹.
     // After the fast transient the tolerance would allow long steps, but DOPRI5's
     // stability region caps h|λ| near 3.3: Hairer's detection fires, once per run.
+    // The doStep that logs the warning returns fmi2Warning (FMI 2.0, 2.1.3), the others
+    // fmi2OK.
     let f = Fmu::new("stiff_warning");
     f.init(&[("c", 1e5), ("x", 0.1)]);
+    let mut statuses = Vec::new();
     for i in 0..10 {
-        assert_eq!(fmi2DoStep(f.c, i as f64 * 0.01, 0.01, 1), Status::Ok);
+        let before = f.errors();
+        statuses.push(fmi2DoStep(f.c, i as f64 * 0.01, 0.01, 1));
+        let expected = if f.errors() > before {
+            Status::Warning
+        } else {
+            Status::Ok
+        };
+        assert_eq!(statuses[i], expected, "doStep {i}: {statuses:?}");
     }
+    assert_eq!(
+        statuses.iter().filter(|s| **s == Status::Warning).count(),
+        1,
+        "{statuses:?}"
+    );
     let log = log_of("stiff_warning");
     let warnings: Vec<_> = log
         .iter()
@@ -373,6 +447,10 @@ fn dopri5_warns_once_when_the_problem_is_stiff() {
     assert_eq!(warnings.len(), 1, "{log:?}");
     assert_eq!(warnings[0].1, "logStatusWarning");
     assert_eq!(log.len(), 1, "{log:?}");
+    // The calls after it return fmi2OK again.
+    assert_eq!(fmi2DoStep(f.c, 0.1, 0.01, 1), Status::Ok);
+    let mut x = 0.0;
+    assert_eq!(unsafe { fmi2GetReal(f.c, &vr("x"), 1, &mut x) }, Status::Ok);
     // The default damped oscillator is not stiff: nothing is said.
     let g = Fmu::new("not_stiff");
     g.init(&[("x", 0.1)]);
@@ -380,4 +458,70 @@ fn dopri5_warns_once_when_the_problem_is_stiff() {
         assert_eq!(fmi2DoStep(g.c, i as f64 * 0.01, 0.01, 1), Status::Ok);
     }
     assert!(log_of("not_stiff").is_empty(), "{:?}", log_of("not_stiff"));
+}
+
+/// `solver_max_steps` (an Integer after the outputs, so no older value reference moved)
+/// bounds the internal steps of one doStep: a doStep that needs more returns fmi2Discard
+/// naming it, and a fixed-step method refuses a plan above it before taking any step.
+#[test]
+fn solver_max_steps_bounds_a_do_step_and_is_named_when_it_stops_one() {
+    let layout = &ExportedModel::info().layout;
+    let max_vr = vr("solver_max_steps");
+    assert_eq!(max_vr as usize, layout.vars.len() - 1, "appended last");
+    assert_eq!(vr("E") + 1, max_vr, "right after the outputs");
+    let (solver, max) = (vr("solver"), max_vr);
+    // Both Integers read back through one call; the default is 50 000.
+    let f = Fmu::new("max_steps");
+    let mut got = [0; 2];
+    f.init(&[]);
+    assert_eq!(
+        unsafe { fmi2GetInteger(f.c, [solver, max].as_ptr(), 2, got.as_mut_ptr()) },
+        Status::Ok
+    );
+    assert_eq!(got, [2, 50_000]);
+    // Fixed before initialisation, at least 1, and not a Real.
+    let n = f.errors();
+    assert_eq!(unsafe { fmi2SetInteger(f.c, &max, 1, &10) }, Status::Error);
+    assert!(log_of("max_steps")[n]
+        .2
+        .contains("before fmi2ExitInitializationMode"));
+    let g = Fmu::new("max_steps_set");
+    assert_eq!(unsafe { fmi2SetInteger(g.c, &max, 1, &0) }, Status::Error);
+    assert_eq!(unsafe { fmi2SetInteger(g.c, &max, 1, &-5) }, Status::Error);
+    assert_eq!(g.set("solver_max_steps", 10.0), Status::Error);
+    assert_eq!(log_of("max_steps_set").len(), 3);
+
+    // DOPRI5 with 100 attempts at rtol 1e-10 cannot cover 10 s of the oscillator.
+    assert_eq!(unsafe { fmi2SetInteger(g.c, &max, 1, &100) }, Status::Ok);
+    g.init(&[]);
+    assert_eq!(fmi2DoStep(g.c, 0.0, 10.0, 1), Status::Discard);
+    let why = log_of("max_steps_set").pop().unwrap().2;
+    assert!(
+        why.contains("after 100 steps")
+            && why.contains(&format!(
+                "raise solver_max_steps (value reference {max}, now 100)"
+            )),
+        "{why}"
+    );
+    let mut t = 0.0;
+    assert_eq!(unsafe { fmi2GetRealStatus(g.c, 2, &mut t) }, Status::Ok);
+    assert!(
+        0.0 < t && t < 10.0,
+        "stopped at the last good step, t = {t}"
+    );
+
+    // RK4 at 1e-3 s asked for 1e6 s: 1e9 steps planned, none taken.
+    let h = Fmu::new("max_steps_plan");
+    let rk4 = mbfmu::integrators::Method::Rk4.code();
+    assert_eq!(unsafe { fmi2SetInteger(h.c, &solver, 1, &rk4) }, Status::Ok);
+    h.init(&[]);
+    assert_eq!(fmi2DoStep(h.c, 0.0, 1e6, 1), Status::Discard);
+    let why = log_of("max_steps_plan").pop().unwrap().2;
+    assert_eq!(
+        why,
+        format!(
+            "fmi2DoStep: refused to plan 1000000000 fixed steps of 1e-3 s from t = 0 s, more than the limit of 50000: took none; raise solver_max_steps (value reference {max}, now 50000) or shorten the communication step; state kept at t = 0"
+        )
+    );
+    assert_eq!(h.get("x"), 0.1);
 }

@@ -39,7 +39,7 @@
 //! printed as `METRIC` lines (`cargo test --test euler_angles -- --nocapture`); the
 //! numbers quoted in the comments were measured with this code.
 
-use mbfmu::integrators::{advance, Failure, Memory, Method, Settings};
+use mbfmu::integrators::{advance, Failure, Memory, Method, Settings, MAX_STEPS};
 use mbfmu::linearize::OperatingPoint;
 use mbfmu::model::System;
 use mbfmu::systems::RigidBody;
@@ -229,6 +229,7 @@ fn simulate(path: Path, method: Method, start: &Start, stop: f64) -> Run {
         } else {
             f64::INFINITY
         },
+        max_steps: MAX_STEPS,
     };
     let mut min_cos_pitch: f64 = 1.0;
     let u = [0.0; 3];

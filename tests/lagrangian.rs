@@ -2,7 +2,7 @@
 //! against the hand-derived ones of systems.md, rod forces, energy, linearisation and
 //! the large-amplitude period.
 
-use mbfmu::integrators::{advance, Memory, Method, Settings};
+use mbfmu::integrators::{advance, Memory, Method, Settings, MAX_STEPS};
 use mbfmu::linearize::{linearize, OperatingPoint};
 use mbfmu::model::lagrangian::{self, Lagrangian};
 use mbfmu::model::System;
@@ -216,6 +216,7 @@ fn integrate<M: System>(x: &mut [f64], u: &[f64], p: &[f64], duration: f64, tol:
         rtol: tol,
         atol: vec![tol; x.len()],
         step: f64::INFINITY,
+        max_steps: MAX_STEPS,
     };
     let mut rhs = |_t: f64, x: &[f64], dx: &mut [f64]| M::derivatives(0.0, x, u, p, dx);
     let mut t = 0.0;
@@ -252,6 +253,7 @@ fn energy_is_conserved_in_the_chaotic_scene() {
         rtol: 1e-10,
         atol: vec![1e-10; 4],
         step: f64::INFINITY,
+        max_steps: MAX_STEPS,
     };
     let mut rhs = |_t: f64, x: &[f64], dx: &mut [f64]| {
         <DoublePendulum as System>::derivatives(0.0, x, &u, &p, dx)
@@ -361,6 +363,7 @@ fn large_amplitude_period_equals_the_elliptic_integral() {
         rtol: 1e-12,
         atol: vec![1e-12; 2],
         step: f64::INFINITY,
+        max_steps: MAX_STEPS,
     };
     let f = |x: &[f64]| rhs::<CompoundPendulum>(x, &u, &p);
     let mut rhs_fn = |_t: f64, x: &[f64], dx: &mut [f64]| {

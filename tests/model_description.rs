@@ -54,3 +54,27 @@ fn model_structure_lists_exact_dependencies() {
         assert!(xml.contains(needle), "missing {needle} in\n{xml}");
     }
 }
+
+/// The `solver` parameter's description lists every method of the enumeration (it is
+/// generated from `Method::ALL`; it once named only the first two of twelve).
+#[test]
+fn the_solver_description_lists_every_method() {
+    use mbfmu::integrators::Method;
+    for e in systems::all() {
+        let xml = (e.model_description)();
+        let solver = xml
+            .split(r#"<ScalarVariable name="solver" "#)
+            .nth(1)
+            .and_then(|rest| rest.split("description=\"").nth(1))
+            .and_then(|rest| rest.split('"').next())
+            .unwrap_or_else(|| panic!("{}: no solver variable", e.name));
+        for m in Method::ALL {
+            let item = format!("{} = {}", m.code(), m.name());
+            assert!(
+                solver.contains(&item),
+                "{}: {item} missing in {solver}",
+                e.name
+            );
+        }
+    }
+}

@@ -3,7 +3,7 @@
 //! equilibrium and its small-oscillation frequencies, and the rigid pendulum the `stiff`
 //! scene should have been modelled with.
 
-use mbfmu::integrators::{advance, Memory, Method, Settings, Stats};
+use mbfmu::integrators::{advance, Memory, Method, Settings, Stats, MAX_STEPS};
 use mbfmu::linearize::{linearize, OperatingPoint};
 use mbfmu::model::System;
 use mbfmu::systems::springy_pendulum::cartesian_rhs;
@@ -39,6 +39,7 @@ fn dopri5(
         rtol: tol,
         atol: vec![tol; x0.len()],
         step: f64::INFINITY,
+        max_steps: MAX_STEPS,
     };
     let mut memory = Memory::default();
     let (mut t, mut x) = (0.0, x0.to_vec());

@@ -8,7 +8,7 @@
 //! across them, and `RigidBody::project` (quaternion renormalisation) after each one.
 //! The numbers in the comments were measured with this code.
 
-use mbfmu::integrators::{advance, Memory, Method, Settings};
+use mbfmu::integrators::{advance, Memory, Method, Settings, MAX_STEPS};
 use mbfmu::linearize::{linearize, OperatingPoint};
 use mbfmu::model::{Scene, System};
 use mbfmu::systems::RigidBody;
@@ -55,6 +55,7 @@ fn simulate(s: &Setup, t_end: f64, rtol: f64, mut sample: impl FnMut(f64, &[f64]
         rtol,
         atol: vec![rtol; 7], // every state has nominal 1
         step: f64::INFINITY,
+        max_steps: MAX_STEPS,
     };
     let mut memory = Memory::default();
     let mut x = s.x.clone();
@@ -432,6 +433,7 @@ fn reference_rotation(s: &Setup, r0: Mat, t_end: f64) -> Mat {
         rtol: 1e-13,
         atol: vec![1e-13; 12],
         step: f64::INFINITY,
+        max_steps: MAX_STEPS,
     };
     let mut t = 0.0;
     advance(

@@ -9,7 +9,7 @@
 //! step (`Sim::projected = false` switches the projection off, to show what it does).
 //! The numbers in the comments were measured with this code.
 
-use mbfmu::integrators::{advance, Memory, Method, Settings};
+use mbfmu::integrators::{advance, Memory, Method, Settings, MAX_STEPS};
 use mbfmu::linearize::OperatingPoint;
 use mbfmu::model::System;
 use mbfmu::systems::{RollingDisk, RollingHoop};
@@ -57,6 +57,7 @@ impl<M: System> Sim<M> {
                 rtol,
                 atol: vec![rtol; n],
                 step: f64::INFINITY,
+                max_steps: MAX_STEPS,
             },
             memory: Memory::default(),
             projected,

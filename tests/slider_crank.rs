@@ -3,7 +3,7 @@
 //! statics, and the constraint drift of the index-1 formulation with and without
 //! projection.
 
-use mbfmu::integrators::{advance, Memory, Method, Settings};
+use mbfmu::integrators::{advance, Memory, Method, Settings, MAX_STEPS};
 use mbfmu::model::lagrangian;
 use mbfmu::model::System;
 use mbfmu::systems::slider_crank::{closure_rates, static_torque};
@@ -120,6 +120,7 @@ fn drift(tol: f64, project: bool, t_end: f64) -> Vec<(f64, f64)> {
         rtol: tol,
         atol: nominal.iter().map(|n| tol * n).collect(),
         step: f64::INFINITY,
+        max_steps: MAX_STEPS,
     };
     let mut memory = Memory::default();
     let mut rhs = |t: f64, x: &[f64], dx: &mut [f64]| {

@@ -10,7 +10,7 @@
 //! integration continues to the end of the step; `System::project` on the initial state
 //! and after every step. The numbers in the comments were measured with this code.
 
-use mbfmu::integrators::{advance, Memory, Method, Settings};
+use mbfmu::integrators::{advance, Memory, Method, Settings, MAX_STEPS};
 use mbfmu::linearize::OperatingPoint;
 use mbfmu::model::System;
 use mbfmu::systems::SphereSlide;
@@ -77,6 +77,7 @@ impl Sim {
                 rtol,
                 atol: vec![rtol; n],
                 step: f64::INFINITY,
+                max_steps: MAX_STEPS,
             },
             memory: Memory::default(),
             locate,

@@ -2,7 +2,7 @@
 //! differentiation of the particle Lagrangian against the hand-derived (5.110), (5.111),
 //! (5.122), the energy expression and its conservation, and the static equilibrium.
 
-use mbfmu::integrators::{advance, Memory, Method, Settings};
+use mbfmu::integrators::{advance, Memory, Method, Settings, MAX_STEPS};
 use mbfmu::linearize::OperatingPoint;
 use mbfmu::model::lagrangian;
 use mbfmu::model::System;
@@ -170,6 +170,7 @@ fn energy_is_conserved_in_both_scenes() {
             rtol: 1e-10,
             atol: vec![1e-10; 6],
             step: f64::INFINITY,
+            max_steps: MAX_STEPS,
         };
         let mut f = |_t: f64, x: &[f64], dx: &mut [f64]| {
             SpringRodPendulum::derivatives(0.0, x, &[], &p, dx)

@@ -270,6 +270,12 @@ fn start<M: System>(
         .vr_of("solver_step")
         .expect("every FMU has solver_step");
     fmu.set_integer(&[solver], &[method.code()])?;
+    // The sweeps measure the methods, not an importer's patience: a long run takes up to
+    // ~10⁶ fixed steps in one doStep, above the default solver_max_steps (5·10⁴).
+    let max_steps = layout
+        .vr_of("solver_max_steps")
+        .expect("every FMU has solver_max_steps");
+    fmu.set_integer(&[max_steps], &[i32::MAX])?;
     if !method.is_adaptive() {
         fmu.set_real(&[solver_step], &[step])?;
     } else if step > 0.0 {

@@ -4,13 +4,16 @@
 //! `extern "C"` symbol from [`export_fmu!`](crate::export_fmu). Each one:
 //! - rejects NULL pointers and impossible lengths before touching memory,
 //! - runs its body under `catch_unwind`, so no panic crosses into the host,
-//! - turns every `Err` into fmi2Error and one line through the logger.
+//! - turns every `Err` into fmi2Error and one line through the logger,
+//! - returns fmi2Warning from a call that logged a warning and would return fmi2OK.
 
 use super::logger::CallbackFunctions;
 use super::machine;
 use super::{Export, Instance, Logger, Snapshot, Status, StepOutcome};
+use std::collections::BTreeMap;
 use std::ffi::{c_char, c_int, c_uint, c_void, CStr};
 use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::{Mutex, MutexGuard};
 
 pub type Component = *mut c_void;
 pub type FmuState = *mut c_void;
@@ -33,6 +36,33 @@ struct StateBox {
 
 const STATE_TAG: [u8; 8] = *b"mbfmuFMS";
 
+/// Every live FMU state of this binary (the address of its [`StateBox`]) with the instance
+/// that made it (the address of its component). fmi2FreeInstance frees the states its
+/// instance made and the importer did not free (FMI 2.0: freeing an instance frees all
+/// memory its functions allocated); a pointer not in here (never ours, or freed already) is
+/// refused before it is read, so it is never freed twice. Any live state of this model may
+/// be set or serialized by any instance; only its maker frees it or writes into it.
+static STATES: Mutex<BTreeMap<usize, usize>> = Mutex::new(BTreeMap::new());
+
+fn states() -> MutexGuard<'static, BTreeMap<usize, usize>> {
+    // The map is consistent after every operation: a panic elsewhere cannot spoil it.
+    STATES
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+/// A new FMU state of instance `c` holding `snapshot`, registered as its.
+fn new_state<E: Export>(c: Component, snapshot: Snapshot) -> FmuState {
+    let b = Box::new(StateBox {
+        tag: STATE_TAG,
+        guid: E::info().guid.as_str(),
+        snapshot,
+    });
+    let state = Box::into_raw(b) as FmuState;
+    states().insert(state as usize, c as usize);
+    state
+}
+
 type Inst<E> = Instance<<E as Export>::Model>;
 
 fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
@@ -43,7 +73,8 @@ fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
         .unwrap_or_else(|| "unknown panic".into())
 }
 
-/// Runs `body` on the instance behind `c`: NULL check, debug log, panic guard, error log.
+/// Runs `body` on the instance behind `c`: NULL check, debug log, panic guard, error log,
+/// and fmi2OK raised to fmi2Warning when the body logged a warning.
 fn call<E: Export>(
     c: Component,
     function: &str,
@@ -57,6 +88,7 @@ fn call<E: Export>(
         // SAFETY: `c` came from our fmi2Instantiate (a Box<Instance>) and the standard
         // forbids using it after fmi2FreeInstance or from two threads at once.
         let inst = unsafe { &mut *ptr };
+        inst.logger.take_warned(); // this call's warnings only
         if inst.logger.debug_enabled() {
             inst.logger.debug(&format!("{function} called"));
         }
@@ -65,6 +97,7 @@ fn call<E: Export>(
     // SAFETY: as above; the body's borrow has ended.
     let inst = unsafe { &mut *ptr };
     match outcome {
+        Ok(Ok(Status::Ok)) if inst.logger.take_warned() => Status::Warning,
         Ok(Ok(status)) => status,
         Ok(Err(message)) => {
             inst.logger.failure(Status::Error, &message);
@@ -196,13 +229,34 @@ pub unsafe fn instantiate<E: Export>(
     result.unwrap_or(std::ptr::null_mut())
 }
 
+/// Frees the instance and every FMU state it made that the importer did not free.
+///
 /// # Safety
 /// `c` is NULL or a live instance of this model.
 pub unsafe fn free_instance<E: Export>(c: Component) {
     if c.is_null() {
         return;
     }
-    let _ = catch_unwind(AssertUnwindSafe(|| drop(Box::from_raw(c as *mut Inst<E>))));
+    let _ = catch_unwind(AssertUnwindSafe(|| {
+        let owned: Vec<usize> = {
+            let mut map = states();
+            let owned: Vec<usize> = map
+                .iter()
+                .filter(|(_, &owner)| owner == c as usize)
+                .map(|(&state, _)| state)
+                .collect();
+            for state in &owned {
+                map.remove(state);
+            }
+            owned
+        };
+        for state in owned {
+            // SAFETY: registered by new_state from a Box<StateBox>, removed from the
+            // registry just now, so freed exactly once.
+            drop(Box::from_raw(state as *mut StateBox));
+        }
+        drop(Box::from_raw(c as *mut Inst<E>))
+    }));
 }
 
 /// # Safety
@@ -350,16 +404,42 @@ pub unsafe fn no_such_type<E: Export, T>(
 pub const GET_MASK: u32 = machine::GET;
 pub const SET_MASK: u32 = machine::SET_INTEGER;
 
-/// Checks that `state` is an FMU state made by this model.
+/// Who may use an FMU state in a call.
+#[derive(Clone, Copy, PartialEq)]
+enum Use {
+    /// Any instance of the model: the state is only read.
+    Read,
+    /// Only the instance that made it: the state is written or freed.
+    Own,
+}
+
+/// The FMU state behind `state`, if it is a live one of this model (and made by `c` for
+/// [`Use::Own`]); checked in the registry before the pointer is read.
 ///
 /// # Safety
-/// `state` is NULL or a pointer obtained from fmi2GetFMUstate / fmi2DeSerializeFMUstate.
+/// A registered pointer is a live `Box<StateBox>`; no other thread uses the same state
+/// during the call (the standard's rule for an instance and what it made).
 unsafe fn state_ref<'a, E: Export>(
+    c: Component,
     state: FmuState,
+    access: Use,
     function: &str,
 ) -> Result<&'a mut StateBox, String> {
     if state.is_null() {
         return Err(format!("{function}: FMUstate is NULL"));
+    }
+    match states().get(&(state as usize)) {
+        None => {
+            return Err(format!(
+                "{function}: FMUstate {state:p} is not a live FMU state of this FMU (never made by it, or freed already)"
+            ))
+        }
+        Some(&owner) if access == Use::Own && owner != c as usize => {
+            return Err(format!(
+                "{function}: FMUstate {state:p} was made by another instance; only that one may free or overwrite it"
+            ))
+        }
+        Some(_) => {}
     }
     let b = &mut *(state as *mut StateBox);
     if b.tag != STATE_TAG || b.guid != E::info().guid {
@@ -378,14 +458,9 @@ pub unsafe fn get_fmu_state<E: Export>(c: Component, state: *mut FmuState) -> St
         }
         let snapshot = inst.snapshot();
         if (*state).is_null() {
-            let b = Box::new(StateBox {
-                tag: STATE_TAG,
-                guid: E::info().guid.as_str(),
-                snapshot,
-            });
-            *state = Box::into_raw(b) as FmuState;
+            *state = new_state::<E>(c, snapshot);
         } else {
-            state_ref::<E>(*state, "fmi2GetFMUstate")?.snapshot = snapshot;
+            state_ref::<E>(c, *state, Use::Own, "fmi2GetFMUstate")?.snapshot = snapshot;
         }
         Ok(Status::Ok)
     })
@@ -395,7 +470,7 @@ pub unsafe fn get_fmu_state<E: Export>(c: Component, state: *mut FmuState) -> St
 /// `state` is NULL or one of ours.
 pub unsafe fn set_fmu_state<E: Export>(c: Component, state: FmuState) -> Status {
     call::<E>(c, "fmi2SetFMUstate", |inst| {
-        let b = state_ref::<E>(state, "fmi2SetFMUstate")?;
+        let b = state_ref::<E>(c, state, Use::Read, "fmi2SetFMUstate")?;
         ok(inst.restore(&b.snapshot))
     })
 }
@@ -411,7 +486,9 @@ pub unsafe fn free_fmu_state<E: Export>(c: Component, state: *mut FmuState) -> S
         if (*state).is_null() {
             return Ok(Status::Ok);
         }
-        state_ref::<E>(*state, "fmi2FreeFMUstate")?;
+        state_ref::<E>(c, *state, Use::Own, "fmi2FreeFMUstate")?;
+        states().remove(&(*state as usize));
+        // SAFETY: a live Box<StateBox> of this instance, just taken out of the registry.
         drop(Box::from_raw(*state as *mut StateBox));
         *state = std::ptr::null_mut();
         Ok(Status::Ok)
@@ -427,7 +504,7 @@ pub unsafe fn serialized_fmu_state_size<E: Export>(
 ) -> Status {
     call::<E>(c, "fmi2SerializedFMUstateSize", |inst| {
         inst.require(machine::FMU_STATE, "fmi2SerializedFMUstateSize")?;
-        let b = state_ref::<E>(state, "fmi2SerializedFMUstateSize")?;
+        let b = state_ref::<E>(c, state, Use::Read, "fmi2SerializedFMUstateSize")?;
         if size.is_null() {
             return Err("fmi2SerializedFMUstateSize: size is NULL".into());
         }
@@ -446,7 +523,7 @@ pub unsafe fn serialize_fmu_state<E: Export>(
 ) -> Status {
     call::<E>(c, "fmi2SerializeFMUstate", |inst| {
         inst.require(machine::FMU_STATE, "fmi2SerializeFMUstate")?;
-        let b = state_ref::<E>(state, "fmi2SerializeFMUstate")?;
+        let b = state_ref::<E>(c, state, Use::Read, "fmi2SerializeFMUstate")?;
         let blob = inst.serialize(&b.snapshot);
         if size != blob.len() {
             return Err(format!(
@@ -486,14 +563,9 @@ pub unsafe fn deserialize_fmu_state<E: Export>(
         )?;
         let snapshot = inst.deserialize(blob)?;
         if (*state).is_null() {
-            let b = Box::new(StateBox {
-                tag: STATE_TAG,
-                guid: E::info().guid.as_str(),
-                snapshot,
-            });
-            *state = Box::into_raw(b) as FmuState;
+            *state = new_state::<E>(c, snapshot);
         } else {
-            state_ref::<E>(*state, "fmi2DeSerializeFMUstate")?.snapshot = snapshot;
+            state_ref::<E>(c, *state, Use::Own, "fmi2DeSerializeFMUstate")?.snapshot = snapshot;
         }
         Ok(Status::Ok)
     })

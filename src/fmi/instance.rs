@@ -12,8 +12,33 @@ use crate::integrators::{
 };
 use crate::model::consistent;
 use crate::model::jacobian::{directional, Direction};
-use crate::model::{Slot, System, VarKind};
+use crate::model::{Slot, System, Var, VarKind};
 use std::marker::PhantomData;
+
+/// Why an integration inside doStep stopped early: the reason (one line), and whether it
+/// was the step limit (`solver_max_steps`), which the importer can raise.
+struct Stop {
+    reason: String,
+    step_limit: bool,
+}
+
+impl From<integrators::Failure> for Stop {
+    fn from(f: integrators::Failure) -> Self {
+        Stop {
+            step_limit: f.is_step_limit(),
+            reason: f.to_string(),
+        }
+    }
+}
+
+impl From<integrators::ImplicitFailure> for Stop {
+    fn from(f: integrators::ImplicitFailure) -> Self {
+        Stop {
+            step_limit: f.is_step_limit(),
+            reason: f.to_string(),
+        }
+    }
+}
 
 /// How a doStep ended when it did not fail on its arguments.
 #[derive(Debug, PartialEq)]
@@ -58,6 +83,7 @@ impl<M: System> Instance<M> {
             method: Method::from_code(start(VarKind::SolverMethod)[0] as i32)
                 .expect("default method exists"),
             solver_step: start(VarKind::SolverStep)[0],
+            max_steps: start(VarKind::SolverMaxSteps)[0] as u64,
             time: 0.0,
             start_time: 0.0,
             stop_time: None,
@@ -121,25 +147,8 @@ impl<M: System> Instance<M> {
         stop_time: Option<f64>,
     ) -> Res {
         self.require(machine::SETUP_EXPERIMENT, "fmi2SetupExperiment")?;
-        if let Some(tol) = tolerance {
-            if !(tol.is_finite() && tol > 0.0 && tol < 1.0) {
-                return Err(format!(
-                    "fmi2SetupExperiment: tolerance must be in (0, 1), got {tol}"
-                ));
-            }
-        }
-        if !start_time.is_finite() {
-            return Err(format!(
-                "fmi2SetupExperiment: startTime must be finite, got {start_time}"
-            ));
-        }
-        if let Some(stop) = stop_time {
-            if !(stop.is_finite() && stop >= start_time) {
-                return Err(format!(
-                    "fmi2SetupExperiment: stopTime must be finite and ≥ startTime = {start_time}, got {stop}"
-                ));
-            }
-        }
+        check_experiment(tolerance, start_time, stop_time)
+            .map_err(|e| format!("fmi2SetupExperiment: {e}"))?;
         self.data.tolerance = tolerance.unwrap_or(self.info.default_tolerance);
         self.data.start_time = start_time;
         self.data.time = start_time;
@@ -242,9 +251,9 @@ impl<M: System> Instance<M> {
             .iter()
             .map(|&vr| {
                 let s = self.slot("fmi2GetReal", vr)?;
-                if s.kind == VarKind::SolverMethod {
+                if let Some(kind) = integer_kind(s.kind) {
                     return Err(format!(
-                        "fmi2GetReal: value reference {vr} ({}) is an Enumeration, read it with fmi2GetInteger",
+                        "fmi2GetReal: value reference {vr} ({}) is an {kind}, read it with fmi2GetInteger",
                         self.name(vr)
                     ));
                 }
@@ -274,7 +283,7 @@ impl<M: System> Instance<M> {
                     }
                     y[slot.index]
                 }
-                VarKind::SolverMethod => unreachable!("rejected above"),
+                VarKind::SolverMethod | VarKind::SolverMaxSteps => unreachable!("rejected above"),
             };
         }
         Ok(())
@@ -293,10 +302,11 @@ impl<M: System> Instance<M> {
                         "fmi2SetReal: {name} (value reference {vr}) is calculated by the model and cannot be set"
                     ))
                 }
-                VarKind::SolverMethod => {
+                VarKind::SolverMethod | VarKind::SolverMaxSteps => {
+                    let kind = integer_kind(slot.kind).expect("an Integer");
                     return Err(format!(
-                        "fmi2SetReal: {name} (value reference {vr}) is an Enumeration, set it with fmi2SetInteger"
-                    ))
+                        "fmi2SetReal: {name} (value reference {vr}) is an {kind}, set it with fmi2SetInteger"
+                    ));
                 }
                 VarKind::Parameter | VarKind::SolverStep | VarKind::State => {
                     if machine::BEFORE_INIT_DONE & self.data.machine.code() == 0 {
@@ -308,8 +318,7 @@ impl<M: System> Instance<M> {
                 }
                 VarKind::Input => {}
             }
-            var.check(value)
-                .map_err(|e| format!("fmi2SetReal: {e} (value reference {vr})"))?;
+            check_real(var, vr, value).map_err(|e| format!("fmi2SetReal: {e}"))?;
             slots.push(slot);
         }
         let d = &mut self.data;
@@ -337,68 +346,61 @@ impl<M: System> Instance<M> {
 
     pub fn get_integer(&self, vrs: &[u32], values: &mut [i32]) -> Res {
         self.require(machine::GET, "fmi2GetInteger")?;
-        for &vr in vrs {
-            self.integer_slot("fmi2GetInteger", vr)?;
+        let slots = vrs
+            .iter()
+            .map(|&vr| self.integer_slot("fmi2GetInteger", vr))
+            .collect::<Res<Vec<Slot>>>()?;
+        for (value, slot) in values.iter_mut().zip(slots) {
+            *value = match slot.kind {
+                VarKind::SolverMethod => self.data.method.code(),
+                // At most i32::MAX: the setter's range (and a restored state's).
+                _ => self.data.max_steps as i32,
+            };
         }
-        values.fill(self.data.method.code());
         Ok(())
     }
 
     pub fn set_integer(&mut self, vrs: &[u32], values: &[i32]) -> Res {
         self.require(machine::SET_INTEGER, "fmi2SetInteger")?;
-        let mut method = self.data.method;
+        let (mut method, mut max_steps) = (self.data.method, self.data.max_steps);
         for (&vr, &value) in vrs.iter().zip(values) {
-            self.integer_slot("fmi2SetInteger", vr)?;
+            let slot = self.integer_slot("fmi2SetInteger", vr)?;
+            let (_, var) = &self.info.layout.vars[vr as usize];
+            let name = &var.name;
             if machine::BEFORE_INIT_DONE & self.data.machine.code() == 0 {
                 return Err(format!(
-                    "fmi2SetInteger: solver (value reference {vr}) can only be set before fmi2ExitInitializationMode"
+                    "fmi2SetInteger: {name} (value reference {vr}) can only be set before fmi2ExitInitializationMode"
                 ));
+            }
+            if slot.kind == VarKind::SolverMaxSteps {
+                check_real(var, vr, value as f64).map_err(|e| format!("fmi2SetInteger: {e}"))?;
+                max_steps = value as u64;
+                continue;
             }
             method = Method::from_code(value).ok_or_else(|| {
                 format!(
-                    "fmi2SetInteger: {value} is not a method code for solver (value reference {vr}); valid: {}",
-                    Method::ALL
-                        .iter()
-                        .map(|m| format!("{} = {}", m.code(), m.name()))
-                        .collect::<Vec<_>>()
-                        .join(", ")
+                    "fmi2SetInteger: {value} is not a method code for {name} (value reference {vr}); valid: {}",
+                    Method::codes()
                 )
             })?;
         }
-        if method.needs_linear_time_invariant() && !M::linear_time_invariant(&self.data.params) {
-            return Err(format!(
-                "fmi2SetInteger: solver {} needs a linear time-invariant system; {} is not (with these parameters)",
-                method.name(),
-                M::NAME
-            ));
-        }
-        if method.needs_mechanics() && M::mechanics(&self.data.u, &self.data.params).is_none() {
-            return Err(format!(
-                "fmi2SetInteger: solver {} needs a system written as a Lagrangian with holonomic constraints only; {} is not",
-                method.name(),
-                M::NAME
-            ));
-        }
-        if method.needs_second_order() && !M::SECOND_ORDER {
-            return Err(format!(
-                "fmi2SetInteger: solver {} needs states of the form (q, q̇); {} has none",
-                method.name(),
-                M::NAME
-            ));
-        }
+        let d = &self.data;
+        check_method::<M>(method, &d.u, &d.params, true)
+            .map_err(|e| format!("fmi2SetInteger: {e}"))?;
         self.data.method = method;
+        self.data.max_steps = max_steps;
         Ok(())
     }
 
-    fn integer_slot(&self, function: &str, vr: u32) -> Res {
+    fn integer_slot(&self, function: &str, vr: u32) -> Res<Slot> {
         let slot = self.slot(function, vr)?;
-        if slot.kind != VarKind::SolverMethod {
+        if integer_kind(slot.kind).is_none() {
             return Err(format!(
                 "{function}: value reference {vr} ({}) is a Real, not an Integer/Enumeration",
                 self.name(vr)
             ));
         }
-        Ok(())
+        Ok(slot)
     }
 
     /// fmi2Get/SetBoolean and fmi2Get/SetString: this model has no such variables.
@@ -454,6 +456,7 @@ impl<M: System> Instance<M> {
             } else {
                 d.solver_step
             },
+            max_steps: d.max_steps,
         };
         let (u, p) = (&d.u, &d.params);
         let n = d.x.len();
@@ -553,24 +556,34 @@ impl<M: System> Instance<M> {
                 Ok(StepOutcome::Completed)
             }
             Ok(()) => {
+                // The state stays at `now`: the point ahead of `t_end` no longer goes with it.
+                drop_ahead(&mut d.memory);
                 d.machine = Machine::StepFailed;
                 Ok(StepOutcome::Discarded(format!(
                     "fmi2DoStep: outputs became non-finite at t = {t_end}; state kept at t = {now}"
                 )))
             }
-            Err(failure) if x.iter().chain(&y).all(|v| v.is_finite()) => {
-                d.x = x;
-                d.time = t;
+            Err(stop) => {
                 d.machine = Machine::StepFailed;
-                Ok(StepOutcome::Discarded(format!(
-                    "fmi2DoStep: {failure}; integration stopped at the last good state, t = {t}"
-                )))
-            }
-            Err(failure) => {
-                d.machine = Machine::StepFailed;
-                Ok(StepOutcome::Discarded(format!(
-                    "fmi2DoStep: {failure}; state kept at t = {now}"
-                )))
+                let mut why = stop.reason;
+                if stop.step_limit {
+                    let vr = layout.vr_of_slot(VarKind::SolverMaxSteps, 0);
+                    why += &format!(
+                        "; raise solver_max_steps (value reference {vr}, now {}) or shorten the communication step",
+                        d.max_steps
+                    );
+                }
+                if t > now && x.iter().chain(&y).all(|v| v.is_finite()) {
+                    d.x = x;
+                    d.time = t;
+                    Ok(StepOutcome::Discarded(format!(
+                        "fmi2DoStep: {why}; integration stopped at the last good state, t = {t}"
+                    )))
+                } else {
+                    Ok(StepOutcome::Discarded(format!(
+                        "fmi2DoStep: {why}; state kept at t = {now}"
+                    )))
+                }
             }
         }
     }
@@ -656,15 +669,20 @@ impl<M: System> Instance<M> {
         self.data.clone()
     }
 
+    /// fmi2SetFMUstate: the instance becomes `snapshot`, after the checks of
+    /// [`Instance::check_snapshot`].
     pub fn restore(&mut self, snapshot: &Snapshot) -> Res {
-        self.require(machine::FMU_STATE, "fmi2SetFMUstate")?;
+        const F: &str = "fmi2SetFMUstate";
+        self.require(machine::FMU_STATE, F)?;
         let l = &self.info.layout;
         if snapshot.params.len() != l.n_params
             || snapshot.x.len() != l.n_states
             || snapshot.u.len() != l.n_inputs
         {
-            return Err("fmi2SetFMUstate: the FMU state belongs to another model".into());
+            return Err(format!("{F}: the FMU state belongs to another model"));
         }
+        self.check_snapshot(snapshot)
+            .map_err(|e| format!("{F}: refused, in the FMU state: {e}"))?;
         self.data = snapshot.clone();
         Ok(())
     }
@@ -673,11 +691,209 @@ impl<M: System> Instance<M> {
         snapshot.serialize(&self.info.guid)
     }
 
+    /// fmi2DeSerializeFMUstate: the state a blob holds, refused unless its layout is
+    /// intact ([`Snapshot::deserialize`]) and its values pass [`Instance::check_snapshot`].
     pub fn deserialize(&self, bytes: &[u8]) -> Res<Snapshot> {
+        const F: &str = "fmi2DeSerializeFMUstate";
         let l = &self.info.layout;
-        Snapshot::deserialize(bytes, &self.info.guid, [l.n_params, l.n_states, l.n_inputs])
-            .map_err(|e| format!("fmi2DeSerializeFMUstate: {e}"))
+        let snapshot =
+            Snapshot::deserialize(bytes, &self.info.guid, [l.n_params, l.n_states, l.n_inputs])
+                .map_err(|e| format!("{F}: {e}"))?;
+        self.check_snapshot(&snapshot)
+            .map_err(|e| format!("{F}: refused, in the FMU state: {e}"))?;
+        Ok(snapshot)
     }
+
+    /// Whether an FMU state (of this model's counts) is one this instance could have been
+    /// in: every value passes the check of its setter (fmi2SetReal: finite and inside its
+    /// [min, max]; fmi2SetInteger: a method this system accepts; fmi2SetupExperiment: the
+    /// tolerance and times), the time fits the state machine and the experiment, and an
+    /// integrator state ahead of the communication time belongs to the method and agrees
+    /// with the state (see [`Instance::check_ahead`]). A state made by fmi2GetFMUstate always
+    /// passes; the message says what does not.
+    pub fn check_snapshot(&self, s: &Snapshot) -> Res {
+        let layout = &self.info.layout;
+        let before_init = machine::BEFORE_INIT_DONE & s.machine.code() != 0;
+        for (vr, (slot, var)) in layout.vars.iter().enumerate() {
+            let value = match slot.kind {
+                VarKind::Parameter => s.params[slot.index],
+                VarKind::Input => s.u[slot.index],
+                VarKind::SolverStep => s.solver_step,
+                VarKind::SolverMaxSteps => s.max_steps as f64,
+                // After initialisation the states are the integration's: finite only.
+                VarKind::State if before_init => s.x[slot.index],
+                VarKind::State if !s.x[slot.index].is_finite() => {
+                    return Err(format!(
+                        "the state {} = {} is not finite",
+                        var.name, s.x[slot.index]
+                    ))
+                }
+                _ => continue,
+            };
+            check_real(var, vr as u32, value)?;
+        }
+        check_method::<M>(s.method, &s.u, &s.params, !before_init)?;
+        check_experiment(Some(s.tolerance), s.start_time, s.stop_time)?;
+        let (time, start) = (s.time, s.start_time);
+        if before_init {
+            if time != start || s.memory != Memory::default() {
+                return Err(format!(
+                    "machine state {:?} (before initialisation) goes with the time at startTime = {start} and no integrator memory; found time {time}",
+                    s.machine
+                ));
+            }
+            return Ok(());
+        }
+        let beyond_stop = s
+            .stop_time
+            .is_some_and(|stop| time > stop + 1e-9 * stop.abs().max(1.0));
+        if !time.is_finite() || time < start || beyond_stop {
+            return Err(format!(
+                "the time {time} is outside the experiment [{start}, {}]",
+                s.stop_time.unwrap_or(f64::INFINITY)
+            ));
+        }
+        let m = &s.memory;
+        if !(m.h.is_finite() && m.h >= 0.0) {
+            return Err(format!("the step-size proposal {} is not a step", m.h));
+        }
+        self.check_ahead(s)
+    }
+
+    /// An integrator state ahead of the communication time (dense output) is kept only by
+    /// the running method, and only while it agrees with the instance: its last step covers
+    /// the time, the communication point it gives there (projected, as doStep projects it)
+    /// is the state, bit for bit, and its f(t, x) is the model's with the state's inputs and
+    /// parameters (so neither changed under it). Costs one evaluation of f (DOP853: up to 3
+    /// more, for an extension not yet built).
+    fn check_ahead(&self, s: &Snapshot) -> Res {
+        let m = &s.memory;
+        let kept = [
+            (Method::Dopri5, m.ahead.is_some()),
+            (Method::Radau5, m.radau5_ahead.is_some()),
+            (Method::Dop853, m.dop853_ahead.is_some()),
+        ];
+        let Some(&(owner, _)) = kept.iter().find(|(_, present)| *present) else {
+            return Ok(());
+        };
+        if kept.iter().filter(|(_, present)| *present).count() > 1 {
+            return Err("integrator states ahead of two methods are kept".into());
+        }
+        if owner != s.method {
+            return Err(format!(
+                "an integrator state ahead of {} is kept for solver {}",
+                owner.name(),
+                s.method.name()
+            ));
+        }
+        let (u, p, time, n) = (&s.u, &s.params, s.time, s.x.len());
+        let mut rhs = |t: f64, x: &[f64], dx: &mut [f64]| M::derivatives(t, x, u, p, dx);
+        let mut point = vec![0.0; n];
+        // (end of the last step, state and f there, whether f must be f(t, x) there,
+        // whether the last step covers the time)
+        let (t_ahead, x_ahead, f_ahead, f_holds, covers) = if let Some(a) = &m.ahead {
+            a.interpolate(time, &mut point);
+            (a.t, &a.x, &a.f, true, a.t0 <= time && time <= a.t)
+        } else if let Some(a) = &m.radau5_ahead {
+            a.interpolate(time, &mut point);
+            // After landing on the stop time radau5.f has no f at the end (not needed).
+            (a.t, &a.x, &a.f, !a.landed, time <= a.t)
+        } else {
+            let a = m.dop853_ahead.as_ref().expect("the one kept");
+            let mut scratch = a.clone();
+            let mut problem = Problem::new(&mut rhs);
+            let mut stats = integrators::Stats::default();
+            let built = scratch.point(&mut problem, time, &mut point, &mut stats);
+            let covers = a.t0 <= time && time <= a.t && built.is_ok();
+            (a.t, &a.x, &a.f, true, covers)
+        };
+        if !covers {
+            return Err(format!(
+                "the {} state ahead (at t = {t_ahead}) does not cover the time {time}",
+                owner.name()
+            ));
+        }
+        M::project(time, p, &mut point);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        if bits(&point) != bits(&s.x) {
+            return Err(format!(
+                "the {} state ahead gives another state at t = {time} than the one held",
+                owner.name()
+            ));
+        }
+        let mut f = vec![0.0; n];
+        rhs(t_ahead, x_ahead, &mut f);
+        if f_holds && bits(&f) != bits(f_ahead) {
+            return Err(format!(
+                "the {} state ahead was computed with other inputs or parameters than the ones held",
+                owner.name()
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The FMI type of the variables of `kind` read with fmi2GetInteger (None: a Real).
+fn integer_kind(kind: VarKind) -> Option<&'static str> {
+    match kind {
+        VarKind::SolverMethod => Some("Enumeration"),
+        VarKind::SolverMaxSteps => Some("Integer"),
+        _ => None,
+    }
+}
+
+/// The check fmi2SetReal makes of a value for `var` (value reference `vr`), shared with a
+/// restored FMU state: finite and inside [min, max].
+fn check_real(var: &Var, vr: u32, value: f64) -> Res {
+    var.check(value)
+        .map_err(|e| format!("{e} (value reference {vr})"))
+}
+
+/// The checks of fmi2SetupExperiment, shared with a restored FMU state.
+fn check_experiment(tolerance: Option<f64>, start_time: f64, stop_time: Option<f64>) -> Res {
+    if let Some(tol) = tolerance {
+        if !(tol.is_finite() && tol > 0.0 && tol < 1.0) {
+            return Err(format!("tolerance must be in (0, 1), got {tol}"));
+        }
+    }
+    if !start_time.is_finite() {
+        return Err(format!("startTime must be finite, got {start_time}"));
+    }
+    if let Some(stop) = stop_time {
+        if !(stop.is_finite() && stop >= start_time) {
+            return Err(format!(
+                "stopTime must be finite and ≥ startTime = {start_time}, got {stop}"
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Whether system `M` accepts `method` with inputs `u` and parameters `p` (fmi2SetInteger,
+/// shared with a restored FMU state): the structure it needs, and with `lti` a linear
+/// time-invariant system for ExactLinear (before initialisation parameters may still
+/// change; fmi2ExitInitializationMode checks that again).
+fn check_method<M: System>(method: Method, u: &[f64], p: &[f64], lti: bool) -> Res {
+    let name = method.name();
+    if lti && method.needs_linear_time_invariant() && !M::linear_time_invariant(p) {
+        return Err(format!(
+            "solver {name} needs a linear time-invariant system; {} is not (with these parameters)",
+            M::NAME
+        ));
+    }
+    if method.needs_mechanics() && M::mechanics(u, p).is_none() {
+        return Err(format!(
+            "solver {name} needs a system written as a Lagrangian with holonomic constraints only; {} is not",
+            M::NAME
+        ));
+    }
+    if method.needs_second_order() && !M::SECOND_ORDER {
+        return Err(format!(
+            "solver {name} needs states of the form (q, q̇); {} has none",
+            M::NAME
+        ));
+    }
+    Ok(())
 }
 
 /// DOPRI5 with dense output (see [`dopri5::Ahead`]): continues from the integrator's own
@@ -692,12 +908,12 @@ fn advance_dense(
     (t_end, t_limit): (f64, f64),
     settings: &Settings,
     memory: &mut Memory,
-) -> Result<(), String> {
+) -> Result<(), Stop> {
     let kept = memory.ahead.take();
     drop_ahead(memory);
     let mut ahead = match kept {
         Some(a) if a.t0 <= *t && *t <= a.t => a,
-        _ => Ahead::start(rhs, *t, x, &mut memory.stats).map_err(|e| e.to_string())?,
+        _ => Ahead::start(rhs, *t, x, &mut memory.stats)?,
     };
     let mut out = vec![0.0; x.len()];
     let result = dopri5::advance_dense(
@@ -721,7 +937,7 @@ fn advance_dense_radau5(
     (t_end, t_limit): (f64, f64),
     settings: &Settings,
     memory: &mut Memory,
-) -> Result<(), String> {
+) -> Result<(), Stop> {
     let kept = memory.radau5_ahead.take();
     drop_ahead(memory);
     let mut ahead = match kept {
@@ -737,7 +953,7 @@ fn advance_dense_radau5(
         )
         .map_err(|e| {
             memory.h = 0.0;
-            e.to_string()
+            Stop::from(e)
         })?,
     };
     let mut out = vec![0.0; x.len()];
@@ -758,12 +974,12 @@ fn advance_dense_dop853(
     (t_end, t_limit): (f64, f64),
     settings: &Settings,
     memory: &mut Memory,
-) -> Result<(), String> {
+) -> Result<(), Stop> {
     let kept = memory.dop853_ahead.take();
     drop_ahead(memory);
     let mut ahead = match kept {
         Some(a) if a.t0 <= *t && *t <= a.t => a,
-        _ => dop853::Ahead::start(problem, *t, x, &mut memory.stats).map_err(|e| e.to_string())?,
+        _ => dop853::Ahead::start(problem, *t, x, &mut memory.stats)?,
     };
     let mut out = vec![0.0; x.len()];
     let result = dop853::advance_dense(
@@ -784,7 +1000,7 @@ fn settle_dense(
     (t_ahead, x_ahead): (f64, &[f64]),
     (t, x): (&mut f64, &mut Vec<f64>),
     t_end: f64,
-) -> Result<(), String> {
+) -> Result<(), Stop> {
     match result {
         Ok(()) => {
             *x = out;
@@ -796,7 +1012,7 @@ fn settle_dense(
                 *t = t_ahead;
                 x.copy_from_slice(x_ahead);
             }
-            Err(e.to_string())
+            Err(e.into())
         }
     }
 }
@@ -833,7 +1049,7 @@ fn advance_locating_events<M: System>(
     settings: &Settings,
     memory: &mut Memory,
     (u, p): (&[f64], &[f64]),
-) -> Result<(), String> {
+) -> Result<(), Stop> {
     let indicator = |t: f64, x: &[f64]| M::event_indicator(t, x, u, p);
     for _ in 0..MAX_EVENTS_PER_STEP {
         let (t0, x0, m0) = (*t, x.clone(), memory.clone());
@@ -844,12 +1060,12 @@ fn advance_locating_events<M: System>(
         }
         // Work already spent past the event; the bisection adds to it.
         let mut extra_evals = memory.stats.rhs_evals - m0.stats.rhs_evals;
-        let mut rerun = |to: f64, extra: &mut u64| -> Result<(Vec<f64>, Memory), String> {
+        let mut rerun = |to: f64, extra: &mut u64| -> Result<(Vec<f64>, Memory), Stop> {
             let (mut tt, mut xx, mut mm) = (t0, x0.clone(), m0.clone());
             let result =
                 integrators::advance_with(problem, &mut tt, &mut xx, to, settings, &mut mm);
             *extra += mm.stats.rhs_evals - m0.stats.rhs_evals;
-            result.map(|()| (xx, mm))
+            result.map(|()| (xx, mm)).map_err(Stop::from)
         };
         // The event lies in (lo, hi]: bisect on re-integrations from (t0, x0).
         let (mut lo, mut hi) = (t0, *t);
@@ -876,7 +1092,8 @@ fn advance_locating_events<M: System>(
             return Ok(());
         }
     }
-    Err(format!(
-        "more than {MAX_EVENTS_PER_STEP} events in one communication step"
-    ))
+    Err(Stop {
+        reason: format!("more than {MAX_EVENTS_PER_STEP} events in one communication step"),
+        step_limit: false,
+    })
 }

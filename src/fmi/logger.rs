@@ -2,6 +2,7 @@
 
 use super::Status;
 use crate::xml::LOG_CATEGORIES;
+use std::cell::Cell;
 use std::ffi::{c_char, c_int, c_void, CString};
 
 /// `fmi2CallbackLogger`: variadic, printf-style. We always pass `"%s"` and the
@@ -33,6 +34,8 @@ pub struct Logger {
     logging_on: bool,
     /// Bit i set: category `LOG_CATEGORIES[i]` is on.
     enabled: u32,
+    /// A warning went out since the last [`Logger::take_warned`].
+    warned: Cell<bool>,
 }
 
 const ALL_CATEGORIES: u32 = (1 << LOG_CATEGORIES.len()) - 1;
@@ -50,6 +53,7 @@ impl Logger {
             instance_name: to_cstring(instance_name),
             logging_on,
             enabled: ALL_CATEGORIES,
+            warned: Cell::new(false),
         }
     }
 
@@ -84,8 +88,19 @@ impl Logger {
             .is_some_and(|i| self.enabled & (1 << i) != 0)
     }
 
+    /// Whether a warning was logged since the last call, and forgets it. A function that
+    /// reported a warning returns fmi2Warning (FMI 2.0, section 2.1.3: things are not quite
+    /// right but the computation can continue, and the logger was called to say what): the
+    /// C API asks at the start and at the end of every call.
+    pub fn take_warned(&self) -> bool {
+        self.warned.replace(false)
+    }
+
     /// A failure: always reported (it is not debug output), under the category of its status.
     pub fn failure(&self, status: Status, message: &str) {
+        if status == Status::Warning {
+            self.warned.set(true);
+        }
         let category = match status {
             Status::Warning => "logStatusWarning",
             Status::Discard => "logStatusDiscard",

@@ -3,8 +3,11 @@
 //!
 //! Serialized layout (little-endian): magic (8 bytes), format version (u32), GUID
 //! (u32 length + UTF-8), counts of parameters, states, inputs (u32 each), then the
-//! fields in the order of [`Snapshot::write`]. A blob from another model (GUID), another
-//! format version, or of the wrong length is rejected.
+//! fields in the order of [`Snapshot::serialize`], then the CRC-32 (IEEE, as zip and
+//! PNG use it) of every byte before it (u32). A blob from another model (GUID), another
+//! format version, of the wrong length, or whose checksum does not match (a corrupted
+//! copy: CRC-32 detects every single-bit error and every burst of up to 32 bits) is
+//! rejected.
 
 use super::Machine;
 use crate::integrators::dopri5::{Ahead, StiffnessMonitor};
@@ -13,8 +16,12 @@ use crate::integrators::{dop853, radau5, Memory, Method, Stats};
 pub const SNAPSHOT_MAGIC: [u8; 8] = *b"MBFMU\0ST";
 /// 2: adds DOPRI5's dense-output point ([`crate::integrators::dopri5::Ahead`]) and
 /// stiffness monitor. 3: adds RADAU5's loop state ([`radau5::Ahead`]). 4: adds DOP853's
-/// dense-output point ([`dop853::Ahead`]).
-pub const SNAPSHOT_VERSION: u32 = 4;
+/// dense-output point ([`dop853::Ahead`]). 5: ends with a CRC-32 of the blob. 6: adds
+/// `solver_max_steps` after `solver_step`.
+pub const SNAPSHOT_VERSION: u32 = 6;
+
+/// Bytes of the checksum that ends a blob.
+const CRC_LEN: usize = 4;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Snapshot {
@@ -23,6 +30,8 @@ pub struct Snapshot {
     pub u: Vec<f64>,
     pub method: Method,
     pub solver_step: f64,
+    /// `solver_max_steps`: most internal steps in one doStep.
+    pub max_steps: u64,
     pub time: f64,
     pub start_time: f64,
     pub stop_time: Option<f64>,
@@ -43,6 +52,10 @@ impl<'a> Reader<'a> {
         let (head, rest) = self.bytes.split_at(n);
         self.bytes = rest;
         Ok(head)
+    }
+    /// How many bytes of `all` (the slice this reader started on) were read.
+    fn offset(&self, all: &[u8]) -> usize {
+        all.len() - self.bytes.len()
     }
     fn u32(&mut self) -> Result<u32, String> {
         Ok(u32::from_le_bytes(
@@ -206,6 +219,7 @@ impl Snapshot {
         }
         b.extend_from_slice(&(self.method.code() as u32).to_le_bytes());
         f(&mut b, self.solver_step);
+        b.extend_from_slice(&self.max_steps.to_le_bytes());
         f(&mut b, self.time);
         f(&mut b, self.start_time);
         b.push(self.stop_time.is_some() as u8);
@@ -240,11 +254,15 @@ impl Snapshot {
             write_dop853(&mut b, a);
         }
         b.extend_from_slice(&self.machine.code().to_le_bytes());
+        let crc = crc32fast::hash(&b);
+        b.extend_from_slice(&crc.to_le_bytes());
         b
     }
 
     /// Reads a blob written by [`Snapshot::serialize`] for the model `guid` with the
-    /// given counts of parameters, states and inputs.
+    /// given counts of parameters, states and inputs. Checks the layout (magic, version,
+    /// checksum, GUID, counts, flags, length) and the integrator memory's own invariants;
+    /// the model's values are checked by [`crate::fmi::Instance::check_snapshot`].
     pub fn deserialize(bytes: &[u8], guid: &str, counts: [usize; 3]) -> Result<Snapshot, String> {
         let mut r = Reader { bytes };
         if r.take(8)
@@ -259,6 +277,21 @@ impl Snapshot {
                 "FMU state format version {version}, this FMU reads version {SNAPSHOT_VERSION}"
             ));
         }
+        // The checksum covers everything before it; checked before any field is read
+        // (after the version: a blob of another version may not have one).
+        let body_len = bytes.len().saturating_sub(CRC_LEN).max(r.offset(bytes));
+        let (body, stored) = bytes.split_at(body_len);
+        if stored.len() != CRC_LEN {
+            return Err("serialized FMU state is truncated".into());
+        }
+        let stored = u32::from_le_bytes(stored.try_into().expect("4 bytes"));
+        let computed = crc32fast::hash(body);
+        if stored != computed {
+            return Err(format!(
+                "serialized FMU state is corrupted: its CRC-32 is {stored:#010x}, its bytes give {computed:#010x}"
+            ));
+        }
+        r.bytes = &body[r.offset(bytes)..];
         let n = r.u32()? as usize;
         let blob_guid = r.take(n)?;
         if blob_guid != guid.as_bytes() {
@@ -280,6 +313,7 @@ impl Snapshot {
         let method = Method::from_code(code as i32)
             .ok_or_else(|| format!("FMU state names unknown method {code}"))?;
         let solver_step = r.f64()?;
+        let max_steps = r.u64()?;
         let time = r.f64()?;
         let start_time = r.f64()?;
         let has_stop = r.take(1)?[0];
@@ -343,14 +377,10 @@ impl Snapshot {
         if !r.bytes.is_empty() {
             return Err(format!("FMU state has {} trailing bytes", r.bytes.len()));
         }
-        let all_finite = params
-            .iter()
-            .chain(&x)
-            .chain(&u)
-            .chain([&solver_step, &time, &start_time, &stop, &tolerance, &h])
-            .all(|v| v.is_finite());
-        if !all_finite || has_stop > 1 {
-            return Err("FMU state holds non-finite or invalid values".into());
+        // The values themselves (finite, in range, consistent) are the instance's to check
+        // (`Instance::check_snapshot`), as its setters check them.
+        if has_stop > 1 {
+            return Err(format!("FMU state has invalid flag {has_stop}"));
         }
         Ok(Snapshot {
             params,
@@ -358,6 +388,7 @@ impl Snapshot {
             u,
             method,
             solver_step,
+            max_steps,
             time,
             start_time,
             stop_time: (has_stop == 1).then_some(stop),

@@ -730,7 +730,7 @@ fn run(
     let mut attempts: u64 = 0;
 
     loop {
-        check_attempt(*t, h, attempts)?;
+        check_attempt(*t, h, attempts, settings.max_steps)?;
         attempts += 1;
         let (hs, t_new, landing) = goal.step_from(*t, h);
         let t0 = *t;
@@ -803,6 +803,7 @@ mod tests {
             rtol: tol,
             atol: vec![tol; n],
             step,
+            max_steps: crate::integrators::MAX_STEPS,
         }
     }
 

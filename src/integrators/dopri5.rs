@@ -409,7 +409,7 @@ fn run(
     let mut attempts: u64 = 0;
 
     loop {
-        check_attempt(*t, h, attempts)?;
+        check_attempt(*t, h, attempts, settings.max_steps)?;
         attempts += 1;
         // `h` stays the controller's proposal; `hs` is the step actually taken.
         let (hs, t_new, landing) = goal.step_from(*t, h);
@@ -479,6 +479,7 @@ pub fn scipy_rk45(
         rtol,
         atol: atol.to_vec(),
         step: max_step,
+        max_steps: super::MAX_STEPS,
     };
     let mut f = vec![0.0; n];
     if !eval(rhs, t0, x, &mut f, stats) {
@@ -591,6 +592,7 @@ mod tests {
             rtol: tol,
             atol: vec![tol; n],
             step,
+            max_steps: MAX_STEPS,
         }
     }
 
@@ -861,6 +863,7 @@ mod tests {
     fn dopri5_gives_up_after_max_steps() {
         // A max step of 1e-7 over 1 s would need 1e7 steps.
         let s = settings(1e-6, 1, 1e-7);
+        assert_eq!(s.max_steps, MAX_STEPS);
         let mut memory = Memory::default();
         let (mut t, mut x) = (0.0, [0.0]);
         let r = integ::advance(
@@ -881,6 +884,22 @@ mod tests {
         assert_eq!(memory.stats.steps + memory.stats.rejected, MAX_STEPS);
         assert!((t - 0.1).abs() < 1e-6 && (x[0] - t).abs() < 1e-9, "t = {t}");
         assert_eq!(memory.h, 0.0);
+        // The limit is the caller's (the FMU's solver_max_steps): 1000 attempts, t = 1e-4.
+        let s = Settings {
+            max_steps: 1000,
+            ..s
+        };
+        let (mut t, mut x) = (0.0, [0.0]);
+        let r = integ::advance(
+            &mut |_, _, d| d[0] = 1.0,
+            &mut t,
+            &mut x,
+            1.0,
+            &s,
+            &mut memory,
+        );
+        assert_eq!(r, Err(Failure::TooManySteps { t, steps: 1000 }));
+        assert!((t - 1e-4).abs() < 1e-9, "t = {t}");
     }
 
     #[test]

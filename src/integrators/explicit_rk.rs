@@ -2,7 +2,7 @@
 //! step (E. Hairer, S. P. Nørsett, G. Wanner, *Solving Ordinary Differential Equations
 //! I*, II.4 p. 169; HINIT of dopri5.f / dop853.f), and the landing and step-floor rules.
 
-use super::{Failure, Settings, Stats, MAX_STEPS};
+use super::{Failure, Settings, Stats};
 
 /// A step that would end less than 1 % before the target is stretched to land on it,
 /// instead of leaving a sliver step (dopri5.f and dop853.f do the same).
@@ -145,10 +145,11 @@ pub(super) fn initial_step(
     (100.0 * h0).min(h1).min(h_max)
 }
 
-/// The loop guards of both codes before an attempt: give up after [`MAX_STEPS`] attempts
-/// in one call, or when the proposal falls below the smallest usable step.
-pub(super) fn check_attempt(t: f64, h: f64, attempts: u64) -> Result<(), Failure> {
-    if attempts >= MAX_STEPS {
+/// The loop guards of both codes before an attempt: give up after `max_steps` attempts in
+/// one call ([`Settings::max_steps`]), or when the proposal falls below the smallest usable
+/// step.
+pub(super) fn check_attempt(t: f64, h: f64, attempts: u64, max_steps: u64) -> Result<(), Failure> {
+    if attempts >= max_steps {
         return Err(Failure::TooManySteps { t, steps: attempts });
     }
     if step_too_small(t, h) {

@@ -438,7 +438,7 @@ mod tests {
     fn drift_comparison(steps: usize) {
         use super::super::euler::symplectic_euler;
         use super::super::verlet::velocity_verlet;
-        use super::super::{self as integ, Memory, Method, Settings};
+        use super::super::{self as integ, Memory, Method, Settings, MAX_STEPS};
         let window = 100_000;
         let h = 0.01;
         let mut stats = Stats::default();
@@ -493,6 +493,7 @@ mod tests {
             rtol: 0.0,
             atol: vec![],
             step: h,
+            max_steps: MAX_STEPS,
         };
         let mut memory = Memory::default();
         let started = std::time::Instant::now();
@@ -594,12 +595,13 @@ mod tests {
         );
         assert!(worst < 1e-14 * 10.0, "midpoint |H|² error {worst:e}");
 
-        use super::super::{self as integ, Memory, Method, Settings};
+        use super::super::{self as integ, Memory, Method, Settings, MAX_STEPS};
         let settings = Settings {
             method: Method::Rk4,
             rtol: 0.0,
             atol: vec![],
             step: h,
+            max_steps: MAX_STEPS,
         };
         let mut memory = Memory::default();
         let (mut t, mut w) = (0.0, w0);

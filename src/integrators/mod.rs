@@ -21,6 +21,7 @@ pub mod rattle;
 pub mod rk4;
 pub mod verlet;
 
+pub use problem::ImplicitFailure;
 use std::fmt;
 
 /// Integration method, chosen by the FMU's `solver` parameter (these integer codes are public API).
@@ -70,6 +71,25 @@ impl Method {
         Method::ExactLinear,
         Method::Rattle,
     ];
+
+    /// Every method as `code = name`, in code order: "1 = RK4, 2 = DOPRI5, …".
+    pub fn codes() -> String {
+        Method::ALL
+            .iter()
+            .map(|m| format!("{} = {}", m.code(), m.name()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
+    /// The names of the methods that do (`adaptive`) or do not choose their own step.
+    pub fn names_where_adaptive(adaptive: bool) -> String {
+        Method::ALL
+            .iter()
+            .filter(|m| m.is_adaptive() == adaptive)
+            .map(|m| m.name())
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
 
     /// The method with this `solver` code, if any.
     pub fn from_code(code: i32) -> Option<Method> {
@@ -158,8 +178,11 @@ impl Method {
 }
 
 /// Advances with any [`Method`] (RK4 and DOPRI5 through [`advance`], the others through
-/// [`Problem`]): the one entry point the FMU uses. Same landing and failure conventions;
-/// the error is one line saying why.
+/// [`Problem`](problem::Problem)): the one entry point the FMU uses. Same landing and
+/// failure conventions; a fixed-step method that would need more than
+/// [`Settings::max_steps`] steps is refused before any work
+/// ([`Failure::TooManyPlanned`]), an adaptive one gives up after that many attempts
+/// ([`Failure::TooManySteps`]).
 pub fn advance_with(
     problem: &mut problem::Problem,
     t: &mut f64,
@@ -167,45 +190,47 @@ pub fn advance_with(
     t_end: f64,
     settings: &Settings,
     memory: &mut Memory,
-) -> Result<(), String> {
+) -> Result<(), ImplicitFailure> {
     let h = settings.step;
+    if !settings.method.is_adaptive() {
+        check_plan(settings, *t, t_end)?;
+    }
     let stats = &mut memory.stats;
-    let text = |e: &dyn fmt::Display| e.to_string();
     match settings.method {
-        Method::Rk4 | Method::Dopri5 => {
-            advance(problem.rhs, t, x, t_end, settings, memory).map_err(|e| text(&e))
-        }
-        Method::ExplicitEuler => {
-            euler::explicit_euler(problem, t, x, t_end, h, stats).map_err(|e| text(&e))
-        }
-        Method::SymplecticEuler => {
-            euler::symplectic_euler(problem, t, x, t_end, h, stats).map_err(|e| text(&e))
-        }
-        Method::Verlet => {
-            verlet::velocity_verlet(problem, t, x, t_end, h, stats).map_err(|e| text(&e))
-        }
-        Method::ImplicitMidpoint => {
-            gauss::implicit_midpoint(problem, t, x, t_end, h, stats).map_err(|e| text(&e))
-        }
-        Method::Gauss4 => gauss::gauss4(problem, t, x, t_end, h, stats).map_err(|e| text(&e)),
-        Method::Gauss6 => gauss::gauss6(problem, t, x, t_end, h, stats).map_err(|e| text(&e)),
-        Method::Dop853 => {
-            dop853::advance(problem, t, x, t_end, settings, memory).map_err(|e| text(&e))
-        }
-        Method::Radau5 => {
-            radau5::advance(problem, t, x, t_end, settings, memory).map_err(|e| text(&e))
-        }
-        Method::ExactLinear => {
-            exact_linear::advance(problem, t, x, t_end, h, stats).map_err(|e| text(&e))
-        }
+        Method::Rk4 | Method::Dopri5 => Ok(advance(problem.rhs, t, x, t_end, settings, memory)?),
+        Method::ExplicitEuler => Ok(euler::explicit_euler(problem, t, x, t_end, h, stats)?),
+        Method::SymplecticEuler => Ok(euler::symplectic_euler(problem, t, x, t_end, h, stats)?),
+        Method::Verlet => Ok(verlet::velocity_verlet(problem, t, x, t_end, h, stats)?),
+        Method::ImplicitMidpoint => gauss::implicit_midpoint(problem, t, x, t_end, h, stats),
+        Method::Gauss4 => gauss::gauss4(problem, t, x, t_end, h, stats),
+        Method::Gauss6 => gauss::gauss6(problem, t, x, t_end, h, stats),
+        Method::Dop853 => Ok(dop853::advance(problem, t, x, t_end, settings, memory)?),
+        Method::Radau5 => Ok(radau5::advance(problem, t, x, t_end, settings, memory)?),
+        Method::ExactLinear => Ok(exact_linear::advance(problem, t, x, t_end, h, stats)?),
         Method::Rattle => {
             let mech = problem
                 .mechanics
                 .as_deref_mut()
                 .expect("RATTLE needs Problem::mechanics");
-            rattle::advance(mech, t, x, t_end, h, stats).map_err(|e| text(&e))
+            rattle::advance(mech, t, x, t_end, h, stats)
         }
     }
+}
+
+/// Refuses, before any work, a fixed-step call from `t` to `t_end` that would need more than
+/// `settings.max_steps` steps of `settings.step` (counted as the methods count them: the last
+/// one shortened, or stretched by a sliver).
+fn check_plan(settings: &Settings, t: f64, t_end: f64) -> Result<(), Failure> {
+    let planned = problem::step_count(t_end - t, settings.step);
+    if planned > settings.max_steps as f64 {
+        return Err(Failure::TooManyPlanned {
+            t,
+            planned,
+            step: settings.step,
+            max: settings.max_steps,
+        });
+    }
+    Ok(())
 }
 
 /// What the caller chooses for one call of [`advance`].
@@ -221,6 +246,11 @@ pub struct Settings {
     /// A value that is not positive and finite means "no step": RK4 then takes one step over
     /// the whole interval, DOPRI5 has no upper bound.
     pub step: f64,
+    /// Most steps one call may take: attempts (accepted + rejected) of the adaptive methods,
+    /// planned steps of the fixed-step ones (refused before any work). Bounds the time one
+    /// `fmi2DoStep` can take (the FMU's `solver_max_steps`); [`MAX_STEPS`] for Rust callers
+    /// that have no such bound to honour.
+    pub max_steps: u64,
 }
 
 /// Counters: noise-free measures of work. Part of the FMU state.
@@ -264,8 +294,27 @@ pub enum Failure {
     /// The step-size controller asked for a step `h` below the smallest step that still
     /// moves `t` meaningfully: typically a singularity or discontinuity near `t`.
     StepTooSmall { t: f64, h: f64 },
-    /// The call needed more than [`MAX_STEPS`] steps (accepted + rejected; for RK4, planned).
+    /// The call took [`Settings::max_steps`] attempts (accepted + rejected) and was not done.
     TooManySteps { t: f64, steps: u64 },
+    /// A fixed-step method would need `planned` steps of `step` from `t`, more than
+    /// [`Settings::max_steps`] = `max`: refused before taking any.
+    TooManyPlanned {
+        t: f64,
+        planned: f64,
+        step: f64,
+        max: u64,
+    },
+}
+
+impl Failure {
+    /// Whether the call stopped at its step limit ([`Settings::max_steps`]) rather than on a
+    /// numerical failure: a larger limit or a shorter call would get through.
+    pub fn is_step_limit(&self) -> bool {
+        matches!(
+            self,
+            Failure::TooManySteps { .. } | Failure::TooManyPlanned { .. }
+        )
+    }
 }
 
 impl fmt::Display for Failure {
@@ -282,15 +331,23 @@ impl fmt::Display for Failure {
                 f,
                 "gave up at t = {t} s after {steps} steps in one communication step"
             ),
+            Failure::TooManyPlanned {
+                t,
+                planned,
+                step,
+                max,
+            } => write!(
+                f,
+                "refused to plan {planned} fixed steps of {step:e} s from t = {t} s, more than the limit of {max}: took none"
+            ),
         }
     }
 }
 
 impl std::error::Error for Failure {}
 
-/// Most steps one call of [`advance`] may take before giving up: bounds the time a single
-/// `fmi2DoStep` can hang on a hopeless problem (dopri5.f uses 100 000 by default; a
-/// communication step may legitimately be long, so we allow more).
+/// [`Settings::max_steps`] for Rust callers without a bound of their own (the FMU takes its
+/// `solver_max_steps` instead, default [`crate::model::DEFAULT_SOLVER_MAX_STEPS`]).
 pub const MAX_STEPS: u64 = 1_000_000;
 
 /// Advance `x` from `*t` to exactly `t_end` (> *t). On success `*t == t_end` bit for bit
@@ -320,7 +377,10 @@ pub fn advance(
         return Err(Failure::NonFinite { t: *t });
     }
     match settings.method {
-        Method::Rk4 => rk4::advance(rhs, t, x, t_end, settings.step, &mut memory.stats),
+        Method::Rk4 => {
+            check_plan(settings, *t, t_end)?;
+            rk4::advance(rhs, t, x, t_end, settings.step, &mut memory.stats)
+        }
         Method::Dopri5 => dopri5::advance(rhs, t, x, t_end, settings, memory),
         other => panic!(
             "integrators::advance runs RK4 and DOPRI5; {} needs advance_with and a Problem",
@@ -370,6 +430,13 @@ mod tests {
         }
         assert_eq!(Method::Rk4.name(), "RK4");
         assert_eq!(Method::Dopri5.name(), "DOPRI5");
+        let codes = Method::codes();
+        assert!(
+            codes.starts_with("1 = RK4, 2 = DOPRI5, 3 = ExplicitEuler"),
+            "{codes}"
+        );
+        assert!(codes.ends_with("11 = ExactLinear, 12 = RATTLE"), "{codes}");
+        assert_eq!(Method::names_where_adaptive(true), "DOPRI5, DOP853, RADAU5");
     }
 
     #[test]
@@ -381,8 +448,14 @@ mod tests {
                 t: 2.0,
                 steps: MAX_STEPS,
             },
+            Failure::TooManyPlanned {
+                t: 0.0,
+                planned: 1e9,
+                step: 1e-3,
+                max: 100_000,
+            },
         ];
-        for f in all {
+        for f in &all {
             let s = f.to_string();
             assert!(!s.contains('\n') && s.contains("t = "), "{s}");
         }
@@ -390,6 +463,13 @@ mod tests {
             Failure::NonFinite { t: 1.234 }.to_string(),
             "state became non-finite in the step after t = 1.234 s"
         );
+        // A refusal says it took no step (it used to read "gave up at t = 0 s after
+        // 1000000000 steps").
+        assert_eq!(
+            all[3].to_string(),
+            "refused to plan 1000000000 fixed steps of 1e-3 s from t = 0 s, more than the limit of 100000: took none"
+        );
+        assert!(all.iter().filter(|f| f.is_step_limit()).count() == 2);
     }
 
     #[test]
@@ -400,6 +480,7 @@ mod tests {
                 rtol: 1e-6,
                 atol: vec![1e-6],
                 step: 0.1,
+                max_steps: MAX_STEPS,
             };
             let mut memory = Memory::default();
             let (mut t, mut x) = (0.0, [f64::NAN]);
@@ -424,6 +505,7 @@ mod tests {
                 rtol: 1e-6,
                 atol: vec![1e-6],
                 step: 0.1,
+                max_steps: MAX_STEPS,
             };
             let mut memory = Memory::default();
             let (mut t, mut x) = (1.0, [2.0]);

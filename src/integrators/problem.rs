@@ -11,7 +11,7 @@
 //! `f` (not of the Jacobian: wrap the closure to count those).
 
 use super::rk4::SLIVER;
-use super::{Failure, Stats, MAX_STEPS};
+use super::{Failure, Stats};
 use std::fmt;
 
 /// The right-hand side and what some methods need besides it.
@@ -78,6 +78,13 @@ pub enum ImplicitFailure {
     /// it diverged (an increment did not shrink), or hit the iteration cap after
     /// `iterations` iterations; `iterations == 0` means the Newton matrix was singular.
     NewtonFailed { t: f64, h: f64, iterations: u32 },
+}
+
+impl ImplicitFailure {
+    /// See [`Failure::is_step_limit`].
+    pub fn is_step_limit(&self) -> bool {
+        matches!(self, ImplicitFailure::Integration(f) if f.is_step_limit())
+    }
 }
 
 impl From<Failure> for ImplicitFailure {
@@ -158,15 +165,8 @@ pub(crate) fn fixed_steps<E: From<Failure>>(
         return Ok(());
     }
     let t0 = *t;
-    let n = step_count(t_end - t0, step);
-    if n > MAX_STEPS as f64 {
-        return Err(Failure::TooManySteps {
-            t: t0,
-            steps: n as u64,
-        }
-        .into());
-    }
-    let n = n as u64;
+    // No limit here: `advance_with` checks the plan against `Settings::max_steps` first.
+    let n = step_count(t_end - t0, step) as u64;
     let mut y = vec![0.0; x.len()];
     for i in 0..n {
         let ta = *t;

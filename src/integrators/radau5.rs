@@ -28,7 +28,7 @@
 #![allow(clippy::excessive_precision)]
 
 use super::problem::{start, Problem};
-use super::{Failure, Memory, Settings, Stats, MAX_STEPS};
+use super::{Failure, Memory, Settings, Stats};
 use nalgebra::{Complex, DMatrix, DVector, Dyn, LU};
 
 // The transformation T and T⁻¹ of radau5.f (T32 = 1, T33 = 0).
@@ -719,7 +719,7 @@ fn run(
         }
         let fz = factors.as_ref().expect("factorized above");
 
-        if attempts >= MAX_STEPS {
+        if attempts >= settings.max_steps {
             return Err(Failure::TooManySteps {
                 t: st.t,
                 steps: attempts,
@@ -838,6 +838,7 @@ mod tests {
             rtol: tol,
             atol: vec![tol; n],
             step: f64::INFINITY,
+            max_steps: crate::integrators::MAX_STEPS,
         }
     }
 

@@ -3,7 +3,7 @@
 //! Fixed steps make the cost of a communication step known in advance and the result
 //! independent of tolerances; the price is that accuracy is the user's business.
 
-use super::{Failure, Stats, MAX_STEPS};
+use super::{Failure, Stats};
 
 /// A final remainder shorter than this fraction of a step is merged into the previous step:
 /// a sliver step (often pure rounding of `t_end - t`) would cost four RHS evaluations and
@@ -38,15 +38,8 @@ pub fn advance(
     stats: &mut Stats,
 ) -> Result<(), Failure> {
     let t0 = *t;
-    let n = step_count(t_end - t0, step);
-    if n > MAX_STEPS as f64 {
-        // Known before any work: fail at once rather than after a million steps.
-        return Err(Failure::TooManySteps {
-            t: t0,
-            steps: n as u64,
-        });
-    }
-    let n = n as u64;
+    // No limit here: `integrators::advance` checks the plan against `Settings::max_steps`.
+    let n = step_count(t_end - t0, step) as u64;
     let dim = x.len();
     let (mut k1, mut k2, mut k3, mut k4) = (
         vec![0.0; dim],
@@ -98,7 +91,7 @@ pub fn advance(
 #[cfg(test)]
 mod tests {
     use super::super::test_support::{oscillator, oscillator_error};
-    use super::super::{self as integ, Memory, Method, Settings};
+    use super::super::{self as integ, Memory, Method, Settings, MAX_STEPS};
     use super::*;
 
     fn run_rk4(step: f64, t_end: f64) -> (f64, [f64; 2], Stats) {
@@ -107,6 +100,7 @@ mod tests {
             rtol: 0.0,
             atol: vec![],
             step,
+            max_steps: MAX_STEPS,
         };
         let mut memory = Memory::default();
         let (mut t, mut x) = (0.0, [1.0, 0.0]);
@@ -174,6 +168,7 @@ mod tests {
             rtol: 0.0,
             atol: vec![],
             step: 0.1,
+            max_steps: MAX_STEPS,
         };
         let mut memory = Memory::default();
         let mut times = Vec::new();
@@ -198,6 +193,7 @@ mod tests {
             rtol: 0.0,
             atol: vec![],
             step: 1e-3,
+            max_steps: MAX_STEPS,
         };
         let mut memory = Memory::default();
         let (mut t, mut x) = (0.0, [1.0]);
@@ -221,6 +217,7 @@ mod tests {
             rtol: 0.0,
             atol: vec![],
             step: 1e-9,
+            max_steps: MAX_STEPS,
         };
         let mut memory = Memory::default();
         let (mut t, mut x) = (0.0, [1.0]);
@@ -232,10 +229,30 @@ mod tests {
             &settings,
             &mut memory,
         );
-        assert!(
-            matches!(r, Err(Failure::TooManySteps { t: 0.0, .. })),
-            "{r:?}"
+        assert_eq!(
+            r,
+            Err(Failure::TooManyPlanned {
+                t: 0.0,
+                planned: 1e9,
+                step: 1e-9,
+                max: MAX_STEPS
+            })
         );
         assert_eq!(memory.stats.rhs_evals, 0);
+        // Up to the limit it plans and steps.
+        let settings = Settings {
+            step: 1.0 / MAX_STEPS as f64,
+            ..settings
+        };
+        integ::advance(
+            &mut |_, _, d| d[0] = 1.0,
+            &mut t,
+            &mut x,
+            1.0,
+            &settings,
+            &mut memory,
+        )
+        .unwrap();
+        assert_eq!(memory.stats.steps, MAX_STEPS);
     }
 }

@@ -143,13 +143,14 @@ mod tests {
     /// R(z) = 1 + z + z²/2 + z³/6 + z⁴/24: |R(iy)|² = 1 + y⁶(y² − 8)/576. Stable up to
     /// y = 2√2 = 2.8284.
     fn rk4_energy_ratio(y: f64, steps: usize) -> (f64, f64) {
-        use super::super::{self as integ, Memory, Method, Settings};
+        use super::super::{self as integ, Memory, Method, Settings, MAX_STEPS};
         let h = y / OMEGA;
         let settings = Settings {
             method: Method::Rk4,
             rtol: 0.0,
             atol: vec![],
             step: h,
+            max_steps: MAX_STEPS,
         };
         let mut memory = Memory::default();
         let (mut t, mut x) = (0.0, [1.0, 0.0]);

@@ -12,7 +12,7 @@ pub mod lagrangian;
 mod layout;
 mod scene;
 
-pub use layout::{Layout, Slot, VarKind};
+pub use layout::{Layout, Slot, VarKind, DEFAULT_SOLVER_MAX_STEPS};
 pub use scene::Scene;
 
 use crate::integrators::rattle::Mechanics;

@@ -1,5 +1,6 @@
 //! `documentation/index.html`: what the system is, its equations, its variables.
 
+use crate::integrators::Method;
 use crate::model::{Layout, System};
 use crate::xml::fmi_attributes;
 
@@ -56,7 +57,11 @@ pub fn index_html<M: System>() -> String {
             escape(scene.description)
         ));
     }
-    h.push_str("</table>\n<h2>Simulation</h2>\n<p>The state is advanced inside <code>fmi2DoStep</code> by the method chosen with the <code>solver</code> parameter (1 = RK4 with fixed step <code>solver_step</code>, 2 = adaptive DOPRI5 with the tolerance of <code>fmi2SetupExperiment</code>, else the DefaultExperiment's). Every step ends exactly on the communication point. States are set through the start values of their outputs before initialisation. FMU state get/set and serialisation are supported.</p>\n");
+    h.push_str(&format!(
+        "</table>\n<h2>Simulation</h2>\n<p>The state is advanced inside <code>fmi2DoStep</code> by the method chosen with the <code>solver</code> parameter ({}; the adaptive ones, {}, with the tolerance of <code>fmi2SetupExperiment</code>, else the DefaultExperiment's; the others with fixed step <code>solver_step</code>), in at most <code>solver_max_steps</code> internal steps. Every step ends exactly on the communication point. States are set through the start values of their outputs before initialisation. FMU state get/set and serialisation are supported.</p>\n",
+        escape(&Method::codes()),
+        Method::names_where_adaptive(true)
+    ));
     h.push_str("</body>\n</html>\n");
     h
 }

@@ -197,6 +197,15 @@ fn render<M: System>(guid: &str) -> String {
                     ("start", s(var.start as i32)),
                 ],
             );
+        } else if slot.kind == VarKind::SolverMaxSteps {
+            let mut integer = Vec::new();
+            for (name, bound) in [("min", var.min), ("max", var.max)] {
+                if let Some(bound) = bound {
+                    integer.push((name, s(bound as i32)));
+                }
+            }
+            integer.push(("start", s(var.start as i32)));
+            empty(&mut w, "Integer", &integer);
         } else {
             let mut real = Vec::new();
             if slot.kind == VarKind::Derivative {
@@ -256,9 +265,10 @@ fn render<M: System>(guid: &str) -> String {
 /// combinations (standard, section 2.2.7).
 pub fn fmi_attributes(slot: Slot) -> (&'static str, &'static str, Option<&'static str>) {
     match slot.kind {
-        VarKind::Parameter | VarKind::SolverMethod | VarKind::SolverStep => {
-            ("parameter", "fixed", Some("exact"))
-        }
+        VarKind::Parameter
+        | VarKind::SolverMethod
+        | VarKind::SolverStep
+        | VarKind::SolverMaxSteps => ("parameter", "fixed", Some("exact")),
         // States are outputs whose start value is the initial state.
         VarKind::State => ("output", "continuous", Some("exact")),
         VarKind::Derivative => ("local", "continuous", Some("calculated")),
