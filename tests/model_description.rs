@@ -60,7 +60,7 @@ fn model_structure_lists_exact_dependencies() {
 #[test]
 fn the_solver_description_lists_every_method() {
     use mbfmu::integrators::Method;
-    for e in systems::all() {
+    for e in catalogue::all() {
         let xml = (e.model_description)();
         let solver = xml
             .split(r#"<ScalarVariable name="solver" "#)
