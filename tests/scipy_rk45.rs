@@ -5,8 +5,12 @@
 //! tests/python/test_scipy_rk45_reference.py, so it cannot go stale.
 //!
 //! Equal RHS counts is the claim; the step times agree to rounding (scipy sums the stages
-//! in another order), which over thousands of steps stays below 1e-10 of the interval
-//! (measured ≤ 3.4e-11; the end states to 2e-13).
+//! in another order). The stored numbers come from scipy on whatever machine last wrote
+//! the file, so this is a comparison across machines: our steps differ from them as
+//! another machine's scipy would (its BLAS sums in another order too), and the bounds are
+//! those of the Python check, derived there (`STEP_TIME_TOL`): step times within 1e-8 of
+//! the interval (measured ≤ 3.4e-11 here; scipy on two machines 3.9e-11, emulated machines
+//! up to 3.3e-9), end states within 1e-8 (measured 2e-13), RHS counts exact.
 
 use mbfmu::integrators::dopri5::scipy_rk45;
 use mbfmu::integrators::Stats;
@@ -79,8 +83,8 @@ fn scipy_rk45_mode_takes_scipys_steps() {
         assert_eq!(stats.rhs_evals, nfev, "{problem} rtol {rtol}");
         assert_eq!(ours.len(), times.len(), "{problem} rtol {rtol}");
         assert!(
-            worst_t < 1e-10,
-            "{problem} rtol {rtol}: step times differ by {worst_t:e}"
+            worst_t < 1e-8,
+            "{problem} rtol {rtol}: step times differ by {worst_t:e} of the interval"
         );
         assert!(
             worst_y < 1e-8,
