@@ -8,7 +8,7 @@ use super::Status;
 use super::{Logger, ModelInfo, Snapshot};
 use crate::integrators::problem::Problem;
 use crate::integrators::{
-    self, dop853, dopri5, dopri5::Ahead, radau5, rattle::Mechanics, Memory, Method, Settings,
+    self, dop853, dopri5, dopri5::Ahead, problem::Mechanics, radau5, Memory, Method, Settings,
 };
 use crate::model::consistent;
 use crate::model::jacobian::{directional, Direction};

@@ -17,7 +17,7 @@
 //! system). The new state is `x₁ = x₀ + Σᵢ dᵢ Zᵢ` with `dᵀ = bᵀA⁻¹` (GNI eq. VIII.6.5), which
 //! equals `x₀ + h Σ bᵢ f(Yᵢ)` at convergence without the s extra evaluations.
 
-use super::problem::{fixed_steps, ImplicitFailure, Problem};
+use super::problem::{fixed_steps, ImplicitFailure, Problem, NEWTON_MAX_ITER, NEWTON_TOL};
 use super::{Failure, Stats};
 
 /// √3 and √15 to the last bit (`f64::sqrt` is not `const`).
@@ -66,19 +66,10 @@ const GAUSS6: Tableau = Tableau {
     c: &[0.5 - SQRT15 / 10.0, 0.5, 0.5 + SQRT15 / 10.0],
 };
 
-/// Newton has converged when an increment is within a few ulps of the state (max norm, relative
-/// to max(‖x₀‖, ‖Z‖)): converged to rounding, which is what makes quadratic invariants hold to
-/// rounding rather than to a tolerance.
-pub const NEWTON_TOL: f64 = 4.0 * f64::EPSILON;
 /// An increment that stops shrinking while below this (relative) size is rounding noise: the
 /// residual cannot be computed more accurately, so the iterate is accepted. Above it, an
 /// increment that does not shrink means divergence.
 pub const NEWTON_STALL: f64 = 1e-12;
-/// Most Newton iterations per step. The simplified iteration converges linearly with a rate
-/// θ ~ h·‖∂J/∂x‖·‖Z‖ (θ = 0 for linear problems: done after one iteration plus one to confirm);
-/// 50 iterations reach rounding from O(1) for θ up to about 0.5. Beyond that the step is too
-/// large for this fixed-step method, and it fails rather than return an unconverged state.
-pub const NEWTON_MAX_ITER: u32 = 50;
 
 /// Implicit midpoint rule `x₁ = x₀ + h f(t₀ + h/2, (x₀ + x₁)/2)`, fixed step `h` (last step
 /// shortened; not positive and finite: one step). Needs `problem.jacobian`.

@@ -14,6 +14,32 @@ use super::rk4::SLIVER;
 use super::{Failure, Stats};
 use std::fmt;
 
+/// Newton has converged when an increment is within a few ulps of the state (max norm, relative
+/// to max(‖x₀‖, ‖Z‖)): converged to rounding, which is what makes quadratic invariants hold to
+/// rounding rather than to a tolerance.
+pub const NEWTON_TOL: f64 = 4.0 * f64::EPSILON;
+/// Most Newton iterations per step. The simplified iteration converges linearly with a rate
+/// θ ~ h·‖∂J/∂x‖·‖Z‖ (θ = 0 for linear problems: done after one iteration plus one to confirm);
+/// 50 iterations reach rounding from O(1) for θ up to about 0.5. Beyond that the step is too
+/// large for this fixed-step method, and it fails rather than return an unconverged state.
+pub const NEWTON_MAX_ITER: u32 = 50;
+
+/// What RATTLE needs to know about a mechanical system: `L = T − V + (work of Q)` with T
+/// quadratic in q̇ (`∂T/∂q̇ = M(q) q̇ + b(q)`), and `m` holonomic constraints `g(q) = 0`.
+/// Inputs and parameters are fixed for the lifetime of the value.
+pub trait Mechanics {
+    /// `(n, m)`: coordinates and holonomic constraints.
+    fn dims(&self) -> (usize, usize);
+    /// `M(q)`, n×n row-major.
+    fn mass_matrix(&mut self, q: &[f64], m: &mut [f64]);
+    /// `b(q) = ∂T/∂q̇ at q̇ = 0` (zero for natural systems).
+    fn momentum_offset(&mut self, q: &[f64], b: &mut [f64]);
+    /// `F = ∂L/∂q + Q` at `(t, q, q̇)`.
+    fn force(&mut self, t: f64, q: &[f64], qd: &[f64], f: &mut [f64]);
+    /// `g(q)` (m) and `G(q) = ∂g/∂q` (m×n row-major).
+    fn constraints(&mut self, q: &[f64], g: &mut [f64], jac: &mut [f64]);
+}
+
 /// The right-hand side and what some methods need besides it.
 pub struct Problem<'a> {
     pub rhs: &'a mut dyn FnMut(f64, &[f64], &mut [f64]),
@@ -23,7 +49,7 @@ pub struct Problem<'a> {
     /// positions): needed by the symplectic Euler and Störmer–Verlet methods.
     pub second_order: Option<usize>,
     /// Mass matrix, generalized force and holonomic constraints (RATTLE).
-    pub mechanics: Option<&'a mut dyn super::rattle::Mechanics>,
+    pub mechanics: Option<&'a mut dyn Mechanics>,
 }
 
 impl<'a> Problem<'a> {

@@ -28,26 +28,10 @@
 //! tolerance. The sign convention of λ is that of [`crate::model::lagrangian`]:
 //! `M q̈ + Gᵀ λ = F − (∂²L/∂q̇∂q) q̇`.
 
-use super::gauss::{NEWTON_MAX_ITER, NEWTON_TOL};
-use super::problem::{fixed_steps, ImplicitFailure};
+use super::problem::Mechanics;
+use super::problem::{fixed_steps, ImplicitFailure, NEWTON_MAX_ITER, NEWTON_TOL};
 use super::{Failure, Stats};
 use nalgebra::{DMatrix, DVector};
-
-/// What RATTLE needs to know about a mechanical system: `L = T − V + (work of Q)` with T
-/// quadratic in q̇ (`∂T/∂q̇ = M(q) q̇ + b(q)`), and `m` holonomic constraints `g(q) = 0`.
-/// Inputs and parameters are fixed for the lifetime of the value.
-pub trait Mechanics {
-    /// `(n, m)`: coordinates and holonomic constraints.
-    fn dims(&self) -> (usize, usize);
-    /// `M(q)`, n×n row-major.
-    fn mass_matrix(&mut self, q: &[f64], m: &mut [f64]);
-    /// `b(q) = ∂T/∂q̇ at q̇ = 0` (zero for natural systems).
-    fn momentum_offset(&mut self, q: &[f64], b: &mut [f64]);
-    /// `F = ∂L/∂q + Q` at `(t, q, q̇)`.
-    fn force(&mut self, t: f64, q: &[f64], qd: &[f64], f: &mut [f64]);
-    /// `g(q)` (m) and `G(q) = ∂g/∂q` (m×n row-major).
-    fn constraints(&mut self, q: &[f64], g: &mut [f64], jac: &mut [f64]);
-}
 
 /// Everything about `q` that the step uses more than once.
 struct AtQ {

@@ -33,7 +33,7 @@
 //! the same pivot sequence as the `f64` one and differentiates the same formula.
 
 use super::{Scalar, Scene, System, Var};
-use crate::integrators::rattle::Mechanics;
+use crate::integrators::problem::Mechanics;
 use num_dual::{Dual, HyperDual};
 
 /// A mechanical system given by its energies in generalised coordinates.

@@ -15,7 +15,7 @@ mod scene;
 pub use layout::{Layout, Slot, VarKind, DEFAULT_SOLVER_MAX_STEPS};
 pub use scene::Scene;
 
-use crate::integrators::rattle::Mechanics;
+use crate::integrators::problem::Mechanics;
 use num_dual::DualNum;
 use std::borrow::Cow;
 
