@@ -27,6 +27,7 @@
 //! long runs of the conservative scenes ([`LongRuns`]: `longrun.csv`, `invariant.csv`) and
 //! the springy-vs-rigid pendulum comparison ([`springy_rigid`]).
 
+pub mod chain;
 pub mod floors;
 pub mod speed;
 pub mod springy_rigid;

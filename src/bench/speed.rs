@@ -60,7 +60,7 @@ fn info<M: System>() -> &'static ModelInfo {
 }
 
 /// Best time per call (ns) of `f`, over `reps` loops of about 20 ms each.
-fn best_ns(reps: usize, mut f: impl FnMut()) -> f64 {
+pub(crate) fn best_ns(reps: usize, mut f: impl FnMut()) -> f64 {
     let probe = Instant::now();
     let mut calls = 0u64;
     while probe.elapsed().as_secs_f64() < 2e-3 {

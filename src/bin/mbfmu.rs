@@ -20,7 +20,7 @@ const USAGE: &str = "usage:
   mbfmu xml [--check]
   mbfmu linearize MODEL [--scene S] [--set PARAM=VALUE]... [--at STATE_OR_INPUT=VALUE]...
                   [--trim | --trim-inputs] [--format json|py|csv] [--out FILE]
-  mbfmu speed [--system MODEL]... [--reps N] [--out DIR]
+  mbfmu speed [--system MODEL]... [--reps N] [--out DIR] [--chain]
   mbfmu bench [--quick] [--out DIR] [--system MODEL]... [--scene S]... [--reps N] [--no-energy] [--no-springy]";
 
 fn workspace_root() -> PathBuf {
@@ -275,18 +275,21 @@ fn list_json() -> String {
     format!("[\n{}\n]\n", models.join(",\n"))
 }
 
-/// `mbfmu speed [--system MODEL]... [--reps N] [--out DIR]`: ns per doStep (RK4, 1 ms),
-/// per RHS and per Jacobian of every system beside the hand-written floors, into
-/// `DIR/speed.csv` (default docs/bench) and as a markdown table on stdout.
+/// `mbfmu speed [--system MODEL]... [--reps N] [--out DIR] [--chain]`: ns per doStep (RK4,
+/// 1 ms), per RHS and per Jacobian of every system beside the hand-written floors, into
+/// `DIR/speed.csv` (default docs/bench) and as a markdown table on stdout; `--chain`: the
+/// planar chain of N = 1 … 16 links instead, into `DIR/chain.csv`.
 fn speed(args: &[String]) -> Result<(), String> {
     use mbfmu::bench::speed;
     let mut only = Vec::new();
     let mut reps = 5;
     let mut out = workspace_root().join("docs/bench");
+    let mut chain = false;
     let mut it = args.iter();
     while let Some(a) = it.next() {
         let mut value = || it.next().ok_or_else(|| format!("{a} needs a value"));
         match a.as_str() {
+            "--chain" => chain = true,
             "--system" => only.push(value()?.clone()),
             "--reps" => {
                 reps = value()?
@@ -298,6 +301,32 @@ fn speed(args: &[String]) -> Result<(), String> {
             "--out" => out = PathBuf::from(value()?),
             other => return Err(format!("unknown option {other}\n{USAGE}")),
         }
+    }
+    std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
+    if chain {
+        use mbfmu::bench::chain;
+        let rows = chain::sweep(reps);
+        let mut csv = String::from("links,states,rhs_ns,jacobian_ns\n");
+        println!("| links N | RHS ns | Jacobian ns |");
+        println!("|---|---|---|");
+        for (n, rhs, jac) in &rows {
+            println!("| {n} | {rhs:.0} | {jac:.0} |");
+            csv.push_str(&format!("{n},{},{rhs:.1},{jac:.1}\n", 2 * n));
+        }
+        let fit = |pick: fn(&(usize, f64, f64)) -> f64| {
+            let pts: Vec<(usize, f64)> = rows
+                .iter()
+                .filter(|r| r.0 >= 2)
+                .map(|r| (r.0, pick(r)))
+                .collect();
+            chain::growth_exponent(&pts)
+        };
+        println!(
+            "growth exponent (N = 2 … 16): RHS {:.2}, Jacobian {:.2}",
+            fit(|r| r.1),
+            fit(|r| r.2)
+        );
+        return write(&out.join("chain.csv"), &csv);
     }
     let entries = select(&only, only.is_empty())?;
     println!("| system | states | doStep ns | floor doStep ns (ratio) | RHS ns | floor RHS ns (ratio) | Jacobian ns | Jacobian / (n RHS) |");
