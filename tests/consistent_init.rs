@@ -17,13 +17,20 @@ fn info<M: System>() -> &'static ModelInfo {
     Box::leak(Box::new(ModelInfo::of::<M>()))
 }
 
-/// An instance in initialization mode, logging into the shared recorder under `name`.
+/// An instance set up but not yet initialising (values are set in this state, as fmpy
+/// sets start values: a dependent state, initial = "approx", only here), logging into
+/// the shared recorder under `name`.
 fn instance<M: System>(name: &str, rtol: f64) -> Instance<M> {
     let logger = Logger::new(callbacks().logger, std::ptr::null_mut(), name, false);
     let mut inst = Instance::<M>::new(info::<M>(), logger);
     inst.setup_experiment(Some(rtol), 0.0, None).unwrap();
-    inst.enter_initialization_mode().unwrap();
     inst
+}
+
+/// fmi2EnterInitializationMode, then fmi2ExitInitializationMode's result.
+fn initialise<M: System>(inst: &mut Instance<M>) -> Result<Status, String> {
+    inst.enter_initialization_mode().unwrap();
+    inst.exit_initialization_mode()
 }
 
 fn vr<M: System>(name: &str) -> u32 {
@@ -69,7 +76,7 @@ fn independent_values_are_kept<M: System>() {
         };
         let mut inst = instance::<M>(&name, 1e-8);
         set(&mut inst, &v.name, value);
-        assert_eq!(inst.exit_initialization_mode(), Ok(Status::Ok), "{name}");
+        assert_eq!(initialise(&mut inst), Ok(Status::Ok), "{name}");
         assert_eq!(get(&inst, &v.name).to_bits(), value.to_bits(), "{name}");
         let x = states(&inst);
         let r = consistent::residuals::<M>(0.0, &x, &params::<M>());
@@ -119,7 +126,7 @@ fn the_disk_from_its_two_rates_runs_on_the_closed_form_circle() {
     let (w, s) = (0.7, 5.0);
     set(&mut inst, "theta_dot", w);
     set(&mut inst, "phi_dot", s);
-    assert_eq!(inst.exit_initialization_mode(), Ok(Status::Ok));
+    assert_eq!(initialise(&mut inst), Ok(Status::Ok));
     assert_eq!(get(&inst, "phi_dot"), s);
     assert_eq!(get(&inst, "theta_dot"), w);
     let a = params::<M>()[1];
@@ -146,10 +153,10 @@ fn the_surplus_slider_crank_from_theta_alone_equals_the_reduced_one() {
     let theta = 1.0;
     let mut surplus = instance::<SliderCrankSurplus>("crank-surplus", 1e-8);
     set(&mut surplus, "theta", theta);
-    assert_eq!(surplus.exit_initialization_mode(), Ok(Status::Ok));
+    assert_eq!(initialise(&mut surplus), Ok(Status::Ok));
     let mut reduced = instance::<SliderCrank>("crank-reduced", 1e-8);
     set(&mut reduced, "theta", theta);
-    assert_eq!(reduced.exit_initialization_mode(), Ok(Status::Ok));
+    assert_eq!(initialise(&mut reduced), Ok(Status::Ok));
     assert_eq!(get(&surplus, "theta"), theta);
     for name in ["theta_dot", "beta", "x", "x_dot"] {
         let (a, b) = (get(&surplus, name), get(&reduced, name));
@@ -170,7 +177,7 @@ fn an_inconsistent_dependent_value_is_reported() {
     let mut inst = instance::<M>("hoop-inconsistent", 1e-8);
     set(&mut inst, "x_dot", 1.0);
     set(&mut inst, "theta_dot", 7.0);
-    assert_eq!(inst.exit_initialization_mode(), Ok(Status::Warning));
+    assert_eq!(initialise(&mut inst), Ok(Status::Warning));
     let r = params::<M>()[1];
     assert_eq!(get(&inst, "x_dot"), 1.0);
     assert!((get(&inst, "theta_dot") - 1.0 / r).abs() <= 4.0 * f64::EPSILON / r);
@@ -187,7 +194,7 @@ fn an_inconsistent_dependent_value_is_reported() {
     let mut fine = instance::<RollingDisk>("disk-consistent", 1e-8);
     set(&mut fine, "phi_dot", 5.0);
     set(&mut fine, "x_dot", 0.3 * 5.0);
-    assert_eq!(fine.exit_initialization_mode(), Ok(Status::Ok));
+    assert_eq!(initialise(&mut fine), Ok(Status::Ok));
     assert!(log_of("disk-consistent").is_empty());
 }
 
@@ -198,6 +205,7 @@ fn no_consistent_state_is_an_error() {
     type M = SphereSlide;
     let mut inst = instance::<M>("sphere-outside", 1e-8);
     set(&mut inst, "x", 2.0);
+    inst.enter_initialization_mode().unwrap();
     let before = states(&inst);
     let err = inst.exit_initialization_mode().unwrap_err();
     assert!(err.contains("no consistent state"), "{err}");
@@ -225,8 +233,23 @@ fn a_mode_without_constraints_keeps_every_value() {
     for (n, v) in values {
         set(&mut inst, n, v);
     }
-    assert_eq!(inst.exit_initialization_mode(), Ok(Status::Ok));
+    assert_eq!(initialise(&mut inst), Ok(Status::Ok));
     for (n, v) in values {
         assert_eq!(get(&inst, n), v, "{n}");
     }
+}
+
+/// FMI 2.0 (4.2.4): a variable with initial = "approx" may be set before
+/// fmi2EnterInitializationMode only; an independent state (initial = "exact") in
+/// initialization mode too.
+#[test]
+fn a_dependent_state_is_set_before_initialization_mode_only() {
+    type M = RollingHoop;
+    let mut inst = instance::<M>("hoop-approx", 1e-8);
+    inst.enter_initialization_mode().unwrap();
+    let err = inst.set_real(&[vr::<M>("theta_dot")], &[2.0]).unwrap_err();
+    assert!(err.contains("before fmi2EnterInitializationMode"), "{err}");
+    set(&mut inst, "x_dot", 1.0);
+    assert_eq!(inst.exit_initialization_mode(), Ok(Status::Ok));
+    assert_eq!(get(&inst, "theta_dot"), 2.0);
 }

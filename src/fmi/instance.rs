@@ -308,6 +308,14 @@ impl<M: System> Instance<M> {
                         "fmi2SetReal: {name} (value reference {vr}) is an {kind}, set it with fmi2SetInteger"
                     ));
                 }
+                VarKind::State if var.dependent => {
+                    if machine::BEFORE_INIT_MODE & self.data.machine.code() == 0 {
+                        return Err(format!(
+                            "fmi2SetReal: {name} (value reference {vr}) is computed from the constraints (initial=\"approx\": its value is only the starting guess) and can only be set before fmi2EnterInitializationMode (state is {:?})",
+                            self.data.machine
+                        ));
+                    }
+                }
                 VarKind::Parameter | VarKind::SolverStep | VarKind::State => {
                     if machine::BEFORE_INIT_DONE & self.data.machine.code() == 0 {
                         return Err(format!(

@@ -68,6 +68,9 @@ pub const CANCEL_STEP: u32 = 0;
 pub const STATUS: u32 = mask(&[StepComplete, StepFailed, Terminated]);
 /// States in which fixed parameters and the start values of states may be set.
 pub const BEFORE_INIT_DONE: u32 = mask(&[Instantiated, InitializationMode]);
+/// Where a variable with initial = "approx" (a guess: the dependent states) may be set:
+/// FMI 2.0 allows it only before fmi2EnterInitializationMode.
+pub const BEFORE_INIT_MODE: u32 = mask(&[Instantiated]);
 
 /// Names of the states a mask admits, for error messages.
 pub fn describe(mask: u32) -> String {
