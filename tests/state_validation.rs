@@ -21,11 +21,11 @@ fn started<S: System>(solver: Method) -> Instance<S> {
     let vr = |name: &str| info.layout.vr_of(name).unwrap();
     inst.setup_experiment(Some(1e-8), 0.0, Some(scene.stop_time))
         .unwrap();
-    inst.enter_initialization_mode().unwrap();
     for (name, value) in &scene.start_values {
         inst.set_real(&[vr(name)], &[*value]).unwrap();
     }
     inst.set_integer(&[vr("solver")], &[solver.code()]).unwrap();
+    inst.enter_initialization_mode().unwrap();
     inst.exit_initialization_mode().unwrap();
     inst
 }

@@ -85,7 +85,8 @@ fn started<M: System>() -> Instance<M> {
     let info = info::<M>();
     let mut inst = Instance::<M>::new(info, Logger::silent("speed"));
     inst.setup_experiment(Some(1e-8), 0.0, None).expect("setup");
-    inst.enter_initialization_mode().expect("init mode");
+    // Start values before initialization mode, as fmpy sets them (a dependent state,
+    // initial = "approx", may only be set there).
     if let Some(scene) = M::scenes().first() {
         for (name, value) in &scene.start_values {
             let vr = info.layout.vr_of(name).expect("scene variable");
@@ -96,6 +97,7 @@ fn started<M: System>() -> Instance<M> {
     inst.set_real(&[step], &[H]).expect("solver_step");
     let solver = info.layout.vr_of("solver").expect("solver");
     inst.set_integer(&[solver], &[RK4]).expect("RK4");
+    inst.enter_initialization_mode().expect("init mode");
     inst.exit_initialization_mode().expect("exit init");
     inst
 }

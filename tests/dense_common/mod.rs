@@ -63,7 +63,6 @@ impl<S: System> Case<S> {
         let mut inst = Instance::<S>::new(self.info, Logger::silent("dense_radau5"));
         inst.setup_experiment(Some(self.tol), start, Some(scene.stop_time))
             .unwrap();
-        inst.enter_initialization_mode().unwrap();
         for (name, value) in scene.start_values.iter().chain(extra) {
             inst.set_real(&[self.vr(name)], &[*value]).unwrap();
         }
@@ -71,6 +70,7 @@ impl<S: System> Case<S> {
             inst.set_real(&[self.vr("solver_step")], &[comm]).unwrap();
         }
         inst.set_integer(&[self.vr("solver")], &[solver]).unwrap();
+        inst.enter_initialization_mode().unwrap();
         inst.exit_initialization_mode().unwrap();
         inst
     }
