@@ -120,10 +120,16 @@ def test_directional_derivatives_match_export_and_finite_differences(name, load_
         for i, o in enumerate(outputs):
             if o in states:
                 assert G[i, states.index(o)] == 1.0
-        Ffd = central_differences(inst, ders, knowns)
-        Gfd = central_differences(inst, outputs, knowns)
-        assert_close(F, Ffd, 1e-7, f"{name} [A B] vs central differences")
-        assert_close(G, Gfd, 1e-7, f"{name} [C D] vs central differences")
+        # Differences need fmi2SetReal in Initialization Mode, which FMI 2.0 allows for
+        # initial="exact" states and inputs only: a dependent state (initial="approx",
+        # solved from the constraints) has its column checked against the export above.
+        initial = {v.name: v.initial for v in model.md.modelVariables}
+        settable = [k for k in knowns if initial.get(k) != "approx"]
+        cols = [knowns.index(k) for k in settable]
+        Ffd = central_differences(inst, ders, settable)
+        Gfd = central_differences(inst, outputs, settable)
+        assert_close(F[:, cols], Ffd, 1e-7, f"{name} [A B] vs central differences")
+        assert_close(G[:, cols], Gfd, 1e-7, f"{name} [C D] vs central differences")
     finally:
         inst.free()
 
