@@ -167,6 +167,22 @@ fn symbolic(args: &[String]) -> Result<(), String> {
             g.seconds * 1e3
         );
     }
+    if !check {
+        println!("\n| chain N | nodes | operations | lets | lines | generation ms |");
+        println!("|---|---|---|---|---|---|");
+        for g in symbolic::chain_sizes() {
+            let e = &g.emitted;
+            println!(
+                "| {} | {} | {} | {} | {} | {:.1} |",
+                g.coordinates,
+                e.nodes,
+                e.operations,
+                e.lets,
+                e.lines,
+                g.seconds * 1e3
+            );
+        }
+    }
     let dir = symbolic::generated_dir();
     let mut stale = Vec::new();
     for (name, text) in files {

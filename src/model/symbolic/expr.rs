@@ -338,6 +338,15 @@ impl Expr {
             (Node::Neg(x), Node::Neg(y)) => -Expr::plus(Expr(x), Expr(y)),
             (_, Node::Neg(y)) => Expr::minus(a, Expr(y)),
             (Node::Neg(x), _) => Expr::minus(b, Expr(x)),
+            // Like terms one level apart: a + (a + c) = 2a + c (then ½x + (y + ½x) = x + y).
+            (_, Node::Add(x, y)) | (Node::Add(x, y), _) if x == a.0 || x == b.0 => {
+                let (twice, other) = if x == a.0 { (a, Expr(y)) } else { (b, Expr(y)) };
+                Expr::plus(Expr::times(twice, Expr::constant(2.0)), other)
+            }
+            (_, Node::Add(x, y)) | (Node::Add(x, y), _) if y == a.0 || y == b.0 => {
+                let (twice, other) = if y == a.0 { (a, Expr(x)) } else { (b, Expr(x)) };
+                Expr::plus(Expr::times(twice, Expr::constant(2.0)), other)
+            }
             _ => {
                 let (x, y) = ordered(a, b);
                 Expr::intern(Node::Add(x.0, y.0))
@@ -892,6 +901,8 @@ mod tests {
             assert_eq!((x + (-y)).id(), (x - y).id());
             assert_eq!((Expr::constant(2.0) * 3.0).as_const(), Some(6.0));
             assert_eq!((-x).cos().id(), x.cos().id());
+            let half = x * 0.5;
+            assert_eq!((half + (y + half)).id(), (x + y).id(), "like terms meet");
         });
         assert!(g.branches.is_empty());
         // q0, p1, q0·p1, sin q0, sin q0 · p1, 1, 0, 2, q0·2, 0.5, 4, 0.25, q0·0.25, p1 − …

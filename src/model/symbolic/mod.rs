@@ -149,6 +149,20 @@ pub fn generate_all() -> Result<(Vec<Generated>, Files), TraceError> {
     Ok((generated, files))
 }
 
+/// The chain of N = 1 … 16 and 32 links generated in memory (not written): how the code
+/// and the generation time grow with N.
+pub fn chain_sizes() -> Vec<Generated> {
+    macro_rules! chains {
+        ($($n:literal)*) => {
+            vec![$(generate(concat!("chain_", $n), equations::<Chain<$n>>)),*]
+        };
+    }
+    chains!(1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 32)
+        .into_iter()
+        .map(|g| g.expect("the chain traces"))
+        .collect()
+}
+
 /// Where the generated modules live.
 pub fn generated_dir() -> std::path::PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("src/model/symbolic/generated")

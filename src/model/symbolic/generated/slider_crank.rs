@@ -68,8 +68,8 @@ impl Eom<1, 0> for SliderCrankEom {
         let v39 = v10 * 2.0;
         let v40 = v8 * 2.0;
         let v41 = v7 * v7;
-        let v42 = v4 * ((v18 * v32 / v39 + v8 * v36) * v41 - v7 * v36 / v40);
-        let v43 = qd[0] * v31 - v29 + v33 / v14 / p[3] + v3 * (v42 + (v18 * v37 + v42));
+        let v42 = v4 * ((v18 * v32 / v39 + v8 * v36) * v41 - v7 * v36 / v40) * 2.0;
+        let v43 = qd[0] * v31 - v29 + v33 / v14 / p[3] + v3 * (v18 * v37 + v42);
         let v44 = c0 * (qd[0] * v35 - p[5] * v26 * 0.5 + p[1] * v43) - s0 * (qd[0] * v38 + p[1] * (qd[0] * v30));
         let v45 = p[4] * v12;
         let v46 = p[2] * (v2 - v11 * v25 * 0.5);
