@@ -158,3 +158,31 @@ pub fn markdown_line(r: &SymbolicRow) -> String {
         r.ad_jacobian_ns / r.generated_jacobian_ns,
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A row is complete and its CSV line matches the header (times measured, not asserted).
+    #[test]
+    fn a_symbolic_row_is_complete() {
+        let row = measure::<systems::DoublePendulum, DoublePendulumEom, 2, 0>(
+            1,
+            Some(floor_rhs::<floors::DoublePendulum, 4>),
+        );
+        assert_eq!((row.system, row.coordinates), ("DoublePendulum", 2));
+        assert_eq!(row.nodes, DoublePendulumEom::NODES);
+        let times = [
+            row.generated_rhs_ns,
+            row.ad_rhs_ns,
+            row.floor_rhs_ns.expect("floor"),
+            row.generated_jacobian_ns,
+            row.ad_jacobian_ns,
+        ];
+        assert!(times.iter().all(|t| t.is_finite() && *t > 0.0), "{row:?}");
+        assert_eq!(
+            csv_line(&row).split(',').count(),
+            CSV_HEADER.split(',').count()
+        );
+    }
+}
