@@ -3,8 +3,9 @@
 //! the bench has one, the hand-written floor ([`floors`](super::floors)), in the same run.
 //!
 //! - RHS: one `ẋ = f(t, x, u, p)` in `f64` at a generic state (`xᵢ = 0.3 + 0.1 i`, zero
-//!   inputs, default parameters): the generated `Eom::derivatives`, `System::derivatives`
-//!   (nested dual numbers today) and the floor's `rhs`.
+//!   inputs, default parameters): the generated `Eom::derivatives` (and its `eom` alone,
+//!   to separate forming M and rhs from the solve), `System::derivatives` (nested dual
+//!   numbers today) and the floor's `rhs`.
 //! - Jacobian: the 2n columns of ∂f/∂x, each one `Dual64` evaluation with the seeds set in
 //!   preallocated vectors, through the generated code and through today's path alike.
 //!
@@ -14,7 +15,7 @@ use super::chain::Chain;
 use super::floors::{self, Floor};
 use super::speed::best_ns;
 use crate::model::lagrangian::Lagrangian;
-use crate::model::symbolic::{generated::*, Eom};
+use crate::model::symbolic::{generated::*, Eom, Terms};
 use crate::model::System;
 use crate::systems;
 use num_dual::Dual64;
@@ -28,6 +29,8 @@ pub struct SymbolicRow {
     /// Nodes the generated code evaluates.
     pub nodes: usize,
     pub generated_rhs_ns: f64,
+    /// Of which forming M, rhs, G, γ (the generated `eom` alone, without the solve).
+    pub generated_eom_ns: f64,
     pub ad_rhs_ns: f64,
     pub floor_rhs_ns: Option<f64>,
     pub generated_jacobian_ns: f64,
@@ -76,6 +79,12 @@ pub fn measure<L: Lagrangian, E: Eom<N, K>, const N: usize, const K: usize>(
         E::derivatives(0.0, black_box(&x), &u, &p, &mut dx);
         black_box(&dx);
     });
+    let mut terms = Terms::<f64, N, K>::zero();
+    let (q, qd) = x.split_at(N);
+    let generated_eom_ns = best_ns(reps, || {
+        E::eom(0.0, black_box(q), qd, &u, &p, &mut terms);
+        black_box(&terms);
+    });
     let ad_rhs_ns = best_ns(reps, || {
         <L as System>::derivatives(0.0, black_box(&x), &u, &p, &mut dx);
         black_box(&dx);
@@ -85,6 +94,7 @@ pub fn measure<L: Lagrangian, E: Eom<N, K>, const N: usize, const K: usize>(
         coordinates: N,
         nodes: E::NODES,
         generated_rhs_ns,
+        generated_eom_ns,
         ad_rhs_ns,
         floor_rhs_ns: floor.map(|f| f(&x, &p, reps)),
         generated_jacobian_ns: jacobian_ns(&x, &u, &p, reps, |x, u, p, dx| {
@@ -96,7 +106,7 @@ pub fn measure<L: Lagrangian, E: Eom<N, K>, const N: usize, const K: usize>(
     }
 }
 
-/// Every generated system, then the chain of N = 1, 2, 4, 8, 16 links.
+/// Every generated system, then the chain of N = 1, 2, 4, 8, 16, 32 links.
 pub fn sweep(reps: usize) -> Vec<SymbolicRow> {
     use systems::*;
     vec![
@@ -116,20 +126,22 @@ pub fn sweep(reps: usize) -> Vec<SymbolicRow> {
         measure::<Chain<4>, Chain4Eom, 4, 0>(reps, None),
         measure::<Chain<8>, Chain8Eom, 8, 0>(reps, None),
         measure::<Chain<16>, Chain16Eom, 16, 0>(reps, None),
+        measure::<Chain<32>, Chain32Eom, 32, 0>(reps, None),
     ]
 }
 
-pub const CSV_HEADER: &str = "system,coordinates,nodes,generated_rhs_ns,ad_rhs_ns,floor_rhs_ns,generated_over_floor,ad_over_generated,generated_jacobian_ns,ad_jacobian_ns\n";
+pub const CSV_HEADER: &str = "system,coordinates,nodes,generated_rhs_ns,generated_eom_ns,ad_rhs_ns,floor_rhs_ns,generated_over_floor,ad_over_generated,generated_jacobian_ns,ad_jacobian_ns\n";
 
 /// One CSV line (see [`CSV_HEADER`]).
 pub fn csv_line(r: &SymbolicRow) -> String {
     let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.2}"));
     format!(
-        "{},{},{},{:.1},{:.1},{},{},{:.1},{:.1},{:.1}\n",
+        "{},{},{},{:.1},{:.1},{:.1},{},{},{:.1},{:.1},{:.1}\n",
         r.system,
         r.coordinates,
         r.nodes,
         r.generated_rhs_ns,
+        r.generated_eom_ns,
         r.ad_rhs_ns,
         opt(r.floor_rhs_ns),
         opt(r.floor_rhs_ns.map(|f| r.generated_rhs_ns / f)),
@@ -145,11 +157,12 @@ pub fn markdown_line(r: &SymbolicRow) -> String {
         format!("{f:.0} ({:.2}×)", r.generated_rhs_ns / f)
     });
     format!(
-        "| {} | {} | {} | {:.0} | {:.0} ({:.0}×) | {} | {:.0} | {:.0} ({:.0}×) |",
+        "| {} | {} | {} | {:.0} ({:.0}) | {:.0} ({:.0}×) | {} | {:.0} | {:.0} ({:.0}×) |",
         r.system,
         r.coordinates,
         r.nodes,
         r.generated_rhs_ns,
+        r.generated_eom_ns,
         r.ad_rhs_ns,
         r.ad_rhs_ns / r.generated_rhs_ns,
         floor,

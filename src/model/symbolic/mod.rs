@@ -78,6 +78,7 @@ fn targets() -> Vec<(&'static str, Trace)> {
         ("chain_4", equations::<Chain<4>>),
         ("chain_8", equations::<Chain<8>>),
         ("chain_16", equations::<Chain<16>>),
+        ("chain_32", equations::<Chain<32>>),
     ]
 }
 

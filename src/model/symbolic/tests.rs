@@ -102,16 +102,33 @@ fn the_graph_of_every_lagrangian_matches_automatic_differentiation() {
     chains!(1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16);
 }
 
-/// The generated code's accelerations, multipliers and dual-number Jacobian (states,
-/// inputs and parameters) equal today's AD path at random points.
-fn generated_matches_ad<L: Lagrangian, E: Eom<N, K>, const N: usize, const K: usize>() {
+/// The generated code's M and rhs, its accelerations, multipliers and dual-number Jacobian
+/// (states, inputs and parameters) equal today's AD path at random points: M and rhs to
+/// [`TOL`], the solved quantities to `tol` (two solvers of one system differ by
+/// ~cond(M)·ε, which grows with the chain's length).
+fn generated_matches_ad<L: Lagrangian, E: Eom<N, K>, const N: usize, const K: usize>(tol: f64) {
     assert_eq!(
         (E::NAME, N, K),
         (L::NAME, L::coordinates().len(), L::CONSTRAINTS)
     );
     let mut rng = Rng(0xD1B5_4A32_D192_ED03);
-    for _ in 0..20 {
+    // Fewer points for the long chains: today's path is slow there (the test's cost).
+    for _ in 0..if N >= 16 { 3 } else { 20 } {
         let [q, qd, u, p] = point::<L>(&mut rng);
+        let mut terms = Terms::<f64, N, K>::zero();
+        E::eom(0.0, &q, &qd, &u, &p, &mut terms);
+        let m_ad = lagrangian::mass_matrix::<L, f64>(&q, &qd, &p).concat();
+        let rhs_ad = lagrangian::generalized_rhs::<L, f64>(0.0, &q, &qd, &u, &p);
+        let terms_err = (
+            relative(terms.m.as_flattened(), &m_ad),
+            relative(&terms.rhs, &rhs_ad),
+        );
+        assert!(
+            terms_err.0 <= TOL && terms_err.1 <= TOL,
+            "{} (n = {N}): M, rhs {terms_err:?}",
+            L::NAME
+        );
+
         let (a, l) = E::accelerations_and_multipliers::<f64>(0.0, &q, &qd, &u, &p);
         let (a_ad, l_ad) =
             lagrangian::accelerations_and_multipliers::<L, f64>(0.0, &q, &qd, &u, &p);
@@ -147,7 +164,7 @@ fn generated_matches_ad<L: Lagrangian, E: Eom<N, K>, const N: usize, const K: us
         }
         let worst = relative(&got, &want);
         assert!(
-            err.0 <= TOL && err.1 <= TOL && worst <= TOL,
+            err.0 <= tol && err.1 <= tol && worst <= tol,
             "{} (n = {N}): relative errors of q̈ {:e}, λ {:e}, Jacobian {worst:e}",
             L::NAME,
             err.0,
@@ -159,16 +176,18 @@ fn generated_matches_ad<L: Lagrangian, E: Eom<N, K>, const N: usize, const K: us
 #[test]
 fn the_generated_code_matches_automatic_differentiation() {
     use crate::systems::*;
-    generated_matches_ad::<CompoundPendulum, CompoundPendulumEom, 1, 0>();
-    generated_matches_ad::<DoublePendulum, DoublePendulumEom, 2, 0>();
-    generated_matches_ad::<SliderCrank, SliderCrankEom, 1, 0>();
-    generated_matches_ad::<SliderCrankSurplus, SliderCrankSurplusEom, 3, 2>();
-    generated_matches_ad::<SpringRodPendulum, SpringRodPendulumEom, 3, 0>();
-    generated_matches_ad::<Chain<1>, Chain1Eom, 1, 0>();
-    generated_matches_ad::<Chain<2>, Chain2Eom, 2, 0>();
-    generated_matches_ad::<Chain<4>, Chain4Eom, 4, 0>();
-    generated_matches_ad::<Chain<8>, Chain8Eom, 8, 0>();
-    generated_matches_ad::<Chain<16>, Chain16Eom, 16, 0>();
+    generated_matches_ad::<CompoundPendulum, CompoundPendulumEom, 1, 0>(TOL);
+    generated_matches_ad::<DoublePendulum, DoublePendulumEom, 2, 0>(TOL);
+    generated_matches_ad::<SliderCrank, SliderCrankEom, 1, 0>(TOL);
+    generated_matches_ad::<SliderCrankSurplus, SliderCrankSurplusEom, 3, 2>(TOL);
+    generated_matches_ad::<SpringRodPendulum, SpringRodPendulumEom, 3, 0>(TOL);
+    generated_matches_ad::<Chain<1>, Chain1Eom, 1, 0>(TOL);
+    generated_matches_ad::<Chain<2>, Chain2Eom, 2, 0>(TOL);
+    generated_matches_ad::<Chain<4>, Chain4Eom, 4, 0>(TOL);
+    generated_matches_ad::<Chain<8>, Chain8Eom, 8, 0>(TOL);
+    generated_matches_ad::<Chain<16>, Chain16Eom, 16, 0>(TOL);
+    // Beyond the brief's N ≤ 16: measured 1.1e-13 on the Jacobian at N = 32.
+    generated_matches_ad::<Chain<32>, Chain32Eom, 32, 0>(1e-12);
 }
 
 /// Like `modelDescription/`: the committed generated code is what the generator writes now.

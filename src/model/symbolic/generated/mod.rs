@@ -23,6 +23,8 @@ mod chain_4;
 mod chain_8;
 #[allow(clippy::approx_constant, clippy::excessive_precision)]
 mod chain_16;
+#[allow(clippy::approx_constant, clippy::excessive_precision)]
+mod chain_32;
 
 pub use compound_pendulum::CompoundPendulumEom;
 pub use double_pendulum::DoublePendulumEom;
@@ -34,3 +36,4 @@ pub use chain_2::Chain2Eom;
 pub use chain_4::Chain4Eom;
 pub use chain_8::Chain8Eom;
 pub use chain_16::Chain16Eom;
+pub use chain_32::Chain32Eom;
