@@ -1,6 +1,6 @@
 //! `mbfmu speed --symbolic`: the symbolic prototype's generated equations of motion
 //! ([`crate::model::symbolic`]) against today's automatic-differentiation path and, where
-//! the bench has one, the hand-written floor ([`floors`](super::floors)), in the same run.
+//! the bench has one, the hand-written floor ([`super::floors`]), in the same run.
 //!
 //! - RHS: one `ẋ = f(t, x, u, p)` in `f64` at a generic state (`xᵢ = 0.3 + 0.1 i`, zero
 //!   inputs, default parameters): the generated `Eom::derivatives` (and its `eom` alone,
@@ -9,7 +9,7 @@
 //! - Jacobian: the 2n columns of ∂f/∂x, each one `Dual64` evaluation with the seeds set in
 //!   preallocated vectors, through the generated code and through today's path alike.
 //!
-//! Times are measured, never asserted (see [`best_ns`]).
+//! Times are the best of several ~20 ms loops (`speed::best_ns`), measured, never asserted.
 
 use super::chain::Chain;
 use super::floors::{self, Floor};
