@@ -19,7 +19,7 @@
 //!    `constraints` run on it (and so do `Dual<Expr>` and `HyperDual<Expr>` inside them).
 //!    Looking at a symbolic value (comparison, `re()`) is recorded, and refused later.
 //! 2. [`diff`]: forward and reverse sweeps building derivative nodes in the same graph.
-//! 3. [`equations`]: M, rhs, G, γ of a [`Lagrangian`](crate::model::lagrangian::Lagrangian).
+//! 3. [`equations`](mod@equations): M, rhs, G, γ of a [`Lagrangian`](crate::model::lagrangian::Lagrangian).
 //! 4. [`emit`]: Rust source of `impl Eom<N, K>`, generic over the scalar so dual numbers
 //!    still give exact Jacobians through it; [`runtime`] holds the trait and the solve.
 //! 5. [`generated`]: the committed output for the systems below, kept current by a test
