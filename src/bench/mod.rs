@@ -31,6 +31,7 @@ pub mod chain;
 pub mod floors;
 pub mod speed;
 pub mod springy_rigid;
+pub mod symbolic;
 
 use crate::fmi::{Instance, Logger, ModelInfo, StepOutcome};
 use crate::integrators::Method;

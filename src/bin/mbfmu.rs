@@ -5,6 +5,8 @@
 //! - `mbfmu build --all | MODEL...`: compile each FMU's cdylib in release mode and
 //!   write `target/fmu/<Model>.fmu`.
 //! - `mbfmu xml [--check]`: write (or check) `modelDescription/<Model>.xml`.
+//! - `mbfmu symbolic [--check]`: write (or check) the generated equations of motion of the
+//!   symbolic prototype, `src/model/symbolic/generated/`, with their sizes.
 //! - `mbfmu linearize MODEL [--scene S] [--set p=v]... [--at x=v]... [--trim|--trim-inputs]
 //!   [--format json|py|csv] [--out FILE]`: exact A, B, C, D at an operating point.
 //! - `mbfmu bench [--quick] [--out DIR]`: work–precision of every method on every scene
@@ -18,9 +20,10 @@ const USAGE: &str = "usage:
   mbfmu list [--json]
   mbfmu build (--all | MODEL...) [--out DIR]
   mbfmu xml [--check]
+  mbfmu symbolic [--check]
   mbfmu linearize MODEL [--scene S] [--set PARAM=VALUE]... [--at STATE_OR_INPUT=VALUE]...
                   [--trim | --trim-inputs] [--format json|py|csv] [--out FILE]
-  mbfmu speed [--system MODEL]... [--reps N] [--out DIR] [--chain]
+  mbfmu speed [--system MODEL]... [--reps N] [--out DIR] [--chain | --symbolic]
   mbfmu bench [--quick] [--out DIR] [--system MODEL]... [--scene S]... [--reps N] [--no-energy] [--no-springy]";
 
 fn workspace_root() -> PathBuf {
@@ -133,6 +136,70 @@ fn xml(args: &[String]) -> Result<(), String> {
     } else {
         Err(format!(
             "out of date (run `cargo run --bin mbfmu -- xml`): {}",
+            stale.join(", ")
+        ))
+    }
+}
+
+/// `mbfmu symbolic [--check]`: trace, differentiate and emit the equations of motion of the
+/// symbolic prototype into `src/model/symbolic/generated/` (or check they are current), and
+/// print each module's size and generation time.
+fn symbolic(args: &[String]) -> Result<(), String> {
+    use mbfmu::model::symbolic;
+    let check = match args {
+        [] => false,
+        [flag] if flag == "--check" => true,
+        _ => return Err(USAGE.into()),
+    };
+    let (generated, files) = symbolic::generate_all().map_err(|e| e.to_string())?;
+    println!("| module | n | nodes | operations | lets | lines | generation ms |");
+    println!("|---|---|---|---|---|---|---|");
+    for g in &generated {
+        let e = &g.emitted;
+        println!(
+            "| {} | {} | {} | {} | {} | {} | {:.1} |",
+            g.module,
+            g.coordinates,
+            e.nodes,
+            e.operations,
+            e.lets,
+            e.lines,
+            g.seconds * 1e3
+        );
+    }
+    if !check {
+        println!("\n| chain N | nodes | operations | lets | lines | generation ms |");
+        println!("|---|---|---|---|---|---|");
+        for g in symbolic::chain_sizes() {
+            let e = &g.emitted;
+            println!(
+                "| {} | {} | {} | {} | {} | {:.1} |",
+                g.coordinates,
+                e.nodes,
+                e.operations,
+                e.lets,
+                e.lines,
+                g.seconds * 1e3
+            );
+        }
+    }
+    let dir = symbolic::generated_dir();
+    let mut stale = Vec::new();
+    for (name, text) in files {
+        let path = dir.join(name);
+        if check {
+            if std::fs::read_to_string(&path).ok().as_deref() != Some(text.as_str()) {
+                stale.push(path.display().to_string());
+            }
+        } else {
+            write(&path, &text)?;
+        }
+    }
+    if stale.is_empty() {
+        Ok(())
+    } else {
+        Err(format!(
+            "out of date (run `cargo run --bin mbfmu -- symbolic`): {}",
             stale.join(", ")
         ))
     }
@@ -275,21 +342,25 @@ fn list_json() -> String {
     format!("[\n{}\n]\n", models.join(",\n"))
 }
 
-/// `mbfmu speed [--system MODEL]... [--reps N] [--out DIR] [--chain]`: ns per doStep (RK4,
-/// 1 ms), per RHS and per Jacobian of every system beside the hand-written floors, into
-/// `DIR/speed.csv` (default docs/bench) and as a markdown table on stdout; `--chain`: the
-/// planar chain of N = 1 … 16 links instead, into `DIR/chain.csv`.
+/// `mbfmu speed [--system MODEL]... [--reps N] [--out DIR] [--chain | --symbolic]`: ns per
+/// doStep (RK4, 1 ms), per RHS and per Jacobian of every system beside the hand-written
+/// floors, into `DIR/speed.csv` (default docs/bench) and as a markdown table on stdout;
+/// `--chain`: the planar chain of N = 1 … 16 links instead, into `DIR/chain.csv`;
+/// `--symbolic`: the symbolic prototype's generated equations against today's path and the
+/// floors, into `DIR/symbolic.csv`.
 fn speed(args: &[String]) -> Result<(), String> {
     use mbfmu::bench::speed;
     let mut only = Vec::new();
     let mut reps = 5;
     let mut out = workspace_root().join("docs/bench");
     let mut chain = false;
+    let mut symbolic = false;
     let mut it = args.iter();
     while let Some(a) = it.next() {
         let mut value = || it.next().ok_or_else(|| format!("{a} needs a value"));
         match a.as_str() {
             "--chain" => chain = true,
+            "--symbolic" => symbolic = true,
             "--system" => only.push(value()?.clone()),
             "--reps" => {
                 reps = value()?
@@ -303,6 +374,33 @@ fn speed(args: &[String]) -> Result<(), String> {
         }
     }
     std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
+    if symbolic {
+        use mbfmu::bench::{chain::growth_exponent, symbolic};
+        let rows = symbolic::sweep(reps);
+        println!("| system | n | nodes | generated RHS ns (of which eom) | AD RHS ns (ratio) | floor RHS ns (generated / floor) | generated Jacobian ns | AD Jacobian ns (ratio) |");
+        println!("|---|---|---|---|---|---|---|---|");
+        let mut csv = String::from(symbolic::CSV_HEADER);
+        for r in &rows {
+            println!("{}", symbolic::markdown_line(r));
+            csv.push_str(&symbolic::csv_line(r));
+        }
+        let fit = |pick: fn(&symbolic::SymbolicRow) -> f64| {
+            let pts: Vec<(usize, f64)> = rows
+                .iter()
+                .filter(|r| r.system == "Chain" && (2..=16).contains(&r.coordinates))
+                .map(|r| (r.coordinates, pick(r)))
+                .collect();
+            growth_exponent(&pts)
+        };
+        println!(
+            "chain growth exponent (N = 2 … 16): generated RHS {:.2}, Jacobian {:.2}, nodes {:.2}; AD RHS {:.2}",
+            fit(|r| r.generated_rhs_ns),
+            fit(|r| r.generated_jacobian_ns),
+            fit(|r| r.nodes as f64),
+            fit(|r| r.ad_rhs_ns),
+        );
+        return write(&out.join("symbolic.csv"), &csv);
+    }
     if chain {
         use mbfmu::bench::chain;
         let rows = chain::sweep(reps);
@@ -347,6 +445,7 @@ fn main() -> ExitCode {
         Some("list") => list(&args[1..]),
         Some("build") => build(&args[1..]),
         Some("xml") => xml(&args[1..]),
+        Some("symbolic") => symbolic(&args[1..]),
         Some("linearize") => linearize(&args[1..]),
         Some("bench") => {
             let systems: Vec<_> = catalogue::all().iter().map(|e| (e.name, e.bench)).collect();

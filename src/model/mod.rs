@@ -11,6 +11,7 @@ pub mod jacobian;
 pub mod lagrangian;
 mod layout;
 mod scene;
+pub mod symbolic;
 
 pub use layout::{Layout, Slot, VarKind, DEFAULT_SOLVER_MAX_STEPS};
 pub use scene::Scene;
