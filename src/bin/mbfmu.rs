@@ -145,7 +145,7 @@ fn xml(args: &[String]) -> Result<(), String> {
 /// symbolic prototype into `src/model/symbolic/generated/` (or check they are current), and
 /// print each module's size and generation time.
 fn symbolic(args: &[String]) -> Result<(), String> {
-    use mbfmu::model::symbolic;
+    use mbfmu::bench::symbolic;
     let check = match args {
         [] => false,
         [flag] if flag == "--check" => true,

@@ -1,12 +1,13 @@
 //! The symbolic route against today's automatic differentiation: the graph (interpreted)
 //! and the generated code (compiled) at random states, values and dual-number Jacobians.
 
-use super::generated::*;
-use super::*;
-use crate::bench::chain::Chain;
-use crate::model::jacobian::{directional, Direction};
-use crate::model::lagrangian::{self, Lagrangian};
-use crate::model::{Scalar, Scene, System, Var};
+use mbfmu::bench::chain::Chain;
+use mbfmu::bench::symbolic::{generate_all, generated_dir};
+use mbfmu::model::jacobian::{directional, Direction};
+use mbfmu::model::lagrangian::{self, Lagrangian};
+use mbfmu::model::symbolic::generated::*;
+use mbfmu::model::symbolic::*;
+use mbfmu::model::{Scalar, Scene, System, Var};
 use num_dual::{Dual64, HyperDual};
 
 /// Norm-wise relative agreement asked of the generated equations.
@@ -90,7 +91,7 @@ fn graph_matches_ad<L: Lagrangian>() {
 
 #[test]
 fn the_graph_of_every_lagrangian_matches_automatic_differentiation() {
-    use crate::systems::*;
+    use mbfmu::systems::*;
     graph_matches_ad::<CompoundPendulum>();
     graph_matches_ad::<DoublePendulum>();
     graph_matches_ad::<SliderCrank>();
@@ -175,7 +176,7 @@ fn generated_matches_ad<L: Lagrangian, E: Eom<N, K>, const N: usize, const K: us
 
 #[test]
 fn the_generated_code_matches_automatic_differentiation() {
-    use crate::systems::*;
+    use mbfmu::systems::*;
     generated_matches_ad::<CompoundPendulum, CompoundPendulumEom, 1, 0>(TOL);
     generated_matches_ad::<DoublePendulum, DoublePendulumEom, 2, 0>(TOL);
     generated_matches_ad::<SliderCrank, SliderCrankEom, 1, 0>(TOL);
@@ -306,5 +307,5 @@ fn systems_that_are_not_lagrangians_are_outside_the_prototype() {
     // RollingDisk & co. are `System`s with hand-written dynamics: nothing to trace. This
     // only documents the scope; the compile-time bound `L: Lagrangian` enforces it.
     fn is_system<M: System>() {}
-    is_system::<crate::systems::RollingDisk>();
+    is_system::<mbfmu::systems::RollingDisk>();
 }
