@@ -10,6 +10,7 @@
 //! Matrix Anal. Appl. 31 (2009) 970–989.
 
 use super::problem::{fixed_steps, Problem};
+use super::workspace::Workspace;
 use super::{Failure, Stats};
 use nalgebra::{DMatrix, DVector};
 
@@ -44,10 +45,24 @@ pub fn advance(
     h: f64,
     stats: &mut Stats,
 ) -> Result<(), Failure> {
+    advance_in(problem, t, x, t_end, h, stats, &mut Workspace::default())
+}
+
+/// [`advance`] in the scratch of `work`.
+pub fn advance_in(
+    problem: &mut Problem,
+    t: &mut f64,
+    x: &mut [f64],
+    t_end: f64,
+    h: f64,
+    stats: &mut Stats,
+    work: &mut Workspace,
+) -> Result<(), Failure> {
     let n = x.len();
+    let y = &mut work.fixed[0];
     if t_end == *t || !x.iter().all(|v| v.is_finite()) {
         // Let the common loop report the no-op or the non-finite start, before any work.
-        return fixed_steps("exact linear", t, x, t_end, h, stats, |_, _, _, _, _| {
+        return fixed_steps("exact linear", t, x, t_end, h, stats, y, |_, _, _, _, _| {
             Ok::<(), Failure>(())
         });
     }
@@ -60,26 +75,35 @@ pub fn advance(
     }
     let b = DVector::from_column_slice(&f0) - &a * DVector::from_column_slice(x);
     let mut cache: Option<(f64, DMatrix<f64>, DVector<f64>)> = None;
-    fixed_steps("exact linear", t, x, t_end, h, stats, |_, ta, tb, x, y| {
-        let hs = tb - ta;
-        let stale = match &cache {
-            Some((hc, _, _)) => hc.to_bits() != hs.to_bits(),
-            None => true,
-        };
-        if stale {
-            let (phi, gamma) = propagator(&a, &b, hs);
-            cache = Some((hs, phi, gamma));
-        }
-        let (_, phi, gamma) = cache.as_ref().expect("just filled");
-        for i in 0..n {
-            let mut s = gamma[i];
-            for j in 0..n {
-                s += phi[(i, j)] * x[j];
+    fixed_steps(
+        "exact linear",
+        t,
+        x,
+        t_end,
+        h,
+        stats,
+        y,
+        |_, ta, tb, x, y| {
+            let hs = tb - ta;
+            let stale = match &cache {
+                Some((hc, _, _)) => hc.to_bits() != hs.to_bits(),
+                None => true,
+            };
+            if stale {
+                let (phi, gamma) = propagator(&a, &b, hs);
+                cache = Some((hs, phi, gamma));
             }
-            y[i] = s;
-        }
-        Ok(())
-    })
+            let (_, phi, gamma) = cache.as_ref().expect("just filled");
+            for i in 0..n {
+                let mut s = gamma[i];
+                for j in 0..n {
+                    s += phi[(i, j)] * x[j];
+                }
+                y[i] = s;
+            }
+            Ok(())
+        },
+    )
 }
 
 #[cfg(test)]

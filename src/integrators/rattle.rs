@@ -30,6 +30,7 @@
 
 use super::problem::Mechanics;
 use super::problem::{fixed_steps, ImplicitFailure, NEWTON_MAX_ITER, NEWTON_TOL};
+use super::workspace::Workspace;
 use super::{Failure, Stats};
 use nalgebra::{DMatrix, DVector};
 
@@ -92,6 +93,19 @@ pub fn advance(
     h: f64,
     stats: &mut Stats,
 ) -> Result<(), ImplicitFailure> {
+    advance_in(mech, t, x, t_end, h, stats, &mut Workspace::default())
+}
+
+/// [`advance`] in the scratch of `work`.
+pub fn advance_in(
+    mech: &mut dyn Mechanics,
+    t: &mut f64,
+    x: &mut [f64],
+    t_end: f64,
+    h: f64,
+    stats: &mut Stats,
+    work: &mut Workspace,
+) -> Result<(), ImplicitFailure> {
     let (n, _) = mech.dims();
     assert_eq!(x.len(), 2 * n, "RATTLE: the state is (q, q̇)");
     if x.iter().all(|v| v.is_finite()) {
@@ -100,7 +114,8 @@ pub fn advance(
         x[n..].copy_from_slice(p.as_slice());
     }
     // The loop runs on (q, p); on failure the last good (q, p) is converted back.
-    let result = fixed_steps("RATTLE", t, x, t_end, h, stats, |stats, ta, tb, x, y| {
+    let y = &mut work.fixed[0];
+    let result = fixed_steps("RATTLE", t, x, t_end, h, stats, y, |stats, ta, tb, x, y| {
         step(mech, stats, ta, tb, x, y)
     });
     if x.iter().all(|v| v.is_finite()) {
