@@ -30,8 +30,8 @@ mod workspace;
 
 pub use problem::ImplicitFailure;
 use std::fmt;
-use workspace::zeroed;
 pub use workspace::Workspace;
+pub(crate) use workspace::{copied, zeroed};
 
 /// Integration method, chosen by the FMU's `solver` parameter (these integer codes are public API).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
