@@ -19,6 +19,7 @@ pub mod dopri5;
 pub mod euler;
 pub mod exact_linear;
 mod explicit_rk;
+mod expm;
 pub mod gauss;
 mod lu;
 pub mod problem;

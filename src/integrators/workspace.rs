@@ -8,7 +8,7 @@
 //! `Workspace::default()` gives the same bits as a used one, only with allocations; it is not
 //! part of the FMU state.
 
-use super::{dop853, dopri5, gauss, radau5};
+use super::{dop853, dopri5, exact_linear, gauss, radau5};
 
 /// Scratch for every method; each uses its own part, sized on first use.
 #[derive(Default)]
@@ -21,6 +21,7 @@ pub struct Workspace {
     pub(super) dopri5: dopri5::Scratch,
     pub(super) dop853: dop853::Scratch,
     pub(super) radau5: radau5::Scratch,
+    pub(super) exact_linear: exact_linear::Scratch,
     /// The communication point read from a dense output.
     pub(super) point: Vec<f64>,
 }
