@@ -8,7 +8,7 @@ use super::Status;
 use super::{Logger, ModelInfo, Snapshot};
 use crate::integrators::problem::Problem;
 use crate::integrators::{
-    self, copied, problem::Mechanics, zeroed, Memory, Method, Settings, Workspace,
+    self, copied, problem::Mechanics, sized, zeroed, Memory, Method, Settings, Workspace,
 };
 use crate::model::consistent;
 use crate::model::jacobian::{Direction, Duals};
@@ -606,7 +606,7 @@ impl<M: System> Instance<M> {
     fn settle(&mut self, t_end: f64, t: f64, result: Result<(), Stop>) -> StepOutcome {
         let (d, work) = (&mut self.data, self.work.get_mut());
         let now = d.time;
-        let y = zeroed(&mut work.y, self.info.layout.n_outputs);
+        let y = sized(&mut work.y, self.info.layout.n_outputs);
         M::extra_outputs(t, &work.x, &d.u, &d.params, y);
         let finite = work.x.iter().chain(y.iter()).all(|v| v.is_finite());
         match result {

@@ -19,7 +19,7 @@ use super::explicit_rk::{
     carried_proposal, check_attempt, initial_step, max_step, stage, Goal, PiController, PiGains,
 };
 use super::problem::{start, Problem};
-use super::workspace::{zeroed, Workspace};
+use super::workspace::{sized, Workspace};
 use super::{Failure, Memory, Settings, Stats};
 
 // Nodes c_i (dop853.f; c12 = 1; c14..c16 of the dense output are below).
@@ -270,7 +270,7 @@ pub fn advance_in(
     }
     let w = &mut work.dop853;
     let k1 = &mut w.k1;
-    zeroed(k1, x.len());
+    sized(k1, x.len());
     let result = if problem.eval(*t, x, k1, &mut memory.stats) {
         let goal = Goal::Land(t_end);
         let scratch = (&mut w.stages, &mut w.f1, &mut w.step);
@@ -518,12 +518,7 @@ fn extension(
         std::array::from_fn(|j| block(StepBlock::K6 as usize + j));
     let bad = || Failure::NonFinite { t: t0 };
     let [yk, k14, k15, k16] = stages;
-    let (yk, k14, k15, k16) = (
-        zeroed(yk, n),
-        zeroed(k14, n),
-        zeroed(k15, n),
-        zeroed(k16, n),
-    );
+    let (yk, k14, k15, k16) = (sized(yk, n), sized(k14, n), sized(k15, n), sized(k16, n));
     let row14 = [
         (A141, k1),
         (A147, k7),
@@ -567,7 +562,7 @@ fn extension(
         return Err(bad());
     }
     let stages: [&[f64]; 12] = [k1, k6, k7, k8, k9, k10, k11, k12, f1, k14, k15, k16];
-    let cont = zeroed(cont, 8 * n);
+    let cont = sized(cont, 8 * n);
     for i in 0..n {
         let ydiff = y[i] - x[i];
         let bspl = hs * k1[i] - ydiff;
@@ -611,10 +606,10 @@ struct Stages {
 }
 
 impl Stages {
-    /// Every vector as `n` zeros (as fresh ones would be).
-    fn zero(&mut self, n: usize) {
+    /// Every vector with `n` entries (each is written in full before it is read).
+    fn size(&mut self, n: usize) {
         for v in self.k.iter_mut().chain([&mut self.y]) {
-            zeroed(v, n);
+            sized(v, n);
         }
     }
 
@@ -795,7 +790,7 @@ fn run(
     );
     let h_max = max_step(settings);
     let stats = &mut memory.stats;
-    w.zero(n);
+    w.size(n);
     let carried = memory.h > 0.0 && memory.h.is_finite();
     let mut h = if carried {
         memory.h.min(h_max)
@@ -815,7 +810,7 @@ fn run(
     let mut controller = PiController::resuming(GAINS, carried, err_prev);
     let mut k1_fresh = true;
     // f at the end of an accepted step, in dense mode (then swapped into `k1`).
-    zeroed(f1, n);
+    sized(f1, n);
     let mut attempts: u64 = 0;
 
     loop {

@@ -11,7 +11,7 @@ use super::explicit_rk::{
     carried_proposal, check_attempt, eval, initial_step, max_step, stage, Goal, PiController,
     PiGains,
 };
-use super::workspace::{zeroed, Workspace};
+use super::workspace::{sized, Workspace};
 use super::{Failure, Memory, Settings, Stats};
 
 // Butcher tableau (Table II.5.2 / dopri5.f). c_i are the nodes, a_ij the stage weights.
@@ -109,7 +109,7 @@ pub fn advance_in(
 ) -> Result<(), Failure> {
     let w = &mut work.dopri5;
     let k1 = &mut w.k1;
-    zeroed(k1, x.len());
+    sized(k1, x.len());
     if !eval(rhs, *t, x, k1, &mut memory.stats) {
         memory.h = 0.0;
         return Err(Failure::NonFinite { t: *t });
@@ -364,14 +364,14 @@ struct Stages {
 impl Stages {
     fn new(n: usize) -> Stages {
         let mut stages = Stages::default();
-        stages.zero(n);
+        stages.size(n);
         stages
     }
 
-    /// Every vector as `n` zeros (as [`Stages::new`] makes them).
-    fn zero(&mut self, n: usize) {
+    /// Every vector with `n` entries (each is written in full before it is read).
+    fn size(&mut self, n: usize) {
         for v in self.k.iter_mut().chain([&mut self.y, &mut self.y6]) {
-            zeroed(v, n);
+            sized(v, n);
         }
     }
 
@@ -461,7 +461,7 @@ fn run(
     );
     let h_max = max_step(settings);
     let stats = &mut memory.stats;
-    w.zero(n);
+    w.size(n);
     let carried = memory.h > 0.0 && memory.h.is_finite();
     let mut h = if carried {
         memory.h.min(h_max)
@@ -502,7 +502,7 @@ fn run(
         let done = goal.reached(t_new, landing);
         if done {
             let [_, k3, k4, k5, k6, k7] = &w.k;
-            let r = zeroed(rcont, 5 * n);
+            let r = sized(rcont, 5 * n);
             continuous_extension(x, &w.y, hs, [k1, k3, k4, k5, k6, k7], r);
         }
         x.copy_from_slice(&w.y);

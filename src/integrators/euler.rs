@@ -7,7 +7,7 @@
 //! (symplecticity of the symplectic Euler method).
 
 use super::problem::{fixed_steps, Problem};
-use super::workspace::{zeroed, Workspace};
+use super::workspace::{sized, Workspace};
 use super::{Failure, Stats};
 
 /// Explicit Euler `x₁ = x₀ + h f(t₀, x₀)` from `*t` to `t_end` with step `h` (the last step
@@ -35,7 +35,7 @@ pub fn explicit_euler_in(
     work: &mut Workspace,
 ) -> Result<(), Failure> {
     let [y, k] = &mut work.fixed;
-    let k = zeroed(k, x.len());
+    let k = sized(k, x.len());
     fixed_steps(
         "explicit Euler",
         t,
@@ -85,7 +85,7 @@ pub fn symplectic_euler_in(
 ) -> Result<(), Failure> {
     let nq = problem.positions("symplectic Euler", x.len());
     let [y, k] = &mut work.fixed;
-    let k = zeroed(k, x.len());
+    let k = sized(k, x.len());
     fixed_steps(
         "symplectic Euler",
         t,

@@ -18,7 +18,7 @@
 //! equals `x₀ + h Σ bᵢ f(Yᵢ)` at convergence without the s extra evaluations.
 
 use super::problem::{fixed_steps, ImplicitFailure, Problem, NEWTON_MAX_ITER, NEWTON_TOL};
-use super::workspace::{copied, zeroed, Workspace};
+use super::workspace::{copied, sized, Workspace};
 use super::{Failure, Stats};
 
 /// √3 and √15 to the last bit (`f64::sqrt` is not `const`).
@@ -284,19 +284,20 @@ fn collocation(
     assert!(w.d_lu.factor_in_place(s), "Gauss tableau is invertible");
     let d = copied(&mut w.d, tab.b);
     w.d_lu.solve(d);
-    let jac = zeroed(&mut w.jac, n * n);
+    // (The Jacobian and f write every entry; `z` is cleared at every step.)
+    let jac = sized(&mut w.jac, n * n);
     let newton = &mut w.newton;
-    let z = zeroed(&mut w.z, s * n);
-    let fz = zeroed(&mut w.fz, s * n);
-    let ys = zeroed(&mut w.ys, n);
-    let r = zeroed(&mut w.r, s * n);
+    let z = sized(&mut w.z, s * n);
+    let fz = sized(&mut w.fz, s * n);
+    let ys = sized(&mut w.ys, n);
+    let r = sized(&mut w.r, s * n);
     fixed_steps(tab.name, t, x, t_end, h, stats, y, |stats, ta, tb, x, y| {
         let hs = tb - ta;
         problem.eval_jacobian(tab.name, ta, x, jac);
         if newton.key != Some(tab.name) || newton.h.to_bits() != hs.to_bits() || newton.jac != *jac
         {
             let sn = s * n;
-            let m = zeroed(&mut newton.lu.a, sn * sn);
+            let m = sized(&mut newton.lu.a, sn * sn);
             for i in 0..s {
                 for j in 0..s {
                     let haij = hs * tab.a[i * s + j];

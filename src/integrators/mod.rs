@@ -32,7 +32,7 @@ mod workspace;
 pub use problem::ImplicitFailure;
 use std::fmt;
 pub use workspace::Workspace;
-pub(crate) use workspace::{copied, zeroed};
+pub(crate) use workspace::{copied, sized, zeroed};
 
 /// Integration method, chosen by the FMU's `solver` parameter (these integer codes are public API).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -293,7 +293,7 @@ pub fn advance_dense(
     work: &mut Workspace,
 ) -> Result<(), Failure> {
     let mut point = std::mem::take(&mut work.point);
-    let out = zeroed(&mut point, x.len());
+    let out = sized(&mut point, x.len());
     let state = (t, x);
     let ends = (t_end, t_limit);
     let result = match settings.method {

@@ -11,7 +11,7 @@
 //! `f` (not of the Jacobian: wrap the closure to count those).
 
 use super::rk4::SLIVER;
-use super::workspace::zeroed;
+use super::workspace::sized;
 use super::{Failure, Stats};
 use std::fmt;
 
@@ -177,9 +177,9 @@ pub(crate) fn step_count(span: f64, step: f64) -> f64 {
 
 /// The fixed-step loop: step `i` runs from `t0 + i·step` to `t0 + (i+1)·step` (the last one
 /// to `t_end`), times computed from the start so rounding does not drift. `one_step(stats, ta,
-/// tb, x, y)` writes the state at `tb` into `y` (the scratch `y`, zeroed first, of which it
-/// takes `x.len()`); a non-finite `y` stops the loop with `NonFinite` at the last good
-/// state, as does an error of `one_step`.
+/// tb, x, y)` writes the state at `tb` into `y` (the scratch `y`, of which it takes
+/// `x.len()`: `one_step` writes every component); a non-finite `y` stops the loop with
+/// `NonFinite` at the last good state, as does an error of `one_step`.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn fixed_steps<E: From<Failure>>(
     method: &str,
@@ -197,7 +197,7 @@ pub(crate) fn fixed_steps<E: From<Failure>>(
     let t0 = *t;
     // No limit here: `advance_with` checks the plan against `Settings::max_steps` first.
     let n = step_count(t_end - t0, step) as u64;
-    let y = zeroed(y, x.len());
+    let y = sized(y, x.len());
     for i in 0..n {
         let ta = *t;
         let tb = if i + 1 == n {

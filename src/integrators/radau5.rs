@@ -29,7 +29,7 @@
 
 use super::lu::Lu;
 use super::problem::{start, Problem};
-use super::workspace::{copied, zeroed, Workspace};
+use super::workspace::{copied, sized, zeroed, Workspace};
 use super::{Failure, Memory, Settings, Stats};
 use nalgebra::Complex;
 
@@ -526,8 +526,9 @@ struct Work {
 }
 
 impl Work {
-    /// Every vector as `n` zeros (as fresh ones would be).
-    fn zero(&mut self, n: usize) {
+    /// Every vector with `n` entries: each is written in full before it is read (Z and F
+    /// by [`Work::start_values`], the scale at the start of [`run`]).
+    fn size(&mut self, n: usize) {
         for v in [
             &mut self.z1,
             &mut self.z2,
@@ -540,9 +541,8 @@ impl Work {
             &mut self.scal,
             &mut self.r1,
         ] {
-            zeroed(v, n);
+            sized(v, n);
         }
-        self.r2.clear();
         self.r2.resize(n, Complex::new(0.0, 0.0));
     }
 
@@ -767,7 +767,7 @@ fn run(
         ..
     } = scratch;
     let c = Constants::new(settings, n, atol);
-    w.zero(n);
+    w.size(n);
     c.scale(atol, &st.x, &mut w.scal);
     factors.valid = false;
     let mut attempts: u64 = 0;

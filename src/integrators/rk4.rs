@@ -3,28 +3,14 @@
 //! Fixed steps make the cost of a communication step known in advance and the result
 //! independent of tolerances; the price is that accuracy is the user's business.
 
-use super::workspace::{zeroed, Workspace};
+use super::problem::step_count;
+use super::workspace::{sized, Workspace};
 use super::{Failure, Stats};
 
 /// A final remainder shorter than this fraction of a step is merged into the previous step:
 /// a sliver step (often pure rounding of `t_end - t`) would cost four RHS evaluations and
 /// change nothing but the step count.
 pub const SLIVER: f64 = 1e-10;
-
-/// Number of steps needed to cover `span` with steps of `step`, the last one shortened
-/// (or lengthened by at most a [`SLIVER`]) to land exactly.
-fn step_count(span: f64, step: f64) -> f64 {
-    if !(step > 0.0 && step.is_finite()) {
-        return 1.0;
-    }
-    let full = (span / step).floor();
-    let rest = span - full * step;
-    if rest <= SLIVER * step {
-        full.max(1.0)
-    } else {
-        full + 1.0
-    }
-}
 
 /// Advance with RK4 from `*t` to `t_end` (> `*t`, `x` finite; see [`super::advance`]).
 ///
@@ -55,14 +41,15 @@ pub fn advance_in(
     // No limit here: `integrators::advance` checks the plan against `Settings::max_steps`.
     let n = step_count(t_end - t0, step) as u64;
     let dim = x.len();
+    // (Each written in full, by f or below, before it is read.)
     let [k1, k2, k3, k4, y] = &mut work.rk4;
     let (k1, k2, k3, k4) = (
-        zeroed(k1, dim),
-        zeroed(k2, dim),
-        zeroed(k3, dim),
-        zeroed(k4, dim),
+        sized(k1, dim),
+        sized(k2, dim),
+        sized(k3, dim),
+        sized(k4, dim),
     );
-    let y = zeroed(y, dim);
+    let y = sized(y, dim);
 
     for i in 0..n {
         let ta = *t;

@@ -7,7 +7,7 @@
 //! Störmer–Verlet method*, Acta Numerica 12 (2003) 399–450, Sect. 4 (stability: hω < 2).
 
 use super::problem::{fixed_steps, Problem};
-use super::workspace::{zeroed, Workspace};
+use super::workspace::{sized, Workspace};
 use super::{Failure, Stats};
 
 /// Velocity Verlet from `*t` to `t_end` with step `h` (the last step shortened; `h` not
@@ -43,7 +43,7 @@ pub fn velocity_verlet_in(
 ) -> Result<(), Failure> {
     let nq = problem.positions("Störmer–Verlet", x.len());
     let [y, k] = &mut work.fixed;
-    let k = zeroed(k, x.len());
+    let k = sized(k, x.len());
     fixed_steps(
         "Störmer–Verlet",
         t,

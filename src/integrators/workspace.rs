@@ -1,12 +1,13 @@
 //! The scratch the integrators work in, kept between calls so that a call in steady state
 //! allocates nothing.
 //!
-//! A [`Workspace`] holds capacity, not information: every buffer is written before it is
-//! read (those the methods used to take fresh from `vec![0.0; n]` are zeroed again), and the
-//! one cache it keeps (Gauss's factorized Newton matrix) is keyed on everything it is computed
-//! from, so a result never depends on what an earlier call left here. A fresh
-//! `Workspace::default()` gives the same bits as a used one, only with allocations; it is not
-//! part of the FMU state.
+//! A [`Workspace`] holds capacity, not information: every buffer is written in full before
+//! it is read, by the method or by f (a [`System`](crate::model::System) writes every
+//! component of its derivative), or else zeroed as `vec![0.0; n]` gave it; and the one
+//! cache it keeps (Gauss's factorized Newton matrix) is keyed on everything it is computed
+//! from. So a result never depends on what an earlier call left here: a fresh
+//! `Workspace::default()` gives the same bits as a used one, only with allocations. It is
+//! not part of the FMU state.
 
 use super::{dop853, dopri5, exact_linear, gauss, radau5};
 
@@ -29,6 +30,13 @@ pub struct Workspace {
 /// `v` as `n` zeros, as `vec![0.0; n]` would give, without allocating once `v` has held `n`.
 pub(crate) fn zeroed(v: &mut Vec<f64>, n: usize) -> &mut [f64] {
     v.clear();
+    v.resize(n, 0.0);
+    v
+}
+
+/// `v` with `n` entries, for a buffer written in full before it is read (its old values are
+/// left: no clearing in the hot loops), without allocating once `v` has held `n`.
+pub(crate) fn sized(v: &mut Vec<f64>, n: usize) -> &mut [f64] {
     v.resize(n, 0.0);
     v
 }
