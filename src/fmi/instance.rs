@@ -990,9 +990,15 @@ fn advance_locating_events<M: System>(
 ) -> Result<(), Stop> {
     let indicator = |t: f64, x: &[f64]| M::event_indicator(t, x, u, p);
     for _ in 0..MAX_EVENTS_PER_STEP {
+        let g0 = indicator(*t, x);
+        if g0.is_none() {
+            // No indicator here, so no crossing to look for (the common case).
+            return Ok(integrators::advance_in(
+                problem, t, x, t_end, settings, memory, work,
+            )?);
+        }
         // (No point ahead is kept here: the memory's clone is its counters and step.)
         let (t0, x0, m0) = (*t, copied(x0, x), memory.clone());
-        let g0 = indicator(t0, x0);
         integrators::advance_in(problem, t, x, t_end, settings, memory, work)?;
         if !crossed(g0, indicator(*t, x)) {
             return Ok(());
