@@ -9,7 +9,7 @@
 //! `Workspace::default()` gives the same bits as a used one, only with allocations. It is
 //! not part of the FMU state.
 
-use super::{dop853, dopri5, exact_linear, gauss, radau5};
+use super::{dop853, dopri5, exact_linear, gauss, radau5, rattle};
 
 /// Scratch for every method; each uses its own part, sized on first use.
 #[derive(Default)]
@@ -23,6 +23,7 @@ pub struct Workspace {
     pub(super) dop853: dop853::Scratch,
     pub(super) radau5: radau5::Scratch,
     pub(super) exact_linear: exact_linear::Scratch,
+    pub(super) rattle: rattle::Scratch,
     /// The communication point read from a dense output.
     pub(super) point: Vec<f64>,
 }
