@@ -213,8 +213,7 @@ pub fn advance_with(
 }
 
 /// [`advance_with`] in the scratch of `work`: in steady state (the same sizes as an earlier
-/// call) no method allocates but ExactLinear (its matrix exponential) and RATTLE (see
-/// [`rattle::advance_in`]).
+/// call) no method allocates (what f, the Jacobian and RATTLE's `Mechanics` do is theirs).
 pub fn advance_in(
     problem: &mut problem::Problem,
     t: &mut f64,
