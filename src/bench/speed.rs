@@ -3,17 +3,18 @@
 //!
 //! - doStep: RK4 at `solver_step` = h = 1 ms (one internal step per doStep), logging off,
 //!   through the same `capi::do_step` an exported `fmi2DoStep` forwards to (state
-//!   machine, argument checks, the step, the outputs' finiteness check).
+//!   machine, argument checks, the step, the outputs' finiteness check), in steady state:
+//!   no allocation (tests/allocations.rs).
 //! - RHS: `System::derivatives` in `f64` at the scene's start point.
-//! - Jacobian: the n dual-number columns of ∂f/∂x, as the implicit methods and
-//!   `fmi2GetDirectionalDerivative` build it; reported against n × one RHS.
+//! - Jacobian: the n dual-number columns of ∂f/∂x in kept buffers
+//!   ([`Duals::jacobian`]), as the implicit methods build it; reported against n × one RHS.
 //!
 //! Times are the best of several repetitions of a loop long enough (~20 ms) for the clock
 //! not to matter; the ratios to the floor are what to read (a slower machine moves both).
 
 use super::floors::{self, Floor};
 use crate::fmi::{capi, Export, Instance, Logger, ModelInfo, Status};
-use crate::model::jacobian::{directional, Direction};
+use crate::model::jacobian::Duals;
 use crate::model::{System, VarKind};
 use std::any::TypeId;
 use std::collections::HashMap;
@@ -147,23 +148,10 @@ pub fn measure<M: System>(reps: usize, floor: Option<FloorFn>) -> SpeedRow {
         black_box(&dx);
     });
 
-    let (zero_u, zero_p) = (vec![0.0; u.len()], vec![0.0; p.len()]);
-    let mut e = vec![0.0; n];
+    let (mut duals, mut jac) = (Duals::default(), vec![0.0; n * n]);
     let jacobian_ns = best_ns(reps, || {
-        for j in 0..n {
-            e.fill(0.0);
-            e[j] = 1.0;
-            let (column, _) = directional::<M>(
-                &Direction {
-                    t: 0.0,
-                    x: (black_box(&x), &e),
-                    u: (&u, &zero_u),
-                    p: (&p, &zero_p),
-                },
-                0,
-            );
-            black_box(column);
-        }
+        duals.jacobian::<M>(0.0, black_box(&x), &u, &p, &mut jac);
+        black_box(&jac);
     });
 
     SpeedRow {
@@ -197,6 +185,8 @@ fn floor_costs<F: Floor<N>, const N: usize>(x0: &[f64], p: &[f64], reps: usize) 
 pub fn floor_of(system: &str) -> Option<FloorFn> {
     match system {
         "MassSpringDamper" => Some(floor_costs::<floors::MassSpringDamper, 2>),
+        "TwoMassChain" => Some(floor_costs::<floors::TwoMassChain, 4>),
+        "RigidBody" => Some(floor_costs::<floors::RigidBody, 7>),
         "CompoundPendulum" => Some(floor_costs::<floors::CompoundPendulum, 2>),
         "DoublePendulum" => Some(floor_costs::<floors::DoublePendulum, 4>),
         _ => None,

@@ -8,11 +8,12 @@ use super::Status;
 use super::{Logger, ModelInfo, Snapshot};
 use crate::integrators::problem::Problem;
 use crate::integrators::{
-    self, dop853, dopri5, dopri5::Ahead, problem::Mechanics, radau5, Memory, Method, Settings,
+    self, copied, problem::Mechanics, sized, zeroed, Memory, Method, Settings, Workspace,
 };
 use crate::model::consistent;
-use crate::model::jacobian::{directional, Direction};
-use crate::model::{Slot, System, Var, VarKind};
+use crate::model::jacobian::{Direction, Duals};
+use crate::model::{Layout, Slot, System, Var, VarKind};
+use std::cell::RefCell;
 use std::marker::PhantomData;
 
 /// Why an integration inside doStep stopped early: the reason (one line), and whether it
@@ -60,7 +61,71 @@ pub struct Instance<M: System> {
     /// Which states the user set since instantiation (or fmi2Reset): a dependent state
     /// set to a value the constraints contradict is reported at initialisation.
     states_set: Vec<bool>,
+    /// The scratch of doStep and the getters (see [`Work`]); not part of the FMU state.
+    work: RefCell<Work>,
     _model: PhantomData<M>,
+}
+
+/// What doStep and the getters work in: capacity kept between calls, so that a call in
+/// steady state allocates nothing. It holds no information: the settings are derived from
+/// the instance's values (and refreshed when they change), every buffer is written before
+/// it is read, and a restored FMU state runs the same with a fresh one.
+#[derive(Default)]
+struct Work {
+    /// The integrators' settings for the running experiment, absolute tolerances included
+    /// (recomputed only when the tolerance changes).
+    settings: Option<Settings>,
+    /// The state under integration, and its start (the event search's).
+    x: Vec<f64>,
+    x0: Vec<f64>,
+    /// The extra outputs, the state derivatives (fmi2GetReal), and the directional
+    /// derivative's seeds (states, inputs, parameters) and results (f, extra outputs).
+    y: Vec<f64>,
+    dx: Vec<f64>,
+    seeds: [Vec<f64>; 3],
+    sensitivities: [Vec<f64>; 2],
+    /// Dual numbers for the Jacobian and the directional derivatives.
+    duals: Duals,
+    integrators: Workspace,
+}
+
+/// `settings` (of a [`Work`]) for the values in `d`: method, tolerances (`atol` = tolerance
+/// × the state's nominal), the step (`adaptive_max_step` for the adaptive methods) and the
+/// step limit.
+fn prepared<'a>(
+    settings: &'a mut Option<Settings>,
+    d: &Snapshot,
+    layout: &Layout,
+    adaptive_max_step: f64,
+) -> &'a Settings {
+    let stale = !matches!(settings, Some(s) if s.rtol.to_bits() == d.tolerance.to_bits());
+    if stale {
+        let atol = (0..layout.n_states)
+            .map(|i| {
+                let vr = layout.vr_of_slot(VarKind::State, i) as usize;
+                d.tolerance * layout.vars[vr].1.nominal.unwrap_or(1.0)
+            })
+            .collect();
+        *settings = Some(Settings {
+            method: d.method,
+            rtol: d.tolerance,
+            atol,
+            step: 0.0,
+            max_steps: 0,
+        });
+    }
+    let s = settings.as_mut().expect("just prepared");
+    s.method = d.method;
+    // The step parameter is the fixed step of fixed-step methods; adaptive ones are
+    // bounded only by the communication interval in landing mode (and by
+    // `cap_adaptive_step`, unbounded for importers).
+    s.step = if d.method.is_adaptive() {
+        adaptive_max_step
+    } else {
+        d.solver_step
+    };
+    s.max_steps = d.max_steps;
+    s
 }
 
 type Res<T = ()> = Result<T, String>;
@@ -98,6 +163,7 @@ impl<M: System> Instance<M> {
             data,
             adaptive_max_step: f64::INFINITY,
             states_set: vec![false; layout.n_states],
+            work: RefCell::default(),
             _model: PhantomData,
         }
     }
@@ -202,6 +268,14 @@ impl<M: System> Instance<M> {
         self.data.x = x;
         self.data.memory = Memory::default();
         self.data.machine = Machine::StepComplete;
+        // What doStep works with, prepared once.
+        let settings = &mut self.work.get_mut().settings;
+        prepared(
+            settings,
+            &self.data,
+            &self.info.layout,
+            self.adaptive_max_step,
+        );
         Ok(if adjusted.is_empty() {
             Status::Ok
         } else {
@@ -227,11 +301,6 @@ impl<M: System> Instance<M> {
         &self.info.layout.vars[vr as usize].1.name
     }
 
-    fn derivatives(&self, dx: &mut [f64]) {
-        let d = &self.data;
-        M::derivatives(d.time, &d.x, &d.u, &d.params, dx);
-    }
-
     fn slot(&self, function: &str, vr: u32) -> Res<Slot> {
         self.info.layout.slot(vr).ok_or_else(|| {
             format!(
@@ -247,39 +316,38 @@ impl<M: System> Instance<M> {
 
     pub fn get_real(&self, vrs: &[u32], values: &mut [f64]) -> Res {
         self.require(machine::GET, "fmi2GetReal")?;
-        let slots = vrs
-            .iter()
-            .map(|&vr| {
-                let s = self.slot("fmi2GetReal", vr)?;
-                if let Some(kind) = integer_kind(s.kind) {
-                    return Err(format!(
-                        "fmi2GetReal: value reference {vr} ({}) is an {kind}, read it with fmi2GetInteger",
-                        self.name(vr)
-                    ));
-                }
-                Ok(s)
-            })
-            .collect::<Res<Vec<Slot>>>()?;
+        for &vr in vrs {
+            let s = self.slot("fmi2GetReal", vr)?;
+            if let Some(kind) = integer_kind(s.kind) {
+                return Err(format!(
+                    "fmi2GetReal: value reference {vr} ({}) is an {kind}, read it with fmi2GetInteger",
+                    self.name(vr)
+                ));
+            }
+        }
         let d = &self.data;
-        let mut dx = Vec::new();
-        let mut y = Vec::new();
-        for (value, slot) in values.iter_mut().zip(slots) {
+        let mut work = self.work.borrow_mut();
+        let Work { dx, y, .. } = &mut *work;
+        let (mut have_dx, mut have_y) = (false, false);
+        for (value, &vr) in values.iter_mut().zip(vrs) {
+            let slot = self.info.layout.vars[vr as usize].0;
             *value = match slot.kind {
                 VarKind::Parameter => d.params[slot.index],
                 VarKind::SolverStep => d.solver_step,
                 VarKind::State => d.x[slot.index],
                 VarKind::Input => d.u[slot.index],
                 VarKind::Derivative => {
-                    if dx.is_empty() {
-                        dx = vec![0.0; d.x.len()];
-                        self.derivatives(&mut dx);
+                    if !have_dx {
+                        M::derivatives(d.time, &d.x, &d.u, &d.params, zeroed(dx, d.x.len()));
+                        have_dx = true;
                     }
                     dx[slot.index]
                 }
                 VarKind::Output => {
-                    if y.is_empty() {
-                        y = vec![0.0; self.info.layout.n_outputs];
-                        M::extra_outputs(d.time, &d.x, &d.u, &d.params, &mut y);
+                    if !have_y {
+                        let y = zeroed(y, self.info.layout.n_outputs);
+                        M::extra_outputs(d.time, &d.x, &d.u, &d.params, y);
+                        have_y = true;
                     }
                     y[slot.index]
                 }
@@ -342,7 +410,7 @@ impl<M: System> Instance<M> {
                     // A new input value changes f: the integrator's point ahead of the
                     // communication time no longer holds. The same value keeps it.
                     if d.u[slot.index].to_bits() != value.to_bits() {
-                        drop_ahead(&mut d.memory);
+                        d.memory.drop_ahead();
                     }
                     d.u[slot.index] = value
                 }
@@ -422,7 +490,16 @@ impl<M: System> Instance<M> {
         Ok(())
     }
 
+    /// fmi2DoStep: from the held state at `current` to `current + h`.
     pub fn do_step(&mut self, current: f64, h: f64) -> Res<StepOutcome> {
+        let t_end = self.check_step(current, h)?;
+        let (t, result) = self.integrate(current, t_end);
+        self.report_stiffness();
+        Ok(self.settle(t_end, t, result))
+    }
+
+    /// The checks of fmi2DoStep before any work (state machine, arguments); the step's end.
+    fn check_step(&self, current: f64, h: f64) -> Res<f64> {
         self.require(machine::DO_STEP, "fmi2DoStep")?;
         if !(h.is_finite() && h > 0.0) {
             return Err(format!(
@@ -444,57 +521,36 @@ impl<M: System> Instance<M> {
                 ));
             }
         }
-        let layout = &self.info.layout;
-        let atol: Vec<f64> = (0..layout.n_states)
-            .map(|i| {
-                let vr = layout.vr_of_slot(VarKind::State, i) as usize;
-                self.data.tolerance * layout.vars[vr].1.nominal.unwrap_or(1.0)
-            })
-            .collect();
+        Ok(t_end)
+    }
+
+    /// Integrates the held state from `current` to `t_end` into the scratch (`work.x`):
+    /// the time reached (`t_end` on success, else the last good internal step) and how it
+    /// ended. The state is projected onto the constraints when the integration succeeded.
+    /// The adaptive methods run ahead of the communication points with dense output,
+    /// unless an event may come (events are located on landing steps).
+    fn integrate(&mut self, current: f64, t_end: f64) -> (f64, Result<(), Stop>) {
         let d = &mut self.data;
-        let settings = Settings {
-            method: d.method,
-            rtol: d.tolerance,
-            atol,
-            // The step parameter is the fixed step of fixed-step methods; adaptive ones
-            // are bounded only by the communication interval in landing mode (and by
-            // `cap_adaptive_step`, unbounded for importers).
-            step: if d.method.is_adaptive() {
-                self.adaptive_max_step
-            } else {
-                d.solver_step
-            },
-            max_steps: d.max_steps,
-        };
+        let Work {
+            settings,
+            x,
+            x0,
+            duals,
+            integrators: work,
+            ..
+        } = self.work.get_mut();
+        let settings = prepared(settings, d, &self.info.layout, self.adaptive_max_step);
         let (u, p) = (&d.u, &d.params);
-        let n = d.x.len();
         let mut rhs = |t: f64, x: &[f64], dx: &mut [f64]| M::derivatives(t, x, u, p, dx);
         // ∂f/∂x column by column with dual numbers (exact), row-major for the methods.
-        let mut jacobian = |t: f64, x: &[f64], jac: &mut [f64]| {
-            let (zero_u, zero_p) = (vec![0.0; u.len()], vec![0.0; p.len()]);
-            let mut e = vec![0.0; n];
-            for j in 0..n {
-                e.fill(0.0);
-                e[j] = 1.0;
-                let (column, _) = directional::<M>(
-                    &Direction {
-                        t,
-                        x: (x, &e),
-                        u: (u, &zero_u),
-                        p: (p, &zero_p),
-                    },
-                    0,
-                );
-                for (i, v) in column.iter().enumerate() {
-                    jac[i * n + j] = *v;
-                }
-            }
-        };
+        let mut jacobian =
+            |t: f64, x: &[f64], jac: &mut [f64]| duals.jacobian::<M>(t, x, u, p, jac);
         let mut mechanics = if d.method.needs_mechanics() {
             M::mechanics(u, p)
         } else {
             None
         };
+        let n = d.x.len();
         let mut problem = Problem {
             rhs: &mut rhs,
             jacobian: Some(&mut jacobian),
@@ -502,54 +558,47 @@ impl<M: System> Instance<M> {
             // (the cast shortens the trait object's lifetime to the borrow's)
             mechanics: mechanics.as_deref_mut().map(|m| m as &mut dyn Mechanics),
         };
-        let mut t = current;
-        let mut x = d.x.clone();
-        // The adaptive methods run ahead of the communication points with dense output,
-        // unless an event may come (events are located on landing steps).
-        let dense_method = matches!(d.method, Method::Dopri5 | Method::Dop853 | Method::Radau5);
-        let dense = dense_method && M::event_indicator(t, &x, u, p).is_none();
-        let result = if dense {
+        let (mut t, x) = (current, copied(x, &d.x));
+        let memory = &mut d.memory;
+        let result = if d.method.is_adaptive() && M::event_indicator(t, x, u, p).is_none() {
             // Never step past the stop time (f may not be defined beyond it).
             let t_limit = d.stop_time.map_or(f64::INFINITY, |stop| stop.max(t_end));
             let mut project = |t: f64, x: &mut [f64]| M::project(t, p, x);
-            let state = (&mut t, &mut x);
-            let ends = (t_end, t_limit);
-            let memory = &mut d.memory;
-            match d.method {
-                Method::Dopri5 => {
-                    let rhs = &mut *problem.rhs;
-                    advance_dense(rhs, &mut project, state, ends, &settings, memory)
-                }
-                Method::Radau5 => {
-                    let p = &mut problem;
-                    advance_dense_radau5(p, &mut project, state, ends, &settings, memory)
-                }
-                _ => {
-                    // DOP853, the last of the dense methods above.
-                    let p = &mut problem;
-                    advance_dense_dop853(p, &mut project, state, ends, &settings, memory)
-                }
-            }
+            let (state, ends) = ((&mut t, &mut *x), (t_end, t_limit));
+            integrators::advance_dense(
+                &mut problem,
+                &mut project,
+                state,
+                ends,
+                settings,
+                memory,
+                work,
+            )
+            .map_err(Stop::from)
         } else {
-            drop_ahead(&mut d.memory);
+            memory.drop_ahead();
+            let scratch = (x0, work);
+            let model = (&u[..], &p[..]);
             advance_locating_events::<M>(
                 &mut problem,
-                &mut t,
-                &mut x,
+                (&mut t, x),
                 t_end,
-                &settings,
-                &mut d.memory,
-                (u, p),
+                settings,
+                memory,
+                model,
+                scratch,
             )
         };
         if result.is_ok() {
-            M::project(t, p, &mut x);
+            M::project(t, p, x);
         }
-        let mut y = vec![0.0; layout.n_outputs];
-        M::extra_outputs(t, &x, u, p, &mut y);
-        let outputs_finite = x.iter().chain(&y).all(|v| v.is_finite());
-        if let Some(at) = d.memory.stiffness.detected_at.take() {
-            d.memory.stiffness.reported = true;
+        (t, result)
+    }
+
+    /// DOPRI5's stiffness detection, reported once (a warning).
+    fn report_stiffness(&mut self) {
+        if let Some(at) = self.data.memory.stiffness.detected_at.take() {
+            self.data.memory.stiffness.reported = true;
             self.logger.failure(
                 Status::Warning,
                 &format!(
@@ -557,40 +606,49 @@ impl<M: System> Instance<M> {
                 ),
             );
         }
+    }
+
+    /// The end of a doStep to `t_end` that reached `t` with `result` (the state in
+    /// `work.x`): the new state if it and the outputs are finite, else the last good one,
+    /// and the outcome.
+    fn settle(&mut self, t_end: f64, t: f64, result: Result<(), Stop>) -> StepOutcome {
+        let (d, work) = (&mut self.data, self.work.get_mut());
+        let now = d.time;
+        let y = sized(&mut work.y, self.info.layout.n_outputs);
+        M::extra_outputs(t, &work.x, &d.u, &d.params, y);
+        let finite = work.x.iter().chain(y.iter()).all(|v| v.is_finite());
         match result {
-            Ok(()) if outputs_finite => {
-                d.x = x;
+            Ok(()) if finite => {
+                std::mem::swap(&mut d.x, &mut work.x);
                 d.time = t_end;
-                Ok(StepOutcome::Completed)
+                StepOutcome::Completed
             }
             Ok(()) => {
                 // The state stays at `now`: the point ahead of `t_end` no longer goes with it.
-                drop_ahead(&mut d.memory);
+                d.memory.drop_ahead();
                 d.machine = Machine::StepFailed;
-                Ok(StepOutcome::Discarded(format!(
+                StepOutcome::Discarded(format!(
                     "fmi2DoStep: outputs became non-finite at t = {t_end}; state kept at t = {now}"
-                )))
+                ))
             }
             Err(stop) => {
                 d.machine = Machine::StepFailed;
                 let mut why = stop.reason;
                 if stop.step_limit {
-                    let vr = layout.vr_of_slot(VarKind::SolverMaxSteps, 0);
+                    let vr = self.info.layout.vr_of_slot(VarKind::SolverMaxSteps, 0);
                     why += &format!(
                         "; raise solver_max_steps (value reference {vr}, now {}) or shorten the communication step",
                         d.max_steps
                     );
                 }
-                if t > now && x.iter().chain(&y).all(|v| v.is_finite()) {
-                    d.x = x;
+                if t > now && finite {
+                    std::mem::swap(&mut d.x, &mut work.x);
                     d.time = t;
-                    Ok(StepOutcome::Discarded(format!(
+                    StepOutcome::Discarded(format!(
                         "fmi2DoStep: {why}; integration stopped at the last good state, t = {t}"
-                    )))
+                    ))
                 } else {
-                    Ok(StepOutcome::Discarded(format!(
-                        "fmi2DoStep: {why}; state kept at t = {now}"
-                    )))
+                    StepOutcome::Discarded(format!("fmi2DoStep: {why}; state kept at t = {now}"))
                 }
             }
         }
@@ -609,8 +667,14 @@ impl<M: System> Instance<M> {
         const F: &str = "fmi2GetDirectionalDerivative";
         self.require(machine::DIRECTIONAL_DERIVATIVE, F)?;
         let d = &self.data;
-        let mut dx = vec![0.0; d.x.len()];
-        let mut du = vec![0.0; d.u.len()];
+        let mut work = self.work.borrow_mut();
+        let Work {
+            seeds: [dx, du, zeros_p],
+            sensitivities: [df, dg],
+            duals,
+            ..
+        } = &mut *work;
+        let (dx, du) = (zeroed(dx, d.x.len()), zeroed(du, d.u.len()));
         for (&vr, &dv) in knowns.iter().zip(dv_known) {
             let slot = self.slot(F, vr)?;
             if !dv.is_finite() {
@@ -630,30 +694,32 @@ impl<M: System> Instance<M> {
                 }
             }
         }
-        let slots = unknowns
-            .iter()
-            .map(|&vr| {
-                let slot = self.slot(F, vr)?;
-                match slot.kind {
-                    VarKind::State | VarKind::Derivative | VarKind::Output => Ok(slot),
-                    _ => Err(format!(
-                        "{F}: {} (value reference {vr}) is not an unknown: use outputs or state derivatives",
-                        self.name(vr)
-                    )),
-                }
-            })
-            .collect::<Res<Vec<Slot>>>()?;
-        let zeros_p = vec![0.0; d.params.len()];
-        let (df, dg) = directional::<M>(
-            &Direction {
-                t: d.time,
-                x: (&d.x, &dx),
-                u: (&d.u, &du),
-                p: (&d.params, &zeros_p),
-            },
-            self.info.layout.n_outputs,
+        for &vr in unknowns {
+            let slot = self.slot(F, vr)?;
+            if !matches!(
+                slot.kind,
+                VarKind::State | VarKind::Derivative | VarKind::Output
+            ) {
+                return Err(format!(
+                    "{F}: {} (value reference {vr}) is not an unknown: use outputs or state derivatives",
+                    self.name(vr)
+                ));
+            }
+        }
+        let zeros_p = zeroed(zeros_p, d.params.len());
+        let (df, dg) = (
+            zeroed(df, d.x.len()),
+            zeroed(dg, self.info.layout.n_outputs),
         );
-        for (out, slot) in dv_unknown.iter_mut().zip(slots) {
+        let direction = Direction {
+            t: d.time,
+            x: (&d.x, dx),
+            u: (&d.u, du),
+            p: (&d.params, zeros_p),
+        };
+        duals.directional::<M>(&direction, df, dg);
+        for (out, &vr) in dv_unknown.iter_mut().zip(unknowns) {
+            let slot = self.info.layout.vars[vr as usize].0;
             *out = match slot.kind {
                 VarKind::State => dx[slot.index],
                 VarKind::Derivative => df[slot.index],
@@ -904,135 +970,6 @@ fn check_method<M: System>(method: Method, u: &[f64], p: &[f64], lti: bool) -> R
     Ok(())
 }
 
-/// DOPRI5 with dense output (see [`dopri5::Ahead`]): continues from the integrator's own
-/// point ahead of `*t` when there is one (else starts one at `(*t, x)`), steps until the
-/// last step covers `t_end`, and writes x(`t_end`) from the continuous extension. On
-/// failure `(*t, x)` is the last accepted step and the point ahead is dropped.
-#[allow(clippy::type_complexity)] // the integrators' own closure types, spelled out
-fn advance_dense(
-    rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
-    project: &mut dyn FnMut(f64, &mut [f64]),
-    (t, x): (&mut f64, &mut Vec<f64>),
-    (t_end, t_limit): (f64, f64),
-    settings: &Settings,
-    memory: &mut Memory,
-) -> Result<(), Stop> {
-    let kept = memory.ahead.take();
-    drop_ahead(memory);
-    let mut ahead = match kept {
-        Some(a) if a.t0 <= *t && *t <= a.t => a,
-        _ => Ahead::start(rhs, *t, x, &mut memory.stats)?,
-    };
-    let mut out = vec![0.0; x.len()];
-    let result = dopri5::advance_dense(
-        rhs, project, &mut ahead, t_end, t_limit, settings, memory, &mut out,
-    );
-    settle_dense(result, out, (ahead.t, &ahead.x), (t, x), t_end)?;
-    memory.ahead = Some(ahead);
-    Ok(())
-}
-
-/// RADAU5 with dense output (see [`radau5::Ahead`]), as [`advance_dense`] does for DOPRI5:
-/// continues the loop state kept ahead of `*t` when there is one (else starts one at
-/// `(*t, x)` with the carried step proposal), steps until the last step covers `t_end`,
-/// and writes x(`t_end`) from the collocation polynomial. On failure `(*t, x)` is the last
-/// accepted step and the state ahead is dropped.
-#[allow(clippy::type_complexity)] // the integrators' own closure types, spelled out
-fn advance_dense_radau5(
-    problem: &mut Problem,
-    project: &mut dyn FnMut(f64, &mut [f64]),
-    (t, x): (&mut f64, &mut Vec<f64>),
-    (t_end, t_limit): (f64, f64),
-    settings: &Settings,
-    memory: &mut Memory,
-) -> Result<(), Stop> {
-    let kept = memory.radau5_ahead.take();
-    drop_ahead(memory);
-    let mut ahead = match kept {
-        Some(a) if *t <= a.t => a,
-        _ => radau5::Ahead::start(
-            problem,
-            *t,
-            x,
-            memory.h,
-            t_limit,
-            settings,
-            &mut memory.stats,
-        )
-        .map_err(|e| {
-            memory.h = 0.0;
-            Stop::from(e)
-        })?,
-    };
-    let mut out = vec![0.0; x.len()];
-    let result = radau5::advance_dense(
-        problem, project, &mut ahead, t_end, t_limit, settings, memory, &mut out,
-    );
-    settle_dense(result, out, (ahead.t, &ahead.x), (t, x), t_end)?;
-    memory.radau5_ahead = Some(ahead);
-    Ok(())
-}
-
-/// DOP853 with dense output (see [`dop853::Ahead`]), as [`advance_dense`] does for DOPRI5.
-#[allow(clippy::type_complexity)] // the integrators' own closure types, spelled out
-fn advance_dense_dop853(
-    problem: &mut Problem,
-    project: &mut dyn FnMut(f64, &mut [f64]),
-    (t, x): (&mut f64, &mut Vec<f64>),
-    (t_end, t_limit): (f64, f64),
-    settings: &Settings,
-    memory: &mut Memory,
-) -> Result<(), Stop> {
-    let kept = memory.dop853_ahead.take();
-    drop_ahead(memory);
-    let mut ahead = match kept {
-        Some(a) if a.t0 <= *t && *t <= a.t => a,
-        _ => dop853::Ahead::start(problem, *t, x, &mut memory.stats)?,
-    };
-    let mut out = vec![0.0; x.len()];
-    let result = dop853::advance_dense(
-        problem, project, &mut ahead, t_end, t_limit, settings, memory, &mut out,
-    );
-    settle_dense(result, out, (ahead.t, &ahead.x), (t, x), t_end)?;
-    memory.dop853_ahead = Some(ahead);
-    Ok(())
-}
-
-/// The end of a dense advance to `t_end`: on success the communication point `out` becomes
-/// the state; on failure the state is the last accepted step `(t_ahead, x_ahead)` if the
-/// integrator got past `*t`, and the error is returned (the caller then drops its state
-/// ahead).
-fn settle_dense(
-    result: Result<(), integrators::Failure>,
-    out: Vec<f64>,
-    (t_ahead, x_ahead): (f64, &[f64]),
-    (t, x): (&mut f64, &mut Vec<f64>),
-    t_end: f64,
-) -> Result<(), Stop> {
-    match result {
-        Ok(()) => {
-            *x = out;
-            *t = t_end;
-            Ok(())
-        }
-        Err(e) => {
-            if t_ahead > *t {
-                *t = t_ahead;
-                x.copy_from_slice(x_ahead);
-            }
-            Err(e.into())
-        }
-    }
-}
-
-/// Forgets every integrator's point ahead of the communication time: f changed (an input),
-/// or the mode or method that kept it is not the one running.
-fn drop_ahead(memory: &mut Memory) {
-    memory.ahead = None;
-    memory.radau5_ahead = None;
-    memory.dop853_ahead = None;
-}
-
 /// Most events handled inside one doStep before it gives up (a chattering model).
 const MAX_EVENTS_PER_STEP: usize = 100;
 
@@ -1048,30 +985,38 @@ fn crossed(before: Option<f64>, after: Option<f64>) -> bool {
 /// the crossing is located by bisection on re-integrations from the start of the piece
 /// (deterministic, and as exact as the integration itself), [`System::on_event`] is
 /// applied there, and the integration continues. Work spent on bisection is counted in
-/// the statistics.
+/// the statistics. In the scratch `(x0, work)`: a doStep without an event allocates
+/// nothing (the bisection's re-integrations do).
 fn advance_locating_events<M: System>(
     problem: &mut Problem,
-    t: &mut f64,
-    x: &mut Vec<f64>,
+    (t, x): (&mut f64, &mut [f64]),
     t_end: f64,
     settings: &Settings,
     memory: &mut Memory,
     (u, p): (&[f64], &[f64]),
+    (x0, work): (&mut Vec<f64>, &mut Workspace),
 ) -> Result<(), Stop> {
     let indicator = |t: f64, x: &[f64]| M::event_indicator(t, x, u, p);
     for _ in 0..MAX_EVENTS_PER_STEP {
-        let (t0, x0, m0) = (*t, x.clone(), memory.clone());
-        let g0 = indicator(t0, &x0);
-        integrators::advance_with(problem, t, x, t_end, settings, memory)?;
+        let g0 = indicator(*t, x);
+        if g0.is_none() {
+            // No indicator here, so no crossing to look for (the common case).
+            return Ok(integrators::advance_in(
+                problem, t, x, t_end, settings, memory, work,
+            )?);
+        }
+        // (No point ahead is kept here: the memory's clone is its counters and step.)
+        let (t0, x0, m0) = (*t, copied(x0, x), memory.clone());
+        integrators::advance_in(problem, t, x, t_end, settings, memory, work)?;
         if !crossed(g0, indicator(*t, x)) {
             return Ok(());
         }
         // Work already spent past the event; the bisection adds to it.
         let mut extra_evals = memory.stats.rhs_evals - m0.stats.rhs_evals;
         let mut rerun = |to: f64, extra: &mut u64| -> Result<(Vec<f64>, Memory), Stop> {
-            let (mut tt, mut xx, mut mm) = (t0, x0.clone(), m0.clone());
+            let (mut tt, mut xx, mut mm) = (t0, x0.to_vec(), m0.clone());
             let result =
-                integrators::advance_with(problem, &mut tt, &mut xx, to, settings, &mut mm);
+                integrators::advance_in(problem, &mut tt, &mut xx, to, settings, &mut mm, work);
             *extra += mm.stats.rhs_evals - m0.stats.rhs_evals;
             result.map(|()| (xx, mm)).map_err(Stop::from)
         };
@@ -1095,7 +1040,7 @@ fn advance_locating_events<M: System>(
         *memory = mm;
         M::on_event(hi, &mut xx, p);
         *t = hi;
-        *x = xx;
+        x.copy_from_slice(&xx);
         if *t >= t_end {
             return Ok(());
         }

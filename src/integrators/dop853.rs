@@ -19,6 +19,7 @@ use super::explicit_rk::{
     carried_proposal, check_attempt, initial_step, max_step, stage, Goal, PiController, PiGains,
 };
 use super::problem::{start, Problem};
+use super::workspace::{sized, Workspace};
 use super::{Failure, Memory, Settings, Stats};
 
 // Nodes c_i (dop853.f; c12 = 1; c14..c16 of the dense output are below).
@@ -243,13 +244,40 @@ pub fn advance(
     settings: &Settings,
     memory: &mut Memory,
 ) -> Result<(), Failure> {
+    advance_in(
+        problem,
+        t,
+        x,
+        t_end,
+        settings,
+        memory,
+        &mut Workspace::default(),
+    )
+}
+
+/// [`advance`] in the scratch of `work`: no allocation once it has held this size.
+pub fn advance_in(
+    problem: &mut Problem,
+    t: &mut f64,
+    x: &mut [f64],
+    t_end: f64,
+    settings: &Settings,
+    memory: &mut Memory,
+    work: &mut Workspace,
+) -> Result<(), Failure> {
     if !start("DOP853", *t, x, t_end)? {
         return Ok(());
     }
-    let mut k1 = vec![0.0; x.len()];
-    let result = if problem.eval(*t, x, &mut k1, &mut memory.stats) {
+    let w = &mut work.dop853;
+    let k1 = &mut w.k1;
+    sized(k1, x.len());
+    let result = if problem.eval(*t, x, k1, &mut memory.stats) {
         let goal = Goal::Land(t_end);
-        run(problem, t, x, &mut k1, goal, None, None, settings, memory).map(|_| ())
+        let scratch = (&mut w.stages, &mut w.f1, &mut w.step);
+        run(
+            problem, t, x, k1, goal, None, None, settings, memory, scratch,
+        )
+        .map(|_| ())
     } else {
         Err(Failure::NonFinite { t: *t })
     };
@@ -327,8 +355,9 @@ impl Ahead {
     fn back_to_step_start(&mut self) {
         let n = self.x.len();
         if !self.step.is_empty() {
-            let block = |b: StepBlock| self.step[b as usize * n..(b as usize + 1) * n].to_vec();
-            (self.x, self.f) = (block(StepBlock::X0), block(StepBlock::K1));
+            let block = |b: StepBlock| &self.step[b as usize * n..(b as usize + 1) * n];
+            self.x.copy_from_slice(block(StepBlock::X0));
+            self.f.copy_from_slice(block(StepBlock::K1));
             self.t = self.t0;
             self.step.clear();
             self.cont.clear();
@@ -344,12 +373,27 @@ impl Ahead {
         out: &mut [f64],
         stats: &mut Stats,
     ) -> Result<(), Failure> {
+        self.point_in(problem, t, out, stats, &mut Workspace::default())
+    }
+
+    /// [`Ahead::point`] in the scratch of `work`: no allocation once it and the extension
+    /// have held this size.
+    pub fn point_in(
+        &mut self,
+        problem: &mut Problem,
+        t: f64,
+        out: &mut [f64],
+        stats: &mut Stats,
+        work: &mut Workspace,
+    ) -> Result<(), Failure> {
         if t == self.t || self.step.is_empty() {
             out.copy_from_slice(&self.x);
             return Ok(());
         }
         if self.cont.is_empty() {
-            self.cont = extension(problem, self.t0, self.t - self.t0, &self.step, stats)?;
+            let (t0, hs) = (self.t0, self.t - self.t0);
+            let stages = &mut work.dop853.extension;
+            extension(problem, t0, hs, &self.step, stats, stages, &mut self.cont)?;
         }
         let n = self.x.len();
         let s = (t - self.t0) / (self.t - self.t0);
@@ -385,6 +429,26 @@ pub fn advance_dense(
     memory: &mut Memory,
     out: &mut [f64],
 ) -> Result<(), Failure> {
+    let mut work = Workspace::default();
+    let ends = (t_out, t_limit);
+    advance_dense_in(
+        problem, project, ahead, ends, settings, memory, out, &mut work,
+    )
+}
+
+/// [`advance_dense`] to `(t_out, t_limit)` in the scratch of `work`: no allocation once it
+/// has held this size.
+#[allow(clippy::too_many_arguments)]
+pub fn advance_dense_in(
+    problem: &mut Problem,
+    project: &mut dyn FnMut(f64, &mut [f64]),
+    ahead: &mut Ahead,
+    (t_out, t_limit): (f64, f64),
+    settings: &Settings,
+    memory: &mut Memory,
+    out: &mut [f64],
+    work: &mut Workspace,
+) -> Result<(), Failure> {
     if t_out > ahead.t {
         let Ahead {
             t,
@@ -397,6 +461,8 @@ pub fn advance_dense(
         } = ahead;
         let goal = Goal::Pass { t_out, t_limit };
         let known = (*err_prev > 0.0).then_some(*err_prev);
+        let w = &mut work.dop853;
+        let scratch = (&mut w.stages, &mut w.f1, &mut w.step);
         match run(
             problem,
             t,
@@ -407,10 +473,11 @@ pub fn advance_dense(
             Some(project),
             settings,
             memory,
+            scratch,
         ) {
             Ok(Some(last)) => {
                 *t0 = last.t0;
-                *step = last.step;
+                std::mem::swap(step, &mut w.step);
                 *err_prev = last.err_prev;
                 cont.clear();
             }
@@ -421,7 +488,7 @@ pub fn advance_dense(
             }
         }
     }
-    let result = ahead.point(problem, t_out, out, &mut memory.stats);
+    let result = ahead.point_in(problem, t_out, out, &mut memory.stats, work);
     if result.is_err() {
         // The step ends past `t_out` but its extension failed: the last good point not
         // past `t_out` is the step's start.
@@ -432,15 +499,17 @@ pub fn advance_dense(
 }
 
 /// The continuous extension of an accepted step of size `hs` from `t0` (dop853.f, after
-/// label 62) from its record `step` (see [`Ahead::step`]): three more stages (14, 15, 16),
-/// 8 blocks of n.
+/// label 62) from its record `step` (see [`Ahead::step`]): three more stages (14, 15, 16)
+/// in the scratch `stages`, then 8 blocks of n into `cont` (left alone on failure).
 fn extension(
     problem: &mut Problem,
     t0: f64,
     hs: f64,
     step: &[f64],
     stats: &mut Stats,
-) -> Result<Vec<f64>, Failure> {
+    stages: &mut [Vec<f64>; 4],
+    cont: &mut Vec<f64>,
+) -> Result<(), Failure> {
     let n = step.len() / 11;
     let block = |b: usize| &step[b * n..(b + 1) * n];
     let (x, y) = (block(StepBlock::X0 as usize), block(StepBlock::Y as usize));
@@ -448,7 +517,8 @@ fn extension(
     let [k6, k7, k8, k9, k10, k11, k12] =
         std::array::from_fn(|j| block(StepBlock::K6 as usize + j));
     let bad = || Failure::NonFinite { t: t0 };
-    let [mut yk, mut k14, mut k15, mut k16] = std::array::from_fn(|_| vec![0.0; n]);
+    let [yk, k14, k15, k16] = stages;
+    let (yk, k14, k15, k16) = (sized(yk, n), sized(k14, n), sized(k15, n), sized(k16, n));
     let row14 = [
         (A141, k1),
         (A147, k7),
@@ -459,8 +529,8 @@ fn extension(
         (A1412, k12),
         (A1413, f1),
     ];
-    stage(&mut yk, x, hs, &row14);
-    if !problem.eval(t0 + C14 * hs, &yk, &mut k14, stats) {
+    stage(yk, x, hs, &row14);
+    if !problem.eval(t0 + C14 * hs, yk, k14, stats) {
         return Err(bad());
     }
     let row15 = [
@@ -473,8 +543,8 @@ fn extension(
         (A1513, f1),
         (A1514, &k14[..]),
     ];
-    stage(&mut yk, x, hs, &row15);
-    if !problem.eval(t0 + C15 * hs, &yk, &mut k15, stats) {
+    stage(yk, x, hs, &row15);
+    if !problem.eval(t0 + C15 * hs, yk, k15, stats) {
         return Err(bad());
     }
     let row16 = [
@@ -487,12 +557,12 @@ fn extension(
         (A1614, &k14[..]),
         (A1615, &k15[..]),
     ];
-    stage(&mut yk, x, hs, &row16);
-    if !problem.eval(t0 + C16 * hs, &yk, &mut k16, stats) {
+    stage(yk, x, hs, &row16);
+    if !problem.eval(t0 + C16 * hs, yk, k16, stats) {
         return Err(bad());
     }
-    let stages: [&[f64]; 12] = [k1, k6, k7, k8, k9, k10, k11, k12, f1, &k14, &k15, &k16];
-    let mut cont = vec![0.0; 8 * n];
+    let stages: [&[f64]; 12] = [k1, k6, k7, k8, k9, k10, k11, k12, f1, k14, k15, k16];
+    let cont = sized(cont, 8 * n);
     for i in 0..n {
         let ydiff = y[i] - x[i];
         let bspl = hs * k1[i] - ydiff;
@@ -505,28 +575,41 @@ fn extension(
             cont[(4 + j) * n + i] = hs * sum;
         }
     }
-    Ok(cont)
+    Ok(())
 }
 
-/// The last accepted step of a dense run, as [`Ahead`] stores it.
+/// The last accepted step of a dense run, besides its record (which [`run`] leaves in its
+/// scratch, to be swapped into [`Ahead::step`]).
 struct LastStep {
     t0: f64,
-    step: Vec<f64>,
     err_prev: f64,
+}
+
+/// DOP853's part of a [`Workspace`]: f at the start of a landing call, the stages, f at
+/// the end of a dense step, the record of the last step of a call, and the stages of the
+/// continuous extension (its argument, k14, k15, k16).
+#[derive(Default)]
+pub(crate) struct Scratch {
+    k1: Vec<f64>,
+    stages: Stages,
+    f1: Vec<f64>,
+    step: Vec<f64>,
+    extension: [Vec<f64>; 4],
 }
 
 /// The work vectors of one DOP853 step: stages k2 … k12 (`k[0]` … `k[10]`) and the new
 /// solution `y`.
+#[derive(Default)]
 struct Stages {
     k: [Vec<f64>; 11],
     y: Vec<f64>,
 }
 
 impl Stages {
-    fn new(n: usize) -> Stages {
-        Stages {
-            k: std::array::from_fn(|_| vec![0.0; n]),
-            y: vec![0.0; n],
+    /// Every vector with `n` entries (each is written in full before it is read).
+    fn size(&mut self, n: usize) {
+        for v in self.k.iter_mut().chain([&mut self.y]) {
+            sized(v, n);
         }
     }
 
@@ -697,6 +780,7 @@ fn run(
     mut project: Option<&mut dyn FnMut(f64, &mut [f64])>,
     settings: &Settings,
     memory: &mut Memory,
+    (w, f1, record): (&mut Stages, &mut Vec<f64>, &mut Vec<f64>),
 ) -> Result<Option<LastStep>, Failure> {
     let n = x.len();
     assert_eq!(
@@ -706,7 +790,7 @@ fn run(
     );
     let h_max = max_step(settings);
     let stats = &mut memory.stats;
-    let mut w = Stages::new(n);
+    w.size(n);
     let carried = memory.h > 0.0 && memory.h.is_finite();
     let mut h = if carried {
         memory.h.min(h_max)
@@ -726,7 +810,7 @@ fn run(
     let mut controller = PiController::resuming(GAINS, carried, err_prev);
     let mut k1_fresh = true;
     // f at the end of an accepted step, in dense mode (then swapped into `k1`).
-    let mut f1 = vec![0.0; n];
+    sized(f1, n);
     let mut attempts: u64 = 0;
 
     loop {
@@ -760,18 +844,21 @@ fn run(
             h = h_new;
             continue;
         }
-        if !problem.eval(t_new, &w.y, &mut f1, stats) {
+        if !problem.eval(t_new, &w.y, f1, stats) {
             return Err(Failure::NonFinite { t: t0 });
         }
         stats.steps += 1;
         // The last step of the run is recorded for its extension before x moves on.
-        let record = done.then(|| {
+        if done {
             let [_, _, _, _, k6, k7, k8, k9, k10, k11, k12] = &w.k;
-            let blocks: [&[f64]; 11] = [x, &w.y, k1, k6, k7, k8, k9, k10, k11, k12, &f1];
-            blocks.concat()
-        });
+            let blocks: [&[f64]; 11] = [x, &w.y, k1, k6, k7, k8, k9, k10, k11, k12, f1];
+            record.clear();
+            for block in blocks {
+                record.extend_from_slice(block);
+            }
+        }
         x.copy_from_slice(&w.y);
-        std::mem::swap(k1, &mut f1);
+        std::mem::swap(k1, f1);
         *t = t_new;
         if let Some(project) = project.as_mut() {
             project(t_new, x);
@@ -779,11 +866,10 @@ fn run(
                 return Err(Failure::NonFinite { t: t_new });
             }
         }
-        if let Some(step) = record {
+        if done {
             memory.h = carried_proposal(landing, h_new, hs, h);
             return Ok(Some(LastStep {
                 t0,
-                step,
                 err_prev: controller.err_prev,
             }));
         }

@@ -11,6 +11,7 @@ use super::explicit_rk::{
     carried_proposal, check_attempt, eval, initial_step, max_step, stage, Goal, PiController,
     PiGains,
 };
+use super::workspace::{sized, Workspace};
 use super::{Failure, Memory, Settings, Stats};
 
 // Butcher tableau (Table II.5.2 / dopri5.f). c_i are the nodes, a_ij the stage weights.
@@ -85,13 +86,37 @@ pub fn advance(
     settings: &Settings,
     memory: &mut Memory,
 ) -> Result<(), Failure> {
-    let mut k1 = vec![0.0; x.len()];
-    if !eval(rhs, *t, x, &mut k1, &mut memory.stats) {
+    advance_in(
+        rhs,
+        t,
+        x,
+        t_end,
+        settings,
+        memory,
+        &mut Workspace::default(),
+    )
+}
+
+/// [`advance`] in the scratch of `work`: no allocation once it has held this size.
+pub fn advance_in(
+    rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
+    t: &mut f64,
+    x: &mut [f64],
+    t_end: f64,
+    settings: &Settings,
+    memory: &mut Memory,
+    work: &mut Workspace,
+) -> Result<(), Failure> {
+    let w = &mut work.dopri5;
+    let k1 = &mut w.k1;
+    sized(k1, x.len());
+    if !eval(rhs, *t, x, k1, &mut memory.stats) {
         memory.h = 0.0;
         return Err(Failure::NonFinite { t: *t });
     }
     let goal = Goal::Land(t_end);
-    let result = run(rhs, t, x, &mut k1, goal, None, None, settings, memory);
+    let steps = (&mut w.stages, &mut w.rcont);
+    let result = run(rhs, t, x, k1, goal, None, None, settings, memory, steps);
     if result.is_err() {
         memory.h = 0.0;
     }
@@ -247,6 +272,24 @@ pub fn advance_dense(
     memory: &mut Memory,
     out: &mut [f64],
 ) -> Result<(), Failure> {
+    let mut work = Workspace::default();
+    let ends = (t_out, t_limit);
+    advance_dense_in(rhs, project, ahead, ends, settings, memory, out, &mut work)
+}
+
+/// [`advance_dense`] to `(t_out, t_limit)` in the scratch of `work`: no allocation once it
+/// has held this size.
+#[allow(clippy::too_many_arguments)]
+pub fn advance_dense_in(
+    rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
+    project: &mut dyn FnMut(f64, &mut [f64]),
+    ahead: &mut Ahead,
+    (t_out, t_limit): (f64, f64),
+    settings: &Settings,
+    memory: &mut Memory,
+    out: &mut [f64],
+    work: &mut Workspace,
+) -> Result<(), Failure> {
     assert!(
         t_out >= ahead.t0 && t_out <= t_limit,
         "dopri5::advance_dense: t_out = {t_out} outside [{}, {t_limit}]",
@@ -263,10 +306,23 @@ pub fn advance_dense(
         } = ahead;
         let goal = Goal::Pass { t_out, t_limit };
         let known = (*err_prev > 0.0).then_some(*err_prev);
-        match run(rhs, t, x, f, goal, known, Some(project), settings, memory) {
+        let w = &mut work.dopri5;
+        let steps = (&mut w.stages, &mut w.rcont);
+        match run(
+            rhs,
+            t,
+            x,
+            f,
+            goal,
+            known,
+            Some(project),
+            settings,
+            memory,
+            steps,
+        ) {
             Ok(dense) => {
                 *t0 = dense.t0;
-                *rcont = dense.rcont;
+                std::mem::swap(rcont, &mut w.rcont);
                 *err_prev = dense.err_prev;
             }
             Err(e) => {
@@ -279,16 +335,26 @@ pub fn advance_dense(
     Ok(())
 }
 
-/// The last accepted step's continuous extension, as [`Ahead`] stores it.
+/// The last accepted step, besides its continuous extension (which [`run`] leaves in its
+/// scratch).
 struct Dense {
     t0: f64,
-    rcont: Vec<f64>,
     /// The PI controller's error memory after the step.
     err_prev: f64,
 }
 
+/// DOPRI5's part of a [`Workspace`]: f at the start of a landing call, the stages, and the
+/// continuous extension of the last step of a call (swapped into [`Ahead::rcont`]).
+#[derive(Default)]
+pub(crate) struct Scratch {
+    k1: Vec<f64>,
+    stages: Stages,
+    rcont: Vec<f64>,
+}
+
 /// The work vectors of one DOPRI5 step: stages k2 … k7 (`k[0]` … `k[5]`), the new
 /// solution `y` and the sixth stage's argument `y6` (kept for the stiffness test).
+#[derive(Default)]
 struct Stages {
     k: [Vec<f64>; 6],
     y: Vec<f64>,
@@ -297,10 +363,15 @@ struct Stages {
 
 impl Stages {
     fn new(n: usize) -> Stages {
-        Stages {
-            k: std::array::from_fn(|_| vec![0.0; n]),
-            y: vec![0.0; n],
-            y6: vec![0.0; n],
+        let mut stages = Stages::default();
+        stages.size(n);
+        stages
+    }
+
+    /// Every vector with `n` entries (each is written in full before it is read).
+    fn size(&mut self, n: usize) {
+        for v in self.k.iter_mut().chain([&mut self.y, &mut self.y6]) {
+            sized(v, n);
         }
     }
 
@@ -367,7 +438,8 @@ impl Stages {
 /// The stepping loop shared by both modes. `k1` holds f(t, x) on entry and f at the
 /// final point on success (FSAL). `err_prev`: the PI controller's previous error when the
 /// caller kept it; `project` is applied after every accepted step (see [`advance_dense`]).
-/// Returns the continuous extension of the last step.
+/// Works in the scratch `(w, rcont)`, and leaves the continuous extension of the last step
+/// in `rcont`.
 #[allow(clippy::too_many_arguments)]
 fn run(
     rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
@@ -379,6 +451,7 @@ fn run(
     mut project: Option<&mut dyn FnMut(f64, &mut [f64])>,
     settings: &Settings,
     memory: &mut Memory,
+    (w, rcont): (&mut Stages, &mut Vec<f64>),
 ) -> Result<Dense, Failure> {
     let n = x.len();
     assert_eq!(
@@ -388,7 +461,7 @@ fn run(
     );
     let h_max = max_step(settings);
     let stats = &mut memory.stats;
-    let mut w = Stages::new(n);
+    w.size(n);
     let carried = memory.h > 0.0 && memory.h.is_finite();
     let mut h = if carried {
         memory.h.min(h_max)
@@ -427,8 +500,11 @@ fn run(
             .stiffness
             .observe(hs, (&w.k[5], &w.k[4]), (&w.y, &w.y6), t_new);
         let done = goal.reached(t_new, landing);
-        let [_, k3, k4, k5, k6, k7] = &w.k;
-        let dense = done.then(|| continuous_extension(x, &w.y, hs, [k1, k3, k4, k5, k6, k7]));
+        if done {
+            let [_, k3, k4, k5, k6, k7] = &w.k;
+            let r = sized(rcont, 5 * n);
+            continuous_extension(x, &w.y, hs, [k1, k3, k4, k5, k6, k7], r);
+        }
         x.copy_from_slice(&w.y);
         std::mem::swap(k1, &mut w.k[5]); // FSAL
         *t = t_new;
@@ -439,11 +515,10 @@ fn run(
                 return Err(Failure::NonFinite { t: t_new });
             }
         }
-        if let Some(rcont) = dense {
+        if done {
             memory.h = carried_proposal(landing, h_new, hs, h);
             return Ok(Dense {
                 t0,
-                rcont,
                 err_prev: controller.err_prev,
             });
         }
@@ -563,10 +638,9 @@ fn next_up(t: f64) -> f64 {
 }
 
 /// dopri5.f's RCONT for the step x → y of size h with stages k1, k3 … k7 (k7 = f(y)).
-fn continuous_extension(x: &[f64], y: &[f64], h: f64, k: [&[f64]; 6]) -> Vec<f64> {
+fn continuous_extension(x: &[f64], y: &[f64], h: f64, k: [&[f64]; 6], r: &mut [f64]) {
     let n = x.len();
     let [k1, k3, k4, k5, k6, k7] = k;
-    let mut r = vec![0.0; 5 * n];
     for i in 0..n {
         let ydiff = y[i] - x[i];
         let bspl = h * k1[i] - ydiff;
@@ -577,7 +651,6 @@ fn continuous_extension(x: &[f64], y: &[f64], h: f64, k: [&[f64]; 6]) -> Vec<f64
         r[4 * n + i] =
             h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7[i]);
     }
-    r
 }
 
 #[cfg(test)]

@@ -7,6 +7,7 @@
 //! (symplecticity of the symplectic Euler method).
 
 use super::problem::{fixed_steps, Problem};
+use super::workspace::{sized, Workspace};
 use super::{Failure, Stats};
 
 /// Explicit Euler `x₁ = x₀ + h f(t₀, x₀)` from `*t` to `t_end` with step `h` (the last step
@@ -20,7 +21,21 @@ pub fn explicit_euler(
     h: f64,
     stats: &mut Stats,
 ) -> Result<(), Failure> {
-    let mut k = vec![0.0; x.len()];
+    explicit_euler_in(problem, t, x, t_end, h, stats, &mut Workspace::default())
+}
+
+/// [`explicit_euler`] in the scratch of `work`: no allocation once it has held this size.
+pub fn explicit_euler_in(
+    problem: &mut Problem,
+    t: &mut f64,
+    x: &mut [f64],
+    t_end: f64,
+    h: f64,
+    stats: &mut Stats,
+    work: &mut Workspace,
+) -> Result<(), Failure> {
+    let [y, k] = &mut work.fixed;
+    let k = sized(k, x.len());
     fixed_steps(
         "explicit Euler",
         t,
@@ -28,9 +43,10 @@ pub fn explicit_euler(
         t_end,
         h,
         stats,
+        y,
         |stats, ta, tb, x, y| {
             let hs = tb - ta;
-            if !problem.eval(ta, x, &mut k, stats) {
+            if !problem.eval(ta, x, k, stats) {
                 return Err(Failure::NonFinite { t: ta });
             }
             for i in 0..x.len() {
@@ -54,8 +70,22 @@ pub fn symplectic_euler(
     h: f64,
     stats: &mut Stats,
 ) -> Result<(), Failure> {
+    symplectic_euler_in(problem, t, x, t_end, h, stats, &mut Workspace::default())
+}
+
+/// [`symplectic_euler`] in the scratch of `work`.
+pub fn symplectic_euler_in(
+    problem: &mut Problem,
+    t: &mut f64,
+    x: &mut [f64],
+    t_end: f64,
+    h: f64,
+    stats: &mut Stats,
+    work: &mut Workspace,
+) -> Result<(), Failure> {
     let nq = problem.positions("symplectic Euler", x.len());
-    let mut k = vec![0.0; x.len()];
+    let [y, k] = &mut work.fixed;
+    let k = sized(k, x.len());
     fixed_steps(
         "symplectic Euler",
         t,
@@ -63,9 +93,10 @@ pub fn symplectic_euler(
         t_end,
         h,
         stats,
+        y,
         |stats, ta, tb, x, y| {
             let hs = tb - ta;
-            if !problem.eval(ta, x, &mut k, stats) {
+            if !problem.eval(ta, x, k, stats) {
                 return Err(Failure::NonFinite { t: ta });
             }
             for i in 0..nq {

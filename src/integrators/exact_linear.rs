@@ -9,9 +9,11 @@
 //! N. J. Higham, *A new scaling and squaring algorithm for the matrix exponential*, SIAM J.
 //! Matrix Anal. Appl. 31 (2009) 970–989.
 
+use super::expm::Expm;
 use super::problem::{fixed_steps, Problem};
+use super::workspace::{zeroed, Workspace};
 use super::{Failure, Stats};
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{DMatrix, DMatrixView, DMatrixViewMut, DVector};
 
 /// `(e^{Ah}, ∫₀ʰ e^{As} ds · b)` for a square `a` and `b` of matching length.
 pub fn propagator(a: &DMatrix<f64>, b: &DVector<f64>, h: f64) -> (DMatrix<f64>, DVector<f64>) {
@@ -44,42 +46,97 @@ pub fn advance(
     h: f64,
     stats: &mut Stats,
 ) -> Result<(), Failure> {
+    advance_in(problem, t, x, t_end, h, stats, &mut Workspace::default())
+}
+
+/// ExactLinear's part of a [`Workspace`]: the Jacobian (row-major, then A column-major),
+/// f and A·x at the start, b, and the exponential of the augmented matrix for the step
+/// `h` it was last computed for in this call.
+#[derive(Default)]
+pub(crate) struct Scratch {
+    jac: Vec<f64>,
+    a: Vec<f64>,
+    f0: Vec<f64>,
+    ax: Vec<f64>,
+    b: Vec<f64>,
+    expm: Expm,
+}
+
+/// [`advance`] in the scratch of `work`: no allocation once it has held this size (the
+/// exponential is nalgebra's, step for step, in kept buffers).
+pub fn advance_in(
+    problem: &mut Problem,
+    t: &mut f64,
+    x: &mut [f64],
+    t_end: f64,
+    h: f64,
+    stats: &mut Stats,
+    work: &mut Workspace,
+) -> Result<(), Failure> {
     let n = x.len();
+    let (y, w) = (&mut work.fixed[0], &mut work.exact_linear);
     if t_end == *t || !x.iter().all(|v| v.is_finite()) {
         // Let the common loop report the no-op or the non-finite start, before any work.
-        return fixed_steps("exact linear", t, x, t_end, h, stats, |_, _, _, _, _| {
+        return fixed_steps("exact linear", t, x, t_end, h, stats, y, |_, _, _, _, _| {
             Ok::<(), Failure>(())
         });
     }
-    let mut jac = vec![0.0; n * n];
-    problem.eval_jacobian("exact linear propagator", *t, x, &mut jac);
-    let a = DMatrix::from_row_slice(n, n, &jac);
-    let mut f0 = vec![0.0; n];
-    if !problem.eval(*t, x, &mut f0, stats) {
+    let jac = zeroed(&mut w.jac, n * n);
+    problem.eval_jacobian("exact linear propagator", *t, x, jac);
+    // A, column-major as nalgebra's `DMatrix::from_row_slice(n, n, jac)`.
+    let a = zeroed(&mut w.a, n * n);
+    for i in 0..n {
+        for j in 0..n {
+            a[j * n + i] = jac[i * n + j];
+        }
+    }
+    let f0 = zeroed(&mut w.f0, n);
+    if !problem.eval(*t, x, f0, stats) {
         return Err(Failure::NonFinite { t: *t });
     }
-    let b = DVector::from_column_slice(&f0) - &a * DVector::from_column_slice(x);
-    let mut cache: Option<(f64, DMatrix<f64>, DVector<f64>)> = None;
-    fixed_steps("exact linear", t, x, t_end, h, stats, |_, ta, tb, x, y| {
-        let hs = tb - ta;
-        let stale = match &cache {
-            Some((hc, _, _)) => hc.to_bits() != hs.to_bits(),
-            None => true,
-        };
-        if stale {
-            let (phi, gamma) = propagator(&a, &b, hs);
-            cache = Some((hs, phi, gamma));
-        }
-        let (_, phi, gamma) = cache.as_ref().expect("just filled");
-        for i in 0..n {
-            let mut s = gamma[i];
-            for j in 0..n {
-                s += phi[(i, j)] * x[j];
+    // b = f(t, x) − A x, with nalgebra's product.
+    let ax = zeroed(&mut w.ax, n);
+    DMatrixView::from_slice(a, n, n).mul_to(
+        &DMatrixView::from_slice(x, n, 1),
+        &mut DMatrixViewMut::from_slice(ax, n, 1),
+    );
+    let b = zeroed(&mut w.b, n);
+    for i in 0..n {
+        b[i] = f0[i] - ax[i];
+    }
+    let (a, b, expm) = (&*a, &*b, &mut w.expm);
+    let mut cached: Option<f64> = None;
+    fixed_steps(
+        "exact linear",
+        t,
+        x,
+        t_end,
+        h,
+        stats,
+        y,
+        |_, ta, tb, x, y| {
+            let hs = tb - ta;
+            if cached.is_none_or(|hc| hc.to_bits() != hs.to_bits()) {
+                // The propagator of `propagator(A, b, hs)`: e^{[[A, b], [0, 0]]·hs}.
+                expm.set(n + 1, |i, j| match (i < n, j < n) {
+                    (true, true) => a[j * n + i] * hs,
+                    (true, false) => b[i] * hs,
+                    _ => 0.0,
+                });
+                expm.exp();
+                cached = Some(hs);
             }
-            y[i] = s;
-        }
-        Ok(())
-    })
+            // x ← Φ x + γ, Φ = e[..n, ..n], γ = e[..n, n].
+            for (i, yi) in y.iter_mut().enumerate() {
+                let mut s = expm.get(i, n);
+                for (j, xj) in x.iter().enumerate() {
+                    s += expm.get(i, j) * xj;
+                }
+                *yi = s;
+            }
+            Ok(())
+        },
+    )
 }
 
 #[cfg(test)]

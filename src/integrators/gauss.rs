@@ -18,6 +18,7 @@
 //! equals `x₀ + h Σ bᵢ f(Yᵢ)` at convergence without the s extra evaluations.
 
 use super::problem::{fixed_steps, ImplicitFailure, Problem, NEWTON_MAX_ITER, NEWTON_TOL};
+use super::workspace::{copied, sized, Workspace};
 use super::{Failure, Stats};
 
 /// √3 and √15 to the last bit (`f64::sqrt` is not `const`).
@@ -82,7 +83,16 @@ pub fn implicit_midpoint(
     h: f64,
     stats: &mut Stats,
 ) -> Result<(), ImplicitFailure> {
-    collocation(&MIDPOINT, problem, t, x, t_end, h, stats)
+    collocation(
+        &MIDPOINT,
+        problem,
+        t,
+        x,
+        t_end,
+        h,
+        stats,
+        &mut Workspace::default(),
+    )
 }
 
 /// Gauss–Legendre, 2 stages, order 4, fixed step `h`. Needs `problem.jacobian`.
@@ -95,7 +105,16 @@ pub fn gauss4(
     h: f64,
     stats: &mut Stats,
 ) -> Result<(), ImplicitFailure> {
-    collocation(&GAUSS4, problem, t, x, t_end, h, stats)
+    collocation(
+        &GAUSS4,
+        problem,
+        t,
+        x,
+        t_end,
+        h,
+        stats,
+        &mut Workspace::default(),
+    )
 }
 
 /// Gauss–Legendre, 3 stages, order 6, fixed step `h`. Needs `problem.jacobian`.
@@ -108,12 +127,45 @@ pub fn gauss6(
     h: f64,
     stats: &mut Stats,
 ) -> Result<(), ImplicitFailure> {
-    collocation(&GAUSS6, problem, t, x, t_end, h, stats)
+    collocation(
+        &GAUSS6,
+        problem,
+        t,
+        x,
+        t_end,
+        h,
+        stats,
+        &mut Workspace::default(),
+    )
+}
+
+/// [`implicit_midpoint`], [`gauss4`] or [`gauss6`] (by `method`) in the scratch of `work`:
+/// no allocation once it has held this size.
+#[allow(clippy::too_many_arguments)]
+pub fn collocation_in(
+    method: super::Method,
+    problem: &mut Problem,
+    t: &mut f64,
+    x: &mut [f64],
+    t_end: f64,
+    h: f64,
+    stats: &mut Stats,
+    work: &mut Workspace,
+) -> Result<(), ImplicitFailure> {
+    let tab = match method {
+        super::Method::ImplicitMidpoint => &MIDPOINT,
+        super::Method::Gauss4 => &GAUSS4,
+        super::Method::Gauss6 => &GAUSS6,
+        other => panic!("{} is not a Gauss collocation method", other.name()),
+    };
+    collocation(tab, problem, t, x, t_end, h, stats, work)
 }
 
 /// LU factorization with partial pivoting of a row-major m×m matrix (Doolittle, rows swapped
 /// as in LAPACK's getrf). Hand-written rather than nalgebra's because these systems are tiny
-/// (s·n) and solved millions of times: no allocation per solve.
+/// (s·n) and solved millions of times: no allocation per solve, and none per factorization
+/// once its buffers have held this size.
+#[derive(Default)]
 struct Lu {
     m: usize,
     a: Vec<f64>,
@@ -122,14 +174,29 @@ struct Lu {
 
 impl Lu {
     /// `None` if a pivot is exactly zero (singular matrix).
-    fn factor(m: usize, mut a: Vec<f64>) -> Option<Lu> {
-        let mut pivots = vec![0; m];
+    #[cfg(test)]
+    fn factor(m: usize, a: Vec<f64>) -> Option<Lu> {
+        let mut lu = Lu {
+            m,
+            a,
+            pivots: Vec::new(),
+        };
+        lu.factor_in_place(m).then_some(lu)
+    }
+
+    /// Factorizes the row-major m×m matrix in `self.a` in place; `false` if a pivot is
+    /// exactly zero (singular matrix).
+    fn factor_in_place(&mut self, m: usize) -> bool {
+        self.m = m;
+        self.pivots.clear();
+        self.pivots.resize(m, 0);
+        let (a, pivots) = (&mut self.a, &mut self.pivots);
         for k in 0..m {
             let p = (k..m)
                 .max_by(|&i, &j| a[i * m + k].abs().total_cmp(&a[j * m + k].abs()))
                 .expect("k < m");
             if a[p * m + k] == 0.0 {
-                return None;
+                return false;
             }
             if p != k {
                 for j in 0..m {
@@ -145,7 +212,7 @@ impl Lu {
                 }
             }
         }
-        Some(Lu { m, a, pivots })
+        true
     }
 
     /// Solve in place: `b ← A⁻¹ b`.
@@ -168,13 +235,34 @@ impl Lu {
     }
 }
 
-/// The factorized Newton matrix `I − h A⊗J` and the `(J, h)` it was built from.
+/// The factorized Newton matrix `I − h A⊗J` and the `(tableau, J, h)` it was built from
+/// (`None`: nothing built yet). Factorizing the same matrix again would give the same bits,
+/// so it is kept across calls: a cache, not information.
+#[derive(Default)]
 struct NewtonMatrix {
+    key: Option<&'static str>,
     jac: Vec<f64>,
     h: f64,
-    lu: Option<Lu>,
+    lu: Lu,
+    /// The factorization succeeded (the matrix is not singular).
+    regular: bool,
 }
 
+/// Gauss's part of a [`Workspace`].
+#[derive(Default)]
+pub(crate) struct Scratch {
+    /// The weights `d` and the LU that solves for them.
+    d: Vec<f64>,
+    d_lu: Lu,
+    jac: Vec<f64>,
+    newton: NewtonMatrix,
+    z: Vec<f64>,
+    fz: Vec<f64>,
+    ys: Vec<f64>,
+    r: Vec<f64>,
+}
+
+#[allow(clippy::too_many_arguments)]
 fn collocation(
     tab: &Tableau,
     problem: &mut Problem,
@@ -183,31 +271,33 @@ fn collocation(
     t_end: f64,
     h: f64,
     stats: &mut Stats,
+    work: &mut Workspace,
 ) -> Result<(), ImplicitFailure> {
     let n = x.len();
     let s = tab.b.len();
+    let (w, y) = (&mut work.gauss, &mut work.fixed[0]);
     // dᵀ = bᵀ A⁻¹: solve Aᵀ d = b (s ≤ 3; A is invertible for Gauss methods).
-    let a_transposed: Vec<f64> = (0..s * s).map(|k| tab.a[(k % s) * s + k / s]).collect();
-    let mut d = tab.b.to_vec();
-    Lu::factor(s, a_transposed)
-        .expect("Gauss tableau is invertible")
-        .solve(&mut d);
-    let mut jac = vec![0.0; n * n];
-    let mut newton = NewtonMatrix {
-        jac: vec![f64::NAN; n * n],
-        h: f64::NAN,
-        lu: None,
-    };
-    let mut z = vec![0.0; s * n];
-    let mut fz = vec![0.0; s * n];
-    let mut ys = vec![0.0; n];
-    let mut r = vec![0.0; s * n];
-    fixed_steps(tab.name, t, x, t_end, h, stats, |stats, ta, tb, x, y| {
+    w.d_lu.a.clear();
+    w.d_lu
+        .a
+        .extend((0..s * s).map(|k| tab.a[(k % s) * s + k / s]));
+    assert!(w.d_lu.factor_in_place(s), "Gauss tableau is invertible");
+    let d = copied(&mut w.d, tab.b);
+    w.d_lu.solve(d);
+    // (The Jacobian and f write every entry; `z` is cleared at every step.)
+    let jac = sized(&mut w.jac, n * n);
+    let newton = &mut w.newton;
+    let z = sized(&mut w.z, s * n);
+    let fz = sized(&mut w.fz, s * n);
+    let ys = sized(&mut w.ys, n);
+    let r = sized(&mut w.r, s * n);
+    fixed_steps(tab.name, t, x, t_end, h, stats, y, |stats, ta, tb, x, y| {
         let hs = tb - ta;
-        problem.eval_jacobian(tab.name, ta, x, &mut jac);
-        if newton.h.to_bits() != hs.to_bits() || newton.jac != jac {
+        problem.eval_jacobian(tab.name, ta, x, jac);
+        if newton.key != Some(tab.name) || newton.h.to_bits() != hs.to_bits() || newton.jac != *jac
+        {
             let sn = s * n;
-            let mut m = vec![0.0; sn * sn];
+            let m = sized(&mut newton.lu.a, sn * sn);
             for i in 0..s {
                 for j in 0..s {
                     let haij = hs * tab.a[i * s + j];
@@ -219,17 +309,19 @@ fn collocation(
                     }
                 }
             }
-            newton.lu = Lu::factor(sn, m);
-            newton.jac.copy_from_slice(&jac);
+            newton.regular = newton.lu.factor_in_place(sn);
+            copied(&mut newton.jac, jac);
             newton.h = hs;
+            newton.key = Some(tab.name);
         }
-        let Some(lu) = &newton.lu else {
+        if !newton.regular {
             return Err(ImplicitFailure::NewtonFailed {
                 t: ta,
                 h: hs,
                 iterations: 0,
             });
-        };
+        }
+        let lu = &newton.lu;
         let x_norm = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         z.fill(0.0);
         let mut previous = f64::INFINITY;
@@ -239,7 +331,7 @@ fn collocation(
                 for p in 0..n {
                     ys[p] = x[p] + z[j * n + p];
                 }
-                if !problem.eval(ta + tab.c[j] * hs, &ys, &mut fz[j * n..(j + 1) * n], stats) {
+                if !problem.eval(ta + tab.c[j] * hs, ys, &mut fz[j * n..(j + 1) * n], stats) {
                     return Err(Failure::NonFinite { t: ta }.into());
                 }
             }
@@ -252,10 +344,10 @@ fn collocation(
                     r[i * n + p] = hs * sum - z[i * n + p];
                 }
             }
-            lu.solve(&mut r);
+            lu.solve(r);
             let mut step: f64 = 0.0;
             let mut z_norm: f64 = 0.0;
-            for (zi, dzi) in z.iter_mut().zip(&r) {
+            for (zi, dzi) in z.iter_mut().zip(r.iter()) {
                 *zi += dzi;
                 step = step.max(dzi.abs());
                 z_norm = z_norm.max(zi.abs());

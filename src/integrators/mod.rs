@@ -1,9 +1,14 @@
 //! The methods that advance a system's state inside `fmi2DoStep`.
 //!
-//! One entry point, [`advance`], integrates from the current time to exactly the end of the
-//! communication step. What must survive between communication steps (the step-size proposal
-//! and the work counters) lives in [`Memory`], which is part of the serialized FMU state, so a
-//! restored state continues bit for bit as the original would have.
+//! Two entry points: [`advance_in`] integrates from the current time to exactly the end of the
+//! communication step with any method, and [`advance_dense`] runs the adaptive methods ahead
+//! of the communication points and reads each from their dense output. What must survive
+//! between communication steps (the step-size proposal, the work counters, the point ahead)
+//! lives in [`Memory`], which is part of the serialized FMU state, so a restored state
+//! continues bit for bit as the original would have. What only saves allocations (buffers
+//! of the right sizes) lives in a [`Workspace`], which is not: the caller keeps one so that
+//! a call in steady state allocates nothing. [`advance`] and [`advance_with`] (and each
+//! method's function without `_in`) are the same in a fresh workspace.
 
 // The `rhs` parameter spells out `&mut dyn FnMut(f64, &[f64], &mut [f64])` on purpose: it is
 // the interface other modules call, and an alias would hide what it takes.
@@ -14,15 +19,20 @@ pub mod dopri5;
 pub mod euler;
 pub mod exact_linear;
 mod explicit_rk;
+mod expm;
 pub mod gauss;
+mod lu;
 pub mod problem;
 pub mod radau5;
 pub mod rattle;
 pub mod rk4;
 pub mod verlet;
+mod workspace;
 
 pub use problem::ImplicitFailure;
 use std::fmt;
+pub use workspace::Workspace;
+pub(crate) use workspace::{copied, sized, zeroed};
 
 /// Integration method, chosen by the FMU's `solver` parameter (these integer codes are public API).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -182,7 +192,7 @@ impl Method {
 /// failure conventions; a fixed-step method that would need more than
 /// [`Settings::max_steps`] steps is refused before any work
 /// ([`Failure::TooManyPlanned`]), an adaptive one gives up after that many attempts
-/// ([`Failure::TooManySteps`]).
+/// ([`Failure::TooManySteps`]). [`advance_in`] in a fresh [`Workspace`].
 pub fn advance_with(
     problem: &mut problem::Problem,
     t: &mut f64,
@@ -191,29 +201,285 @@ pub fn advance_with(
     settings: &Settings,
     memory: &mut Memory,
 ) -> Result<(), ImplicitFailure> {
+    advance_in(
+        problem,
+        t,
+        x,
+        t_end,
+        settings,
+        memory,
+        &mut Workspace::default(),
+    )
+}
+
+/// [`advance_with`] in the scratch of `work`: in steady state (the same sizes as an earlier
+/// call) no method allocates (what f, the Jacobian and RATTLE's `Mechanics` do is theirs).
+pub fn advance_in(
+    problem: &mut problem::Problem,
+    t: &mut f64,
+    x: &mut [f64],
+    t_end: f64,
+    settings: &Settings,
+    memory: &mut Memory,
+    work: &mut Workspace,
+) -> Result<(), ImplicitFailure> {
     let h = settings.step;
     if !settings.method.is_adaptive() {
         check_plan(settings, *t, t_end)?;
     }
     let stats = &mut memory.stats;
     match settings.method {
-        Method::Rk4 | Method::Dopri5 => Ok(advance(problem.rhs, t, x, t_end, settings, memory)?),
-        Method::ExplicitEuler => Ok(euler::explicit_euler(problem, t, x, t_end, h, stats)?),
-        Method::SymplecticEuler => Ok(euler::symplectic_euler(problem, t, x, t_end, h, stats)?),
-        Method::Verlet => Ok(verlet::velocity_verlet(problem, t, x, t_end, h, stats)?),
-        Method::ImplicitMidpoint => gauss::implicit_midpoint(problem, t, x, t_end, h, stats),
-        Method::Gauss4 => gauss::gauss4(problem, t, x, t_end, h, stats),
-        Method::Gauss6 => gauss::gauss6(problem, t, x, t_end, h, stats),
-        Method::Dop853 => Ok(dop853::advance(problem, t, x, t_end, settings, memory)?),
-        Method::Radau5 => Ok(radau5::advance(problem, t, x, t_end, settings, memory)?),
-        Method::ExactLinear => Ok(exact_linear::advance(problem, t, x, t_end, h, stats)?),
+        Method::Rk4 | Method::Dopri5 => {
+            // (RK4's plan was checked above.)
+            Ok(advance_rhs(
+                problem.rhs,
+                t,
+                x,
+                t_end,
+                settings,
+                memory,
+                work,
+                false,
+            )?)
+        }
+        Method::ExplicitEuler => Ok(euler::explicit_euler_in(
+            problem, t, x, t_end, h, stats, work,
+        )?),
+        Method::SymplecticEuler => Ok(euler::symplectic_euler_in(
+            problem, t, x, t_end, h, stats, work,
+        )?),
+        Method::Verlet => Ok(verlet::velocity_verlet_in(
+            problem, t, x, t_end, h, stats, work,
+        )?),
+        Method::ImplicitMidpoint | Method::Gauss4 | Method::Gauss6 => {
+            gauss::collocation_in(settings.method, problem, t, x, t_end, h, stats, work)
+        }
+        Method::Dop853 => Ok(dop853::advance_in(
+            problem, t, x, t_end, settings, memory, work,
+        )?),
+        Method::Radau5 => Ok(radau5::advance_in(
+            problem, t, x, t_end, settings, memory, work,
+        )?),
+        Method::ExactLinear => Ok(exact_linear::advance_in(
+            problem, t, x, t_end, h, stats, work,
+        )?),
         Method::Rattle => {
             let mech = problem
                 .mechanics
                 .as_deref_mut()
                 .expect("RATTLE needs Problem::mechanics");
-            rattle::advance(mech, t, x, t_end, h, stats)
+            rattle::advance_in(mech, t, x, t_end, h, stats, work)
         }
+    }
+}
+
+/// The adaptive methods (DOPRI5, DOP853, RADAU5) with dense output, as the FMU runs them:
+/// continues the method's own point ahead of `*t` kept in `memory` (else starts one at
+/// `(*t, x)`), steps until its last step covers `t_end` (never past `t_limit`; `project`
+/// after every accepted step), and reads x(`t_end`) from the continuous extension into `x`,
+/// `*t = t_end`; the point ahead stays in `memory`. On failure `(*t, x)` is the last accepted
+/// step if the integrator got past `*t`, and no point ahead is kept. In the scratch of
+/// `work`: no allocation in steady state (once a point ahead is kept and `work` has held
+/// these sizes). See [`dopri5::Ahead`], [`dop853::Ahead`], [`radau5::Ahead`].
+#[allow(clippy::too_many_arguments)]
+pub fn advance_dense(
+    problem: &mut problem::Problem,
+    project: &mut dyn FnMut(f64, &mut [f64]),
+    (t, x): (&mut f64, &mut [f64]),
+    (t_end, t_limit): (f64, f64),
+    settings: &Settings,
+    memory: &mut Memory,
+    work: &mut Workspace,
+) -> Result<(), Failure> {
+    let mut point = std::mem::take(&mut work.point);
+    let out = sized(&mut point, x.len());
+    let state = (t, x);
+    let ends = (t_end, t_limit);
+    let result = match settings.method {
+        Method::Dopri5 => {
+            dense::<dopri5::Ahead>(problem, project, state, ends, settings, memory, work, out)
+        }
+        Method::Dop853 => {
+            dense::<dop853::Ahead>(problem, project, state, ends, settings, memory, work, out)
+        }
+        Method::Radau5 => {
+            dense::<radau5::Ahead>(problem, project, state, ends, settings, memory, work, out)
+        }
+        other => panic!("{} has no dense output", other.name()),
+    };
+    work.point = point;
+    result
+}
+
+/// What [`advance_dense`] needs of a method's point ahead.
+trait Ahead: Sized {
+    /// Where `memory` keeps it.
+    fn kept(memory: &mut Memory) -> &mut Option<Self>;
+    /// Whether integration from `t` can go on from it.
+    fn resumes(&self, t: f64) -> bool;
+    /// A new one at `(t, x)` (evaluates f).
+    fn start(
+        problem: &mut problem::Problem,
+        start: (f64, &[f64]),
+        t_limit: f64,
+        settings: &Settings,
+        memory: &mut Memory,
+    ) -> Result<Self, Failure>;
+    /// Steps until its last step covers `t_out`, and x(`t_out`) into `out`.
+    #[allow(clippy::too_many_arguments)]
+    fn advance(
+        &mut self,
+        problem: &mut problem::Problem,
+        project: &mut dyn FnMut(f64, &mut [f64]),
+        ends: (f64, f64),
+        settings: &Settings,
+        memory: &mut Memory,
+        out: &mut [f64],
+        work: &mut Workspace,
+    ) -> Result<(), Failure>;
+    /// The end of its last accepted step.
+    fn end(&self) -> (f64, &[f64]);
+}
+
+#[allow(clippy::too_many_arguments)]
+fn dense<A: Ahead>(
+    problem: &mut problem::Problem,
+    project: &mut dyn FnMut(f64, &mut [f64]),
+    (t, x): (&mut f64, &mut [f64]),
+    (t_end, t_limit): (f64, f64),
+    settings: &Settings,
+    memory: &mut Memory,
+    work: &mut Workspace,
+    out: &mut [f64],
+) -> Result<(), Failure> {
+    let kept = A::kept(memory).take();
+    memory.drop_ahead();
+    let mut ahead = match kept {
+        Some(a) if a.resumes(*t) => a,
+        _ => A::start(problem, (*t, x), t_limit, settings, memory)?,
+    };
+    let ends = (t_end, t_limit);
+    match ahead.advance(problem, project, ends, settings, memory, out, work) {
+        Ok(()) => {
+            x.copy_from_slice(out);
+            *t = t_end;
+            *A::kept(memory) = Some(ahead);
+            Ok(())
+        }
+        Err(e) => {
+            let (t_ahead, x_ahead) = ahead.end();
+            if t_ahead > *t {
+                *t = t_ahead;
+                x.copy_from_slice(x_ahead);
+            }
+            Err(e)
+        }
+    }
+}
+
+impl Ahead for dopri5::Ahead {
+    fn kept(memory: &mut Memory) -> &mut Option<Self> {
+        &mut memory.ahead
+    }
+    fn resumes(&self, t: f64) -> bool {
+        self.t0 <= t && t <= self.t
+    }
+    fn start(
+        problem: &mut problem::Problem,
+        (t, x): (f64, &[f64]),
+        _: f64,
+        _: &Settings,
+        memory: &mut Memory,
+    ) -> Result<Self, Failure> {
+        dopri5::Ahead::start(problem.rhs, t, x, &mut memory.stats)
+    }
+    fn advance(
+        &mut self,
+        problem: &mut problem::Problem,
+        project: &mut dyn FnMut(f64, &mut [f64]),
+        ends: (f64, f64),
+        settings: &Settings,
+        memory: &mut Memory,
+        out: &mut [f64],
+        work: &mut Workspace,
+    ) -> Result<(), Failure> {
+        let rhs = &mut *problem.rhs;
+        dopri5::advance_dense_in(rhs, project, self, ends, settings, memory, out, work)
+    }
+    fn end(&self) -> (f64, &[f64]) {
+        (self.t, &self.x)
+    }
+}
+
+impl Ahead for dop853::Ahead {
+    fn kept(memory: &mut Memory) -> &mut Option<Self> {
+        &mut memory.dop853_ahead
+    }
+    fn resumes(&self, t: f64) -> bool {
+        self.t0 <= t && t <= self.t
+    }
+    fn start(
+        problem: &mut problem::Problem,
+        (t, x): (f64, &[f64]),
+        _: f64,
+        _: &Settings,
+        memory: &mut Memory,
+    ) -> Result<Self, Failure> {
+        dop853::Ahead::start(problem, t, x, &mut memory.stats)
+    }
+    fn advance(
+        &mut self,
+        problem: &mut problem::Problem,
+        project: &mut dyn FnMut(f64, &mut [f64]),
+        ends: (f64, f64),
+        settings: &Settings,
+        memory: &mut Memory,
+        out: &mut [f64],
+        work: &mut Workspace,
+    ) -> Result<(), Failure> {
+        dop853::advance_dense_in(problem, project, self, ends, settings, memory, out, work)
+    }
+    fn end(&self) -> (f64, &[f64]) {
+        (self.t, &self.x)
+    }
+}
+
+impl Ahead for radau5::Ahead {
+    fn kept(memory: &mut Memory) -> &mut Option<Self> {
+        &mut memory.radau5_ahead
+    }
+    /// RADAU5's state covers everything up to its own time (its collocation polynomial
+    /// the last step, and before any step the point itself).
+    fn resumes(&self, t: f64) -> bool {
+        t <= self.t
+    }
+    /// With the carried step proposal; a failure resets it.
+    fn start(
+        problem: &mut problem::Problem,
+        (t, x): (f64, &[f64]),
+        t_limit: f64,
+        settings: &Settings,
+        memory: &mut Memory,
+    ) -> Result<Self, Failure> {
+        let (h, stats) = (memory.h, &mut memory.stats);
+        radau5::Ahead::start(problem, t, x, h, t_limit, settings, stats).inspect_err(|_| {
+            memory.h = 0.0;
+        })
+    }
+    fn advance(
+        &mut self,
+        problem: &mut problem::Problem,
+        project: &mut dyn FnMut(f64, &mut [f64]),
+        ends: (f64, f64),
+        settings: &Settings,
+        memory: &mut Memory,
+        out: &mut [f64],
+        work: &mut Workspace,
+    ) -> Result<(), Failure> {
+        radau5::advance_dense_in(problem, project, self, ends, settings, memory, out, work)
+    }
+    fn end(&self) -> (f64, &[f64]) {
+        (self.t, &self.x)
     }
 }
 
@@ -283,6 +549,16 @@ pub struct Memory {
     pub dop853_ahead: Option<dop853::Ahead>,
     /// DOPRI5's stiffness detection (see [`dopri5::StiffnessMonitor`]).
     pub stiffness: dopri5::StiffnessMonitor,
+}
+
+impl Memory {
+    /// Forgets every integrator's point ahead of the communication time: f changed (an
+    /// input), or the mode or method that kept it is not the one running.
+    pub fn drop_ahead(&mut self) {
+        self.ahead = None;
+        self.radau5_ahead = None;
+        self.dop853_ahead = None;
+    }
 }
 
 /// Why [`advance`] stopped early. In every case the state was left at the last accepted step.
@@ -364,6 +640,23 @@ pub fn advance(
     settings: &Settings,
     memory: &mut Memory,
 ) -> Result<(), Failure> {
+    let work = &mut Workspace::default();
+    advance_rhs(rhs, t, x, t_end, settings, memory, work, true)
+}
+
+/// [`advance`] in the scratch of `work`; RK4's plan is checked if `check_plan` (else the
+/// caller did).
+#[allow(clippy::too_many_arguments)]
+fn advance_rhs(
+    rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
+    t: &mut f64,
+    x: &mut [f64],
+    t_end: f64,
+    settings: &Settings,
+    memory: &mut Memory,
+    work: &mut Workspace,
+    plan: bool,
+) -> Result<(), Failure> {
     assert!(
         t_end >= *t,
         "integrators::advance: t_end = {t_end} must not precede t = {}",
@@ -378,10 +671,12 @@ pub fn advance(
     }
     match settings.method {
         Method::Rk4 => {
-            check_plan(settings, *t, t_end)?;
-            rk4::advance(rhs, t, x, t_end, settings.step, &mut memory.stats)
+            if plan {
+                check_plan(settings, *t, t_end)?;
+            }
+            rk4::advance_in(rhs, t, x, t_end, settings.step, &mut memory.stats, work)
         }
-        Method::Dopri5 => dopri5::advance(rhs, t, x, t_end, settings, memory),
+        Method::Dopri5 => dopri5::advance_in(rhs, t, x, t_end, settings, memory, work),
         other => panic!(
             "integrators::advance runs RK4 and DOPRI5; {} needs advance_with and a Problem",
             other.name()

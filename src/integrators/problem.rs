@@ -11,6 +11,7 @@
 //! `f` (not of the Jacobian: wrap the closure to count those).
 
 use super::rk4::SLIVER;
+use super::workspace::sized;
 use super::{Failure, Stats};
 use std::fmt;
 
@@ -176,8 +177,10 @@ pub(crate) fn step_count(span: f64, step: f64) -> f64 {
 
 /// The fixed-step loop: step `i` runs from `t0 + i·step` to `t0 + (i+1)·step` (the last one
 /// to `t_end`), times computed from the start so rounding does not drift. `one_step(stats, ta,
-/// tb, x, y)` writes the state at `tb` into `y`; a non-finite `y` stops the loop with
+/// tb, x, y)` writes the state at `tb` into `y` (the scratch `y`, of which it takes
+/// `x.len()`: `one_step` writes every component); a non-finite `y` stops the loop with
 /// `NonFinite` at the last good state, as does an error of `one_step`.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn fixed_steps<E: From<Failure>>(
     method: &str,
     t: &mut f64,
@@ -185,6 +188,7 @@ pub(crate) fn fixed_steps<E: From<Failure>>(
     t_end: f64,
     step: f64,
     stats: &mut Stats,
+    y: &mut Vec<f64>,
     mut one_step: impl FnMut(&mut Stats, f64, f64, &[f64], &mut [f64]) -> Result<(), E>,
 ) -> Result<(), E> {
     if !start(method, *t, x, t_end)? {
@@ -193,7 +197,7 @@ pub(crate) fn fixed_steps<E: From<Failure>>(
     let t0 = *t;
     // No limit here: `advance_with` checks the plan against `Settings::max_steps` first.
     let n = step_count(t_end - t0, step) as u64;
-    let mut y = vec![0.0; x.len()];
+    let y = sized(y, x.len());
     for i in 0..n {
         let ta = *t;
         let tb = if i + 1 == n {
@@ -201,11 +205,11 @@ pub(crate) fn fixed_steps<E: From<Failure>>(
         } else {
             t0 + (i + 1) as f64 * step
         };
-        one_step(stats, ta, tb, x, &mut y)?;
+        one_step(stats, ta, tb, x, y)?;
         if !y.iter().all(|v| v.is_finite()) {
             return Err(Failure::NonFinite { t: ta }.into());
         }
-        x.copy_from_slice(&y);
+        x.copy_from_slice(y);
         *t = tb;
         stats.steps += 1;
     }

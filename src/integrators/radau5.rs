@@ -27,9 +27,11 @@
 // be checked against it; the compiler rounds them to the nearest f64.
 #![allow(clippy::excessive_precision)]
 
+use super::lu::Lu;
 use super::problem::{start, Problem};
+use super::workspace::{copied, sized, zeroed, Workspace};
 use super::{Failure, Memory, Settings, Stats};
-use nalgebra::{Complex, DMatrix, DVector, Dyn, LU};
+use nalgebra::Complex;
 
 // The transformation T and T⁻¹ of radau5.f (T32 = 1, T33 = 0).
 const T11: f64 = 9.123_239_487_089_294_279_2e-2;
@@ -113,33 +115,44 @@ impl Coefficients {
     }
 }
 
-/// The two factorized Newton matrices.
+/// The two factorized Newton matrices (radau5.f DECOMR, DECOMC) and the scalars they were
+/// built with; `valid` is false until they are built for the current `J` and `h`.
+#[derive(Default)]
 struct Factorized {
-    e1: LU<f64, Dyn, Dyn>,
-    e2: LU<Complex<f64>, Dyn, Dyn>,
+    e1: Lu<f64>,
+    e2: Lu<Complex<f64>>,
     fac1: f64,
     alphn: f64,
     betan: f64,
+    valid: bool,
 }
 
-/// LU of `γ/h·I − J` and `(α + iβ)/h·I − J` (radau5.f DECOMR, DECOMC) for the row-major n×n
-/// `jac`; deterministic, so recomputing it from the same `jac` and `h` gives the same bits.
-fn decompose(jac: &[f64], n: usize, h: f64, k: &Coefficients) -> Option<Factorized> {
-    let (fac1, alphn, betan) = (k.u1 / h, k.alpha / h, k.beta / h);
-    let mut e1 = DMatrix::<f64>::from_fn(n, n, |i, j| -jac[i * n + j]);
-    let mut e2 = DMatrix::<Complex<f64>>::from_fn(n, n, |i, j| Complex::new(-jac[i * n + j], 0.0));
-    for i in 0..n {
-        e1[(i, i)] += fac1;
-        e2[(i, i)] += Complex::new(alphn, betan);
+impl Factorized {
+    /// LU of `γ/h·I − J` and `(α + iβ)/h·I − J` for the row-major n×n `jac`, in place;
+    /// `false` if either is singular. Deterministic: the same `jac` and `h` give the same
+    /// bits (as nalgebra's `LU` of `DMatrix::from_fn` did, which this follows step for step).
+    fn decompose(&mut self, jac: &[f64], n: usize, h: f64, k: &Coefficients) -> bool {
+        let (fac1, alphn, betan) = (k.u1 / h, k.alpha / h, k.beta / h);
+        self.e1.factor(n, |i, j| {
+            let e = -jac[i * n + j];
+            if i == j {
+                e + fac1
+            } else {
+                e
+            }
+        });
+        self.e2.factor(n, |i, j| {
+            let e = Complex::new(-jac[i * n + j], 0.0);
+            if i == j {
+                e + Complex::new(alphn, betan)
+            } else {
+                e
+            }
+        });
+        (self.fac1, self.alphn, self.betan) = (fac1, alphn, betan);
+        self.valid = self.e1.is_invertible() && self.e2.is_invertible();
+        self.valid
     }
-    let (e1, e2) = (e1.lu(), e2.lu());
-    (e1.is_invertible() && e2.is_invertible()).then_some(Factorized {
-        e1,
-        e2,
-        fac1,
-        alphn,
-        betan,
-    })
 }
 
 /// Weighted RMS norm of `v` over `m·n` entries.
@@ -185,24 +198,46 @@ pub fn advance(
     settings: &Settings,
     memory: &mut Memory,
 ) -> Result<(), Failure> {
+    advance_in(
+        problem,
+        t,
+        x,
+        t_end,
+        settings,
+        memory,
+        &mut Workspace::default(),
+    )
+}
+
+/// [`advance`] in the scratch of `work` (which also holds the loop state of the call): no
+/// allocation once it has held this size.
+pub fn advance_in(
+    problem: &mut Problem,
+    t: &mut f64,
+    x: &mut [f64],
+    t_end: f64,
+    settings: &Settings,
+    memory: &mut Memory,
+    work: &mut Workspace,
+) -> Result<(), Failure> {
     if !start("RADAU5", *t, x, t_end)? {
         return Ok(());
     }
-    let result = Ahead::start(problem, *t, x, memory.h, t_end, settings, &mut memory.stats)
-        .and_then(|mut st| {
+    let scratch = &mut work.radau5;
+    let mut st = std::mem::take(&mut scratch.landing);
+    copied(&mut st.x, x);
+    let result = st
+        .restart(problem, *t, memory.h, t_end, settings, &mut memory.stats)
+        .and_then(|()| {
+            let stats = &mut memory.stats;
             let r = run(
-                problem,
-                &mut st,
-                t_end,
-                None,
-                None,
-                settings,
-                &mut memory.stats,
+                problem, &mut st, t_end, None, None, settings, stats, scratch,
             );
             *t = st.t;
             x.copy_from_slice(&st.x);
             r.map(|()| st.hopt)
         });
+    scratch.landing = st;
     match result {
         Ok(hopt) => {
             memory.h = hopt;
@@ -221,7 +256,7 @@ pub fn advance(
 /// same however many calls a run is cut into, and a communication time inside the last
 /// accepted step is read from its collocation polynomial (radau5.f CONTR5). Valid only while
 /// f is unchanged. `theta` is not kept: radau5.f resets it at every Newton start.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Ahead {
     /// End of the last accepted step: the integrator's own time.
     pub t: f64,
@@ -279,9 +314,27 @@ impl Ahead {
         settings: &Settings,
         stats: &mut Stats,
     ) -> Result<Ahead, Failure> {
-        let n = x.len();
-        let mut f = vec![0.0; n];
-        if !x.iter().all(|v| v.is_finite()) || !problem.eval(t, x, &mut f, stats) {
+        let mut ahead = Ahead::default();
+        copied(&mut ahead.x, x);
+        ahead.restart(problem, t, h_carried, t_limit, settings, stats)?;
+        Ok(ahead)
+    }
+
+    /// [`Ahead::start`] in place, from `(t, self.x)`: every field as `start` sets it, in the
+    /// vectors already here (no allocation once they have held this size). On failure the
+    /// state is not one to continue from.
+    fn restart(
+        &mut self,
+        problem: &mut Problem,
+        t: f64,
+        h_carried: f64,
+        t_limit: f64,
+        settings: &Settings,
+        stats: &mut Stats,
+    ) -> Result<(), Failure> {
+        let n = self.x.len();
+        let f = zeroed(&mut self.f, n);
+        if !self.x.iter().all(|v| v.is_finite()) || !problem.eval(t, &self.x, f, stats) {
             return Err(Failure::NonFinite { t });
         }
         let hmaxn = step_bound(settings).min(t_limit - t);
@@ -292,28 +345,13 @@ impl Ahead {
             h = t_limit - t;
             last = true;
         }
-        Ok(Ahead {
-            t,
-            x: x.to_vec(),
-            f,
-            h,
-            hopt: h,
-            hold: h,
-            hmaxn,
-            cont: vec![0.0; 3 * n],
-            have_cont: false,
-            hacc: 0.0,
-            erracc: 0.0,
-            faccon: 1.0,
-            first: !carried,
-            reject: false,
-            last,
-            landed: false,
-            jac: vec![0.0; n * n],
-            need_jac: true,
-            caljac: false,
-            nsing: 0,
-        })
+        zeroed(&mut self.cont, 3 * n);
+        zeroed(&mut self.jac, n * n);
+        (self.t, self.h, self.hopt, self.hold, self.hmaxn) = (t, h, h, h, hmaxn);
+        (self.have_cont, self.hacc, self.erracc, self.faccon) = (false, 0.0, 0.0, 1.0);
+        (self.first, self.reject, self.last, self.landed) = (!carried, false, last, false);
+        (self.need_jac, self.caljac, self.nsing) = (true, false, 0);
+        Ok(())
     }
 
     /// x(`t`) for `t` in the last accepted step, from its collocation polynomial (radau5.f
@@ -353,10 +391,31 @@ pub fn advance_dense(
     memory: &mut Memory,
     out: &mut [f64],
 ) -> Result<(), Failure> {
+    let mut work = Workspace::default();
+    let ends = (t_out, t_limit);
+    advance_dense_in(
+        problem, project, ahead, ends, settings, memory, out, &mut work,
+    )
+}
+
+/// [`advance_dense`] to `(t_out, t_limit)` in the scratch of `work`: no allocation once it
+/// has held this size.
+#[allow(clippy::too_many_arguments)]
+pub fn advance_dense_in(
+    problem: &mut Problem,
+    project: &mut dyn FnMut(f64, &mut [f64]),
+    ahead: &mut Ahead,
+    (t_out, t_limit): (f64, f64),
+    settings: &Settings,
+    memory: &mut Memory,
+    out: &mut [f64],
+    work: &mut Workspace,
+) -> Result<(), Failure> {
     if t_out > ahead.t && ahead.landed {
-        // Landed on an earlier limit: go on as a new integration from there.
-        let (t, x, h) = (ahead.t, ahead.x.clone(), ahead.hopt);
-        *ahead = Ahead::start(problem, t, &x, h, t_limit, settings, &mut memory.stats)?;
+        // Landed on an earlier limit: go on as a new integration from there. (On failure
+        // the caller drops `ahead`, as it used to be replaced only on success.)
+        let (t, h) = (ahead.t, ahead.hopt);
+        ahead.restart(problem, t, h, t_limit, settings, &mut memory.stats)?;
     }
     let goal = Some(t_out);
     match run(
@@ -367,6 +426,7 @@ pub fn advance_dense(
         Some(project),
         settings,
         &mut memory.stats,
+        &mut work.radau5,
     ) {
         Ok(()) => {
             memory.h = ahead.hopt;
@@ -396,7 +456,6 @@ enum Newton {
 struct Constants {
     k: Coefficients,
     rtol: f64,
-    atol: Vec<f64>,
     /// Newton stopping tolerance (radau5.f FNEWT default).
     fnewt: f64,
     /// radau5.f CFAC.
@@ -404,7 +463,8 @@ struct Constants {
 }
 
 impl Constants {
-    fn new(settings: &Settings, n: usize) -> Self {
+    /// The constants for `settings`, and the transformed absolute tolerances into `atol`.
+    fn new(settings: &Settings, n: usize, atol: &mut Vec<f64>) -> Self {
         assert_eq!(
             settings.atol.len(),
             n,
@@ -413,35 +473,44 @@ impl Constants {
         let uround = f64::EPSILON;
         // Tolerance transformation of radau5.f (EXPM = 2/3).
         let rtol = 0.1 * settings.rtol.powf(2.0 / 3.0);
-        let atol = settings
-            .atol
-            .iter()
-            .map(|&a| {
-                if settings.rtol > 0.0 {
-                    rtol * a / settings.rtol
-                } else {
-                    0.1 * a.powf(2.0 / 3.0)
-                }
-            })
-            .collect();
+        atol.clear();
+        atol.extend(settings.atol.iter().map(|&a| {
+            if settings.rtol > 0.0 {
+                rtol * a / settings.rtol
+            } else {
+                0.1 * a.powf(2.0 / 3.0)
+            }
+        }));
         Constants {
             k: Coefficients::new(),
             rtol,
-            atol,
             fnewt: (10.0 * uround / rtol.max(uround)).max(0.03f64.min(rtol.sqrt())),
             cfac: SAFETY * (1 + 2 * NIT) as f64,
         }
     }
 
-    /// The error weights `atol + rtol·|x|` (radau5.f SCAL).
-    fn scale(&self, x: &[f64], scal: &mut [f64]) {
+    /// The error weights `atol + rtol·|x|` (radau5.f SCAL), with `atol` from [`Constants::new`].
+    fn scale(&self, atol: &[f64], x: &[f64], scal: &mut [f64]) {
         for i in 0..x.len() {
-            scal[i] = self.atol[i] + self.rtol * x[i].abs();
+            scal[i] = atol[i] + self.rtol * x[i].abs();
         }
     }
 }
 
-/// Work vectors of one step: the stage increments Z, their transformed values F, scratch.
+/// RADAU5's part of a [`Workspace`]: the work vectors of a step, the factorized Newton
+/// matrices, and the transformed absolute tolerances.
+#[derive(Default)]
+pub(crate) struct Scratch {
+    work: Work,
+    factors: Factorized,
+    atol: Vec<f64>,
+    /// The loop state of a landing-mode call (its capacity only: each call restarts it).
+    landing: Ahead,
+}
+
+/// Work vectors of one step: the stage increments Z, their transformed values F, scratch,
+/// and the right-hand sides of the real and the complex linear solve.
+#[derive(Default)]
 struct Work {
     z1: Vec<f64>,
     z2: Vec<f64>,
@@ -452,22 +521,29 @@ struct Work {
     tmp: Vec<f64>,
     ff: Vec<f64>,
     scal: Vec<f64>,
+    r1: Vec<f64>,
+    r2: Vec<Complex<f64>>,
 }
 
 impl Work {
-    fn new(n: usize) -> Self {
-        let [z1, z2, z3, f1, f2, f3, tmp, ff, scal] = std::array::from_fn(|_| vec![0.0; n]);
-        Work {
-            z1,
-            z2,
-            z3,
-            f1,
-            f2,
-            f3,
-            tmp,
-            ff,
-            scal,
+    /// Every vector with `n` entries: each is written in full before it is read (Z and F
+    /// by [`Work::start_values`], the scale at the start of [`run`]).
+    fn size(&mut self, n: usize) {
+        for v in [
+            &mut self.z1,
+            &mut self.z2,
+            &mut self.z3,
+            &mut self.f1,
+            &mut self.f2,
+            &mut self.f3,
+            &mut self.tmp,
+            &mut self.ff,
+            &mut self.scal,
+            &mut self.r1,
+        ] {
+            sized(v, n);
         }
+        self.r2.resize(n, Complex::new(0.0, 0.0));
     }
 
     /// Newton starting values: the last step's collocation polynomial extrapolated to the
@@ -539,8 +615,7 @@ fn newton(
             }
         }
         // Transform, form the right-hand sides (SLVRAD) and solve.
-        let mut r1 = DVector::<f64>::zeros(n);
-        let mut r2 = DVector::<Complex<f64>>::zeros(n);
+        let (r1, r2) = (&mut w.r1, &mut w.r2);
         for i in 0..n {
             let (a1, a2, a3) = (w.z1[i], w.z2[i], w.z3[i]);
             let w1 = TI11 * a1 + TI12 * a2 + TI13 * a3;
@@ -553,12 +628,11 @@ fn newton(
                 w3 + s3 * fz.alphn + s2 * fz.betan,
             );
         }
-        let d1 = fz.e1.solve(&r1).expect("invertible");
-        let d2 = fz.e2.solve(&r2).expect("invertible");
+        assert!(fz.e1.solve(r1) && fz.e2.solve(r2), "invertible");
         for i in 0..n {
-            w.z1[i] = d1[i];
-            w.z2[i] = d2[i].re;
-            w.z3[i] = d2[i].im;
+            w.z1[i] = r1[i];
+            w.z2[i] = r2[i].re;
+            w.z3[i] = r2[i].im;
         }
         newt += 1;
         let dyno = rms(&[&w.z1, &w.z2, &w.z3], &w.scal);
@@ -605,6 +679,7 @@ fn newton(
 
 /// The error estimate of the converged step (radau5.f ESTRAD), with the extra evaluation
 /// (IV.8.20) when it fails on the first step or after a rejection.
+#[allow(clippy::needless_range_loop)] // radau5.f's loops over several vectors at once
 fn error_estimate(
     problem: &mut Problem,
     c: &Constants,
@@ -616,13 +691,14 @@ fn error_estimate(
     let n = st.x.len();
     let (t0, h) = (st.t, st.h);
     let (hee1, hee2, hee3) = (c.k.dd[0] / h, c.k.dd[1] / h, c.k.dd[2] / h);
-    let mut r = DVector::<f64>::zeros(n);
+    // The right-hand side, then (solved in place) the estimate.
+    let e = &mut w.r1;
     for i in 0..n {
         w.ff[i] = hee1 * w.z1[i] + hee2 * w.z2[i] + hee3 * w.z3[i];
-        r[i] = w.ff[i] + st.f[i];
+        e[i] = w.ff[i] + st.f[i];
     }
-    let mut e = fz.e1.solve(&r).expect("invertible");
-    let mut err = rms(&[e.as_slice()], &w.scal).max(ERR_MIN);
+    assert!(fz.e1.solve(e), "invertible");
+    let mut err = rms(&[e], &w.scal).max(ERR_MIN);
     if err >= 1.0 && (st.first || st.reject) {
         for i in 0..n {
             w.tmp[i] = st.x[i] + e[i];
@@ -631,10 +707,10 @@ fn error_estimate(
             return Err(Failure::NonFinite { t: t0 });
         }
         for i in 0..n {
-            r[i] = w.f1[i] + w.ff[i];
+            e[i] = w.f1[i] + w.ff[i];
         }
-        e = fz.e1.solve(&r).expect("invertible");
-        err = rms(&[e.as_slice()], &w.scal).max(ERR_MIN);
+        assert!(fz.e1.solve(e), "invertible");
+        err = rms(&[e], &w.scal).max(ERR_MIN);
     }
     if err.is_nan() {
         return Err(Failure::NonFinite { t: t0 });
@@ -681,12 +757,19 @@ fn run(
     mut project: Option<&mut dyn FnMut(f64, &mut [f64])>,
     settings: &Settings,
     stats: &mut Stats,
+    scratch: &mut Scratch,
 ) -> Result<(), Failure> {
     let n = st.x.len();
-    let c = Constants::new(settings, n);
-    let mut w = Work::new(n);
-    c.scale(&st.x, &mut w.scal);
-    let mut factors: Option<Factorized> = None;
+    let Scratch {
+        work: w,
+        factors,
+        atol,
+        ..
+    } = scratch;
+    let c = Constants::new(settings, n, atol);
+    w.size(n);
+    c.scale(atol, &st.x, &mut w.scal);
+    factors.valid = false;
     let mut attempts: u64 = 0;
 
     loop {
@@ -697,27 +780,22 @@ fn run(
             problem.eval_jacobian("RADAU5", st.t, &st.x, &mut st.jac);
             st.need_jac = false;
             st.caljac = true;
-            factors = None;
+            factors.valid = false;
         }
-        if factors.is_none() {
-            match decompose(&st.jac, n, st.h, &c.k) {
-                Some(f) => factors = Some(f),
-                None => {
-                    // Singular Newton matrix: unexpected rejection (radau5.f label 78).
-                    st.nsing += 1;
-                    if st.nsing >= MAX_SINGULAR {
-                        return Err(Failure::StepTooSmall { t: st.t, h: st.h });
-                    }
-                    stats.rejected += 1;
-                    st.h *= UNEXPECTED_SHRINK;
-                    st.reject = true;
-                    st.last = false;
-                    st.need_jac = !st.caljac;
-                    continue;
-                }
+        if !factors.valid && !factors.decompose(&st.jac, n, st.h, &c.k) {
+            // Singular Newton matrix: unexpected rejection (radau5.f label 78).
+            st.nsing += 1;
+            if st.nsing >= MAX_SINGULAR {
+                return Err(Failure::StepTooSmall { t: st.t, h: st.h });
             }
+            stats.rejected += 1;
+            st.h *= UNEXPECTED_SHRINK;
+            st.reject = true;
+            st.last = false;
+            st.need_jac = !st.caljac;
+            continue;
         }
-        let fz = factors.as_ref().expect("factorized above");
+        let fz = &*factors;
 
         if attempts >= settings.max_steps {
             return Err(Failure::TooManySteps {
@@ -741,7 +819,7 @@ fn run(
             (t0, t_new, h),
             &st.x,
             &mut st.faccon,
-            &mut w,
+            w,
             stats,
         )?;
         let (newt, theta) = match newton {
@@ -754,12 +832,12 @@ fn run(
                 };
                 st.reject = true;
                 st.last = false;
-                factors = None;
+                factors.valid = false;
                 st.need_jac = !st.caljac;
                 continue;
             }
         };
-        let err = error_estimate(problem, &c, fz, st, &mut w, stats)?;
+        let err = error_estimate(problem, &c, fz, st, w, stats)?;
 
         // New step size (radau5.f: 0.2 ≤ h_new/h ≤ 8).
         let fac = SAFETY.min(c.cfac / (newt + 2 * NIT) as f64);
@@ -775,7 +853,7 @@ fn run(
             } else {
                 hnew
             };
-            factors = None;
+            factors.valid = false;
             st.need_jac = !st.caljac;
             continue;
         }
@@ -789,12 +867,12 @@ fn run(
         st.hacc = h;
         st.erracc = err.max(1e-2);
         st.hold = h;
-        commit(st, t_new, &w, &c.k)?;
+        commit(st, t_new, w, &c.k)?;
         if let Some(project) = project.as_mut() {
             project(t_new, &mut st.x);
         }
         stats.steps += 1;
-        c.scale(&st.x, &mut w.scal);
+        c.scale(atol, &st.x, &mut w.scal);
         st.caljac = false;
         if st.last {
             st.landed = true;
@@ -820,7 +898,7 @@ fn run(
             }
             st.h = hnew;
         }
-        factors = None;
+        factors.valid = false;
         st.need_jac = theta > THET;
     }
 }
@@ -831,6 +909,7 @@ mod tests {
     use super::super::test_support::{oscillator, oscillator_error};
     use super::super::Method;
     use super::*;
+    use nalgebra::{DMatrix, DVector};
 
     fn settings(tol: f64, n: usize) -> Settings {
         Settings {

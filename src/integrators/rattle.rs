@@ -28,57 +28,123 @@
 //! tolerance. The sign convention of λ is that of [`crate::model::lagrangian`]:
 //! `M q̈ + Gᵀ λ = F − (∂²L/∂q̇∂q) q̇`.
 
+use super::lu::Lu;
 use super::problem::Mechanics;
 use super::problem::{fixed_steps, ImplicitFailure, NEWTON_MAX_ITER, NEWTON_TOL};
+use super::workspace::{copied, sized, zeroed, Workspace};
 use super::{Failure, Stats};
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{DMatrixView, DMatrixViewMut, DVectorView};
 
-/// Everything about `q` that the step uses more than once.
+/// `out = A·v` for the column-major r×c `a`, with nalgebra's product (`mul_to` is the
+/// `gemm` that `&a * &v` runs, so the same bits as the `DMatrix`/`DVector` arithmetic this
+/// method was first written in).
+fn mul(a: &[f64], (r, c): (usize, usize), v: &[f64], out: &mut [f64]) {
+    let (a, v) = (
+        DMatrixView::from_slice(a, r, c),
+        DMatrixView::from_slice(v, c, 1),
+    );
+    a.mul_to(&v, &mut DMatrixViewMut::from_slice(out, r, 1));
+}
+
+/// nalgebra's `amax` (largest absolute value) of `v`.
+fn amax(v: &[f64]) -> f64 {
+    DVectorView::from_slice(v, v.len()).amax()
+}
+
+/// Everything about `q` that the step uses more than once, in kept buffers.
+#[derive(Default)]
 struct AtQ {
-    mass: DMatrix<f64>,
-    lu: nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn>,
-    b: DVector<f64>,
-    g: DVector<f64>,
-    jac: DMatrix<f64>,
+    n: usize,
+    m: usize,
+    /// M(q) row-major as `Mechanics` writes it, then column-major (nalgebra's
+    /// `DMatrix::from_row_slice`), and its LU.
+    mass_rows: Vec<f64>,
+    mass: Vec<f64>,
+    lu: Lu<f64>,
+    b: Vec<f64>,
+    g: Vec<f64>,
+    /// G(q) row-major m×n as `Mechanics` writes it, which is also Gᵀ column-major (n×m),
+    /// and G column-major.
+    jac_rows: Vec<f64>,
+    jac: Vec<f64>,
+    /// `p − b`, the right-hand side of a velocity.
+    rhs: Vec<f64>,
 }
 
 impl AtQ {
-    /// `None` if M(q) is singular or anything is not finite.
-    fn new(mech: &mut dyn Mechanics, q: &[f64]) -> Option<AtQ> {
+    /// M, b, g, G and M's LU at `q`; `false` if M(q) is singular or anything is not finite.
+    fn set(&mut self, mech: &mut dyn Mechanics, q: &[f64]) -> bool {
         let (n, m) = mech.dims();
-        let mut mm = vec![0.0; n * n];
-        mech.mass_matrix(q, &mut mm);
-        let mut b = DVector::zeros(n);
-        mech.momentum_offset(q, b.as_mut_slice());
-        let mut g = DVector::zeros(m);
-        let mut jac = vec![0.0; m * n];
-        mech.constraints(q, g.as_mut_slice(), &mut jac);
-        let finite = mm
+        (self.n, self.m) = (n, m);
+        mech.mass_matrix(q, zeroed(&mut self.mass_rows, n * n));
+        mech.momentum_offset(q, zeroed(&mut self.b, n));
+        mech.constraints(q, zeroed(&mut self.g, m), zeroed(&mut self.jac_rows, m * n));
+        let finite = self
+            .mass_rows
             .iter()
-            .chain(&jac)
-            .chain(b.iter())
-            .chain(g.iter())
+            .chain(&self.jac_rows)
+            .chain(&self.b)
+            .chain(&self.g)
             .all(|v| v.is_finite());
-        let mass = DMatrix::from_row_slice(n, n, &mm);
-        let lu = mass.clone().lu();
-        (finite && lu.is_invertible()).then(|| AtQ {
-            mass,
-            lu,
-            b,
-            g,
-            jac: DMatrix::from_row_slice(m, n, &jac),
-        })
+        let (rows, jac_rows) = (&self.mass_rows, &self.jac_rows);
+        let mass = sized(&mut self.mass, n * n);
+        let jac = sized(&mut self.jac, m * n);
+        for j in 0..n {
+            for i in 0..n {
+                mass[j * n + i] = rows[i * n + j];
+            }
+            for i in 0..m {
+                jac[j * m + i] = jac_rows[i * n + j];
+            }
+        }
+        self.lu.factor(n, |i, j| rows[i * n + j]);
+        finite && self.lu.is_invertible()
     }
 
-    /// `v(q, p) = M⁻¹ (p − b)`.
-    fn velocity(&self, p: &DVector<f64>) -> DVector<f64> {
-        self.lu.solve(&(p - &self.b)).expect("invertible")
+    /// `v(q, p) = M⁻¹ (p − b)` into `out`.
+    fn velocity(&mut self, p: &[f64], out: &mut [f64]) {
+        let rhs = sized(&mut self.rhs, self.n);
+        for ((r, p), b) in rhs.iter_mut().zip(p).zip(&self.b) {
+            *r = p - b;
+        }
+        assert!(self.lu.solve(rhs), "invertible");
+        out.copy_from_slice(rhs);
     }
 
-    /// `p(q, q̇) = M q̇ + b`.
-    fn momentum(&self, qd: &DVector<f64>) -> DVector<f64> {
-        &self.mass * qd + &self.b
+    /// `p(q, q̇) = M q̇ + b` into `out`.
+    fn momentum(&self, qd: &[f64], out: &mut [f64]) {
+        mul(&self.mass, (self.n, self.n), qd, out);
+        for (o, b) in out.iter_mut().zip(&self.b) {
+            *o += b;
+        }
     }
+
+    /// `Gᵀ λ` into `out`.
+    fn gt_times(&self, lambda: &[f64], out: &mut [f64]) {
+        mul(&self.jac_rows, (self.n, self.m), lambda, out);
+    }
+}
+
+/// RATTLE's part of a [`Workspace`]: M, b, g, G at q₀ and at q₁ (also used to convert
+/// between q̇ and p), and the vectors and matrices of a step.
+#[derive(Default)]
+pub(crate) struct Scratch {
+    at: [AtQ; 2],
+    /// q₀, p₀, v₀, F, the argument and result of the second half, and scratch, n each.
+    vectors: [Vec<f64>; 8],
+    /// z = (p½, q₁, λ), its residual, a perturbed z and its residual, the increment.
+    z: [Vec<f64>; 5],
+    /// The last F(t₀, q₀, v(q₀, p½)) and the p½ it was evaluated at.
+    force: (Vec<f64>, Vec<f64>, bool),
+    /// The forward-difference Newton matrix (column-major) and its LU.
+    newton: Vec<f64>,
+    newton_lu: Lu<f64>,
+    /// M⁻¹Gᵀ (n×m column-major), the Schur complement G M⁻¹ Gᵀ h/2 (m×m) and its LU, and
+    /// its right-hand side and solution μ (m each).
+    minv_gt: Vec<f64>,
+    schur: Vec<f64>,
+    schur_lu: Lu<f64>,
+    mu: [Vec<f64>; 2],
 }
 
 /// RATTLE from `*t` to `t_end` with step `h` (the last step shortened; `h` not positive and
@@ -92,21 +158,41 @@ pub fn advance(
     h: f64,
     stats: &mut Stats,
 ) -> Result<(), ImplicitFailure> {
+    advance_in(mech, t, x, t_end, h, stats, &mut Workspace::default())
+}
+
+/// [`advance`] in the scratch of `work`: the method allocates nothing once `work` has held
+/// these sizes (what `mech` does is its own).
+pub fn advance_in(
+    mech: &mut dyn Mechanics,
+    t: &mut f64,
+    x: &mut [f64],
+    t_end: f64,
+    h: f64,
+    stats: &mut Stats,
+    work: &mut Workspace,
+) -> Result<(), ImplicitFailure> {
     let (n, _) = mech.dims();
     assert_eq!(x.len(), 2 * n, "RATTLE: the state is (q, q̇)");
+    let (y, w) = (&mut work.fixed[0], &mut work.rattle);
+    let converted = sized(&mut w.vectors[7], n);
     if x.iter().all(|v| v.is_finite()) {
-        let at = AtQ::new(mech, &x[..n]).ok_or(Failure::NonFinite { t: *t })?;
-        let p = at.momentum(&DVector::from_column_slice(&x[n..]));
-        x[n..].copy_from_slice(p.as_slice());
+        let at = &mut w.at[0];
+        if !at.set(mech, &x[..n]) {
+            return Err(Failure::NonFinite { t: *t }.into());
+        }
+        at.momentum(&x[n..], converted);
+        x[n..].copy_from_slice(converted);
     }
     // The loop runs on (q, p); on failure the last good (q, p) is converted back.
-    let result = fixed_steps("RATTLE", t, x, t_end, h, stats, |stats, ta, tb, x, y| {
-        step(mech, stats, ta, tb, x, y)
+    let result = fixed_steps("RATTLE", t, x, t_end, h, stats, y, |stats, ta, tb, x, y| {
+        step(mech, stats, ta, tb, x, y, w)
     });
     if x.iter().all(|v| v.is_finite()) {
-        if let Some(at) = AtQ::new(mech, &x[..n]) {
-            let v = at.velocity(&DVector::from_column_slice(&x[n..]));
-            x[n..].copy_from_slice(v.as_slice());
+        let (at, converted) = (&mut w.at[0], &mut w.vectors[7]);
+        if at.set(mech, &x[..n]) {
+            at.velocity(&x[n..], converted);
+            x[n..].copy_from_slice(converted);
         }
     }
     result
@@ -125,49 +211,84 @@ const STALL: f64 = 1e-10;
 /// not, and the forces' rounding is what the iteration can resolve); λ by what it moves,
 /// `h/2 ‖G₀ᵀ Δλ‖`, against the same momentum scale. (λ itself is determined only to the
 /// rounding of `g(q₁)` divided by `h²/2 G M⁻¹ Gᵀ`, far coarser than ε|λ| at small h.)
+/// `scratch` takes n values.
 fn increment_size(
-    dz: &DVector<f64>,
-    z: &DVector<f64>,
-    (q0, p0): (&DVector<f64>, &DVector<f64>),
-    g0: &DMatrix<f64>,
-    hh_force: f64,
-    hh: f64,
+    (dz, z): (&[f64], &[f64]),
+    (q0, p0): (&[f64], &[f64]),
+    at0: &AtQ,
+    (hh_force, hh): (f64, f64),
+    scratch: &mut [f64],
 ) -> f64 {
     let n = q0.len();
     let max = |v: &[f64]| v.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-    let zs = z.as_slice();
-    let lambda = z.rows(2 * n, z.len() - 2 * n);
-    let dlambda = dz.rows(2 * n, z.len() - 2 * n);
-    let constraint_force = hh * max((g0.transpose() * lambda).as_slice());
-    let scale_p = max(p0.as_slice())
-        .max(max(&zs[..n]))
+    at0.gt_times(&z[2 * n..], scratch);
+    let constraint_force = hh * max(scratch);
+    let scale_p = max(p0)
+        .max(max(&z[..n]))
         .max(hh_force)
         .max(constraint_force)
         .max(f64::MIN_POSITIVE);
-    let scale_q = max(q0.as_slice())
-        .max(max(&zs[n..2 * n]))
-        .max(f64::MIN_POSITIVE);
-    let dp = max(&dz.as_slice()[..n]) / scale_p;
-    let dq = max(&dz.as_slice()[n..2 * n]) / scale_q;
-    let dl = hh * max((g0.transpose() * dlambda).as_slice()) / scale_p;
+    let scale_q = max(q0).max(max(&z[n..2 * n])).max(f64::MIN_POSITIVE);
+    let dp = max(&dz[..n]) / scale_p;
+    let dq = max(&dz[n..2 * n]) / scale_q;
+    at0.gt_times(&dz[2 * n..], scratch);
+    let dl = hh * max(scratch) / scale_p;
     dp.max(dq).max(dl)
 }
 
-/// `F(t, q, q̇)`, counted.
+/// `F(t, q, q̇)` into `f`, counted.
 fn force(
     mech: &mut dyn Mechanics,
     stats: &mut Stats,
     t: f64,
-    q: &DVector<f64>,
-    v: &DVector<f64>,
-) -> DVector<f64> {
+    (q, v): (&[f64], &[f64]),
+    f: &mut Vec<f64>,
+) {
     stats.rhs_evals += 1;
-    let mut f = DVector::zeros(q.len());
-    mech.force(t, q.as_slice(), v.as_slice(), f.as_mut_slice());
-    f
+    mech.force(t, q, v, zeroed(f, q.len()));
 }
 
-/// One RATTLE step from `(q₀, p₀) = x` at `ta` to `y` at `tb`.
+/// The residual of the first half at `z = (p½, q₁, λ)` into `r` (2n + m equations):
+/// `false` if it is not finite or M(q₁) is singular (either way no step from here).
+/// F(t₀, q₀, v₀) depends on p½ alone: the last value is kept in `cache`, so the Jacobian's
+/// q₁ and λ columns and a repeated p½ cost no evaluation of F.
+#[allow(clippy::too_many_arguments)]
+fn residual(
+    mech: &mut dyn Mechanics,
+    stats: &mut Stats,
+    (ta, hh): (f64, f64),
+    (q0, p0): (&[f64], &[f64]),
+    [at0, at1]: &mut [AtQ; 2],
+    cache: &mut (Vec<f64>, Vec<f64>, bool),
+    [v0, v1, gtl]: [&mut Vec<f64>; 3],
+    z: &[f64],
+    r: &mut [f64],
+) -> bool {
+    let n = q0.len();
+    let (ph, q1, lambda) = (&z[..n], &z[n..2 * n], &z[2 * n..]);
+    if !at1.set(mech, q1) {
+        return false;
+    }
+    let (v0, v1, gtl) = (sized(v0, n), sized(v1, n), sized(gtl, n));
+    at0.velocity(ph, v0);
+    at1.velocity(ph, v1);
+    let (cached_p, f0, valid) = cache;
+    if !(*valid && cached_p[..] == *ph) {
+        force(mech, stats, ta, (q0, v0), f0);
+        copied(cached_p, ph);
+        *valid = true;
+    }
+    at0.gt_times(lambda, gtl);
+    for i in 0..n {
+        r[i] = ph[i] - p0[i] - (f0[i] - gtl[i]) * hh;
+        r[n + i] = q1[i] - q0[i] - (v0[i] + v1[i]) * hh;
+    }
+    r[2 * n..].copy_from_slice(&at1.g);
+    r.iter().all(|v| v.is_finite())
+}
+
+/// One RATTLE step from `(q₀, p₀) = x` at `ta` to `y` at `tb`, in the scratch `w`.
+#[allow(clippy::needless_range_loop)] // the equations' index loops over several vectors
 fn step(
     mech: &mut dyn Mechanics,
     stats: &mut Stats,
@@ -175,132 +296,162 @@ fn step(
     tb: f64,
     x: &[f64],
     y: &mut [f64],
+    w: &mut Scratch,
 ) -> Result<(), ImplicitFailure> {
     let (n, m) = mech.dims();
+    let size = 2 * n + m;
     let h = tb - ta;
     let hh = 0.5 * h;
-    let q0 = DVector::from_column_slice(&x[..n]);
-    let p0 = DVector::from_column_slice(&x[n..]);
     let fail = |iterations| ImplicitFailure::NewtonFailed {
         t: ta,
         h,
         iterations,
     };
     let non_finite = || ImplicitFailure::Integration(Failure::NonFinite { t: ta });
-    let at0 = AtQ::new(mech, q0.as_slice()).ok_or_else(non_finite)?;
+    let Scratch {
+        at,
+        vectors: [q0, p0, v0, f, v1, gtl, a, _],
+        z: [z, r, zj, rj, dz],
+        force: cache,
+        newton,
+        newton_lu,
+        minv_gt,
+        schur,
+        schur_lu,
+        mu: [rhs, mu],
+    } = w;
+    let (q0, p0) = (copied(q0, &x[..n]), copied(p0, &x[n..]));
+    if !at[0].set(mech, q0) {
+        return Err(non_finite());
+    }
 
     // Explicit predictor: the unconstrained leapfrog half step, λ = 0.
-    let v0 = at0.velocity(&p0);
-    let f_pred = force(mech, stats, ta, &q0, &v0);
-    let hh_force = hh * f_pred.amax();
-    let ph = &p0 + f_pred * hh;
-    let q1 = &q0 + at0.velocity(&ph) * h;
-    let mut z = DVector::zeros(2 * n + m);
-    z.rows_mut(0, n).copy_from(&ph);
-    z.rows_mut(n, n).copy_from(&q1);
-
-    // Residual of the first half: (p½, q₁, λ) ↦ R, 2n + m equations.
-    // `None`: not finite, or M(q₁) singular (either way no step from here). F(t₀, q₀, v₀)
-    // depends on p½ alone: the last value is kept, so the Jacobian's q₁ and λ columns and
-    // a repeated p½ cost no evaluation of F.
-    let mut last_force: Option<(DVector<f64>, DVector<f64>)> = None;
-    let mut residual = |mech: &mut dyn Mechanics, z: &DVector<f64>| -> Option<DVector<f64>> {
-        let ph = z.rows(0, n).into_owned();
-        let q1 = z.rows(n, n).into_owned();
-        let lambda = z.rows(2 * n, m).into_owned();
-        let at1 = AtQ::new(mech, q1.as_slice())?;
-        let v0 = at0.velocity(&ph);
-        let v1 = at1.velocity(&ph);
-        let f0 = match &last_force {
-            Some((p, f)) if *p == ph => f.clone(),
-            _ => {
-                let f = force(mech, stats, ta, &q0, &v0);
-                last_force = Some((ph.clone(), f.clone()));
-                f
-            }
-        };
-        let mut r = DVector::zeros(2 * n + m);
-        let rp = &ph - &p0 - (f0 - at0.jac.transpose() * &lambda) * hh;
-        let rq = &q1 - &q0 - (v0 + v1) * hh;
-        r.rows_mut(0, n).copy_from(&rp);
-        r.rows_mut(n, n).copy_from(&rq);
-        r.rows_mut(2 * n, m).copy_from(&at1.g);
-        r.iter().all(|v| v.is_finite()).then_some(r)
-    };
+    let v0_ = sized(v0, n);
+    at[0].velocity(p0, v0_);
+    force(mech, stats, ta, (q0, v0_), f);
+    let hh_force = hh * amax(f);
+    let z = zeroed(z, size);
+    for i in 0..n {
+        z[i] = p0[i] + f[i] * hh;
+    }
+    at[0].velocity(&z[..n], v0_);
+    for i in 0..n {
+        z[n + i] = q0[i] + v0_[i] * h;
+    }
 
     // Forward-difference Jacobian at the predictor, factorized once. The residual is
     // linear in λ, so any increment gives λ's columns exactly: 1 (a force of 1 N).
-    let r0 = residual(mech, &z).ok_or_else(non_finite)?;
-    let scale_p = p0.amax().max(z.rows(0, n).amax()).max(hh_force);
-    let scale_q = q0.amax().max(z.rows(n, n).amax());
-    let mut jac = DMatrix::zeros(2 * n + m, 2 * n + m);
-    for j in 0..2 * n + m {
+    cache.2 = false;
+    let r = sized(r, size);
+    let vs = [&mut *v0, &mut *v1, &mut *gtl];
+    if !residual(mech, stats, (ta, hh), (q0, p0), at, cache, vs, z, r) {
+        return Err(non_finite());
+    }
+    let scale_p = amax(p0).max(amax(&z[..n])).max(hh_force);
+    let scale_q = amax(q0).max(amax(&z[n..2 * n]));
+    let (zj, rj) = (sized(zj, size), sized(rj, size));
+    let jac = sized(newton, size * size);
+    for j in 0..size {
         let scale = [scale_p, scale_q, 1.0][(j / n).min(2)];
         let delta = f64::EPSILON.sqrt() * z[j].abs().max(scale).max(f64::MIN_POSITIVE);
-        let mut zj = z.clone();
+        zj.copy_from_slice(z);
         zj[j] += delta;
-        let rj = residual(mech, &zj).ok_or_else(non_finite)?;
-        jac.set_column(j, &((rj - &r0) / delta));
+        let vs = [&mut *v0, &mut *v1, &mut *gtl];
+        if !residual(mech, stats, (ta, hh), (q0, p0), at, cache, vs, zj, rj) {
+            return Err(non_finite());
+        }
+        for i in 0..size {
+            jac[j * size + i] = (rj[i] - r[i]) / delta;
+        }
     }
-    let lu = jac.lu();
-    if !lu.is_invertible() {
+    newton_lu.factor(size, |i, j| jac[j * size + i]);
+    if !newton_lu.is_invertible() {
         return Err(fail(0));
     }
 
-    let mut r = r0;
+    let dz = sized(dz, size);
     let mut previous = f64::INFINITY;
     let mut converged = false;
     for iteration in 1..=NEWTON_MAX_ITER {
-        let dz = lu.solve(&r).ok_or(fail(0))?;
-        z -= &dz;
-        let size = increment_size(&dz, &z, (&q0, &p0), &at0.jac, hh_force, hh);
-        if !size.is_finite() {
+        dz.copy_from_slice(r);
+        if !newton_lu.solve(dz) {
+            return Err(fail(0));
+        }
+        for (z, dz) in z.iter_mut().zip(dz.iter()) {
+            *z -= dz;
+        }
+        let step = increment_size((dz, z), (q0, p0), &at[0], (hh_force, hh), sized(gtl, n));
+        if !step.is_finite() {
             return Err(fail(iteration));
         }
-        if size <= NEWTON_TOL {
+        if step <= NEWTON_TOL {
             converged = true;
             break;
         }
-        if size >= previous {
-            if size <= STALL {
+        if step >= previous {
+            if step <= STALL {
                 converged = true;
                 break;
             }
             return Err(fail(iteration));
         }
-        previous = size;
-        r = residual(mech, &z).ok_or_else(non_finite)?;
+        previous = step;
+        let vs = [&mut *v0, &mut *v1, &mut *gtl];
+        if !residual(mech, stats, (ta, hh), (q0, p0), at, cache, vs, z, r) {
+            return Err(non_finite());
+        }
     }
     if !converged {
         return Err(fail(NEWTON_MAX_ITER));
     }
 
     // Second half: p₁ = a − h/2 Gᵀμ with G M⁻¹ (p₁ − b) = 0, linear in μ.
-    let ph = z.rows(0, n).into_owned();
-    let q1 = z.rows(n, n).into_owned();
-    let at1 = AtQ::new(mech, q1.as_slice()).ok_or_else(non_finite)?;
-    let v1 = at1.velocity(&ph);
-    let a = &ph + force(mech, stats, tb, &q1, &v1) * hh;
-    let p1 = if m > 0 {
-        let gt = at1.jac.transpose();
-        // M⁻¹ Gᵀ, column by column.
-        let mut minv_gt = DMatrix::zeros(n, m);
+    let (ph, q1) = (&z[..n], &z[n..2 * n]);
+    let at1 = &mut at[1];
+    if !at1.set(mech, q1) {
+        return Err(non_finite());
+    }
+    let v1 = sized(v1, n);
+    at1.velocity(ph, v1);
+    force(mech, stats, tb, (q1, v1), f);
+    let a = sized(a, n);
+    for i in 0..n {
+        a[i] = ph[i] + f[i] * hh;
+    }
+    if m > 0 {
+        // M⁻¹ Gᵀ, column by column (column k of Gᵀ is row k of G).
+        let minv_gt = sized(minv_gt, n * m);
         for k in 0..m {
-            let col = at1
-                .lu
-                .solve(&gt.column(k).into_owned())
-                .expect("invertible");
-            minv_gt.set_column(k, &col);
+            let column = &mut minv_gt[k * n..(k + 1) * n];
+            column.copy_from_slice(&at1.jac_rows[k * n..(k + 1) * n]);
+            assert!(at1.lu.solve(column), "invertible");
         }
-        let schur = &at1.jac * &minv_gt * hh;
-        let rhs = &at1.jac * at1.velocity(&a);
-        let mu = schur.lu().solve(&rhs).ok_or(fail(0))?;
-        a - gt * mu * hh
-    } else {
-        a
-    };
-    y[..n].copy_from_slice(q1.as_slice());
-    y[n..].copy_from_slice(p1.as_slice());
+        // (G M⁻¹ Gᵀ) h/2, then its right-hand side G v(q₁, a).
+        let schur = sized(schur, m * m);
+        let g = DMatrixView::from_slice(&at1.jac, m, n);
+        g.mul_to(
+            &DMatrixView::from_slice(minv_gt, n, m),
+            &mut DMatrixViewMut::from_slice(schur, m, m),
+        );
+        for s in schur.iter_mut() {
+            *s *= hh;
+        }
+        at1.velocity(a, v1);
+        let rhs = sized(rhs, m);
+        mul(&at1.jac, (m, n), v1, rhs);
+        schur_lu.factor(m, |i, j| schur[j * m + i]);
+        let mu = copied(mu, rhs);
+        if !schur_lu.solve(mu) {
+            return Err(fail(0));
+        }
+        let gt_mu = sized(gtl, n);
+        at1.gt_times(mu, gt_mu);
+        for i in 0..n {
+            a[i] -= gt_mu[i] * hh;
+        }
+    }
+    y[..n].copy_from_slice(q1);
+    y[n..].copy_from_slice(a);
     Ok(())
 }
 

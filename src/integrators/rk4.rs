@@ -3,27 +3,14 @@
 //! Fixed steps make the cost of a communication step known in advance and the result
 //! independent of tolerances; the price is that accuracy is the user's business.
 
+use super::problem::step_count;
+use super::workspace::{sized, Workspace};
 use super::{Failure, Stats};
 
 /// A final remainder shorter than this fraction of a step is merged into the previous step:
 /// a sliver step (often pure rounding of `t_end - t`) would cost four RHS evaluations and
 /// change nothing but the step count.
 pub const SLIVER: f64 = 1e-10;
-
-/// Number of steps needed to cover `span` with steps of `step`, the last one shortened
-/// (or lengthened by at most a [`SLIVER`]) to land exactly.
-fn step_count(span: f64, step: f64) -> f64 {
-    if !(step > 0.0 && step.is_finite()) {
-        return 1.0;
-    }
-    let full = (span / step).floor();
-    let rest = span - full * step;
-    if rest <= SLIVER * step {
-        full.max(1.0)
-    } else {
-        full + 1.0
-    }
-}
 
 /// Advance with RK4 from `*t` to `t_end` (> `*t`, `x` finite; see [`super::advance`]).
 ///
@@ -37,17 +24,32 @@ pub fn advance(
     step: f64,
     stats: &mut Stats,
 ) -> Result<(), Failure> {
+    advance_in(rhs, t, x, t_end, step, stats, &mut Workspace::default())
+}
+
+/// [`advance`] in the scratch of `work`: no allocation once it has held this size.
+pub fn advance_in(
+    rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
+    t: &mut f64,
+    x: &mut [f64],
+    t_end: f64,
+    step: f64,
+    stats: &mut Stats,
+    work: &mut Workspace,
+) -> Result<(), Failure> {
     let t0 = *t;
     // No limit here: `integrators::advance` checks the plan against `Settings::max_steps`.
     let n = step_count(t_end - t0, step) as u64;
     let dim = x.len();
-    let (mut k1, mut k2, mut k3, mut k4) = (
-        vec![0.0; dim],
-        vec![0.0; dim],
-        vec![0.0; dim],
-        vec![0.0; dim],
+    // (Each written in full, by f or below, before it is read.)
+    let [k1, k2, k3, k4, y] = &mut work.rk4;
+    let (k1, k2, k3, k4) = (
+        sized(k1, dim),
+        sized(k2, dim),
+        sized(k3, dim),
+        sized(k4, dim),
     );
-    let mut y = vec![0.0; dim];
+    let y = sized(y, dim);
 
     for i in 0..n {
         let ta = *t;
@@ -59,19 +61,19 @@ pub fn advance(
         let h = tb - ta;
         let tm = ta + 0.5 * h;
 
-        rhs(ta, x, &mut k1);
+        rhs(ta, x, k1);
         for j in 0..dim {
             y[j] = x[j] + 0.5 * h * k1[j];
         }
-        rhs(tm, &y, &mut k2);
+        rhs(tm, y, k2);
         for j in 0..dim {
             y[j] = x[j] + 0.5 * h * k2[j];
         }
-        rhs(tm, &y, &mut k3);
+        rhs(tm, y, k3);
         for j in 0..dim {
             y[j] = x[j] + h * k3[j];
         }
-        rhs(tb, &y, &mut k4);
+        rhs(tb, y, k4);
         stats.rhs_evals += 4;
         for j in 0..dim {
             y[j] = x[j] + h / 6.0 * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j]);
@@ -81,7 +83,7 @@ pub fn advance(
         if !y.iter().all(|v| v.is_finite()) {
             return Err(Failure::NonFinite { t: ta });
         }
-        x.copy_from_slice(&y);
+        x.copy_from_slice(y);
         *t = tb;
         stats.steps += 1;
     }

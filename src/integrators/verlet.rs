@@ -7,6 +7,7 @@
 //! Störmer–Verlet method*, Acta Numerica 12 (2003) 399–450, Sect. 4 (stability: hω < 2).
 
 use super::problem::{fixed_steps, Problem};
+use super::workspace::{sized, Workspace};
 use super::{Failure, Stats};
 
 /// Velocity Verlet from `*t` to `t_end` with step `h` (the last step shortened; `h` not
@@ -27,8 +28,22 @@ pub fn velocity_verlet(
     h: f64,
     stats: &mut Stats,
 ) -> Result<(), Failure> {
+    velocity_verlet_in(problem, t, x, t_end, h, stats, &mut Workspace::default())
+}
+
+/// [`velocity_verlet`] in the scratch of `work`.
+pub fn velocity_verlet_in(
+    problem: &mut Problem,
+    t: &mut f64,
+    x: &mut [f64],
+    t_end: f64,
+    h: f64,
+    stats: &mut Stats,
+    work: &mut Workspace,
+) -> Result<(), Failure> {
     let nq = problem.positions("Störmer–Verlet", x.len());
-    let mut k = vec![0.0; x.len()];
+    let [y, k] = &mut work.fixed;
+    let k = sized(k, x.len());
     fixed_steps(
         "Störmer–Verlet",
         t,
@@ -36,16 +51,17 @@ pub fn velocity_verlet(
         t_end,
         h,
         stats,
+        y,
         |stats, ta, tb, x, y| {
             let hs = tb - ta;
-            if !problem.eval(ta, x, &mut k, stats) {
+            if !problem.eval(ta, x, k, stats) {
                 return Err(Failure::NonFinite { t: ta });
             }
             for i in 0..nq {
                 y[nq + i] = x[nq + i] + 0.5 * hs * k[nq + i];
                 y[i] = x[i] + hs * y[nq + i];
             }
-            if !problem.eval(tb, y, &mut k, stats) {
+            if !problem.eval(tb, y, k, stats) {
                 return Err(Failure::NonFinite { t: ta });
             }
             for i in 0..nq {

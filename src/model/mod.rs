@@ -124,10 +124,12 @@ pub trait System: 'static {
     fn states() -> Vec<Var>;
     fn outputs() -> Vec<Var>;
 
-    /// `dx = f(t, x, u, p)`.
+    /// `dx = f(t, x, u, p)`, every component of `dx` written: the integrators reuse
+    /// their buffers between calls, so a component left alone holds an old value, not 0.
     fn derivatives<S: Scalar>(t: f64, x: &[S], u: &[S], p: &[S], dx: &mut [S]);
 
-    /// `y = g(t, x, u, p)`, the extra outputs only.
+    /// `y = g(t, x, u, p)`, the extra outputs only, every component of `y` written (as
+    /// for [`System::derivatives`]).
     fn extra_outputs<S: Scalar>(t: f64, x: &[S], u: &[S], p: &[S], y: &mut [S]);
 
     /// The configured experiments of this system.

@@ -1,0 +1,379 @@
+//! No heap allocation per doStep in steady state, for every method on hand-written
+//! systems: a counting global allocator (a count, never a time) around the C-API calls an
+//! importer makes once the run is going: fmi2DoStep, fmi2GetReal of every output and
+//! state derivative, fmi2GetDirectionalDerivative.
+//!
+//! Each case instantiates, initialises, takes doSteps until the integrator's buffers have
+//! their sizes (and, for the adaptive methods, several steps ahead of the grid), then
+//! counts the allocations over many more doSteps, which must themselves take internal
+//! steps (checked from the statistics): fixed-step methods with one and with several
+//! internal steps per doStep; adaptive ones in dense mode with many communication points
+//! inside one step. A test binary of its own: its `#[global_allocator]` counts per thread,
+//! so the tests running beside each other do not see each other's allocations.
+//!
+//! RATTLE runs only on systems written as a `Lagrangian`, whose right-hand side allocates
+//! by itself (src/model/lagrangian.rs; and the FMU boxes their `Mechanics` once per
+//! doStep), so the FMU cases leave it out; the last test counts the integrator's own
+//! allocations, through `rattle::advance_in` on hand-written `Mechanics` that allocate
+//! nothing.
+
+use mbfmu::fmi::capi::{self, Component};
+use mbfmu::fmi::{Export, Instance, Logger, ModelInfo, Status};
+use mbfmu::integrators::problem::Mechanics;
+use mbfmu::integrators::{rattle, Stats, Workspace};
+use mbfmu::model::{System, VarKind};
+use std::alloc::{GlobalAlloc, Layout, System as Heap};
+use std::cell::Cell;
+use std::sync::OnceLock;
+
+struct Counting;
+
+thread_local! {
+    static ALLOCATIONS: Cell<u64> = const { Cell::new(0) };
+}
+
+fn count() {
+    // `try_with`: a thread being torn down may still free and allocate.
+    let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
+}
+
+// SAFETY: forwards to the system allocator; only counts on the side.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        count();
+        Heap.alloc(layout)
+    }
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        count();
+        Heap.alloc_zeroed(layout)
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        count();
+        Heap.realloc(ptr, layout, new_size)
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        Heap.dealloc(ptr, layout)
+    }
+}
+
+#[global_allocator]
+static COUNTING: Counting = Counting;
+
+/// Allocations made by this thread while `f` runs.
+fn allocations(f: impl FnOnce()) -> u64 {
+    let before = ALLOCATIONS.with(Cell::get);
+    f();
+    ALLOCATIONS.with(Cell::get) - before
+}
+
+macro_rules! exported {
+    ($name:ident, $model:ty) => {
+        struct $name;
+        impl Export for $name {
+            type Model = $model;
+            fn info() -> &'static ModelInfo {
+                static INFO: OnceLock<ModelInfo> = OnceLock::new();
+                INFO.get_or_init(ModelInfo::of::<$model>)
+            }
+        }
+    };
+}
+
+exported!(MassSpringDamper, mbfmu::systems::MassSpringDamper);
+exported!(TwoMassChain, mbfmu::systems::TwoMassChain);
+exported!(RigidBody, mbfmu::systems::RigidBody);
+exported!(RollingDisk, mbfmu::systems::RollingDisk);
+exported!(WhippleBicycle, mbfmu::systems::WhippleBicycle);
+exported!(SphereSlide, mbfmu::systems::SphereSlide);
+
+/// How one case is run.
+#[derive(Clone, Copy, Debug)]
+struct Case {
+    method: i32,
+    /// `solver_step` (fixed-step methods).
+    step: f64,
+    /// The communication step.
+    h: f64,
+    /// The adaptive methods land on every communication point (a system with an event
+    /// indicator) instead of running ahead with dense output.
+    landing: bool,
+}
+
+/// Allocations over the counted doSteps of one case, by the call that made them.
+#[derive(Debug, Default, PartialEq)]
+struct Counts {
+    do_step: u64,
+    get_real: u64,
+    directional: u64,
+}
+
+const WARM_UP: usize = 300;
+const COUNTED: usize = 1000;
+
+/// Runs `case` on a scene of `E`'s model (by name, with more start values): the
+/// allocations over [`COUNTED`] communication steps after [`WARM_UP`] ones.
+fn run<E: Export>((scene, extra): (&str, &[(&str, f64)]), case: Case) -> Counts {
+    let info = E::info();
+    let layout = &info.layout;
+    let vr = |name: &str| layout.vr_of(name).unwrap();
+    let inst = Box::new(Instance::<E::Model>::new(info, Logger::silent("alloc")));
+    let c = Box::into_raw(inst) as Component;
+    let ok = |status: Status, what: &str| assert_eq!(status, Status::Ok, "{what} {case:?}");
+    // DOP853 at 1e-6 takes steps too long for the counted window.
+    let tolerance = if case.method == 9 { 1e-10 } else { 1e-6 };
+    ok(
+        capi::setup_experiment::<E>(c, 1, tolerance, 0.0, 0, 0.0),
+        "setup",
+    );
+    ok(capi::enter_initialization_mode::<E>(c), "init");
+    let scene = <E::Model as System>::scenes()
+        .into_iter()
+        .find(|s| s.name == scene)
+        .unwrap();
+    for (name, value) in scene.start_values.iter().chain(extra) {
+        let r = [vr(name)];
+        ok(
+            unsafe { capi::set_real::<E>(c, r.as_ptr(), 1, value) },
+            name,
+        );
+    }
+    let r = [vr("solver_step")];
+    ok(
+        unsafe { capi::set_real::<E>(c, r.as_ptr(), 1, &case.step) },
+        "step",
+    );
+    let r = [vr("solver")];
+    ok(
+        unsafe { capi::set_integer::<E>(c, r.as_ptr(), 1, &case.method) },
+        "solver",
+    );
+    ok(capi::exit_initialization_mode::<E>(c), "exit init");
+
+    let of_kind = |kinds: &[VarKind]| -> Vec<u32> {
+        (0..layout.vars.len() as u32)
+            .filter(|&v| kinds.contains(&layout.slot(v).unwrap().kind))
+            .collect()
+    };
+    let outputs = of_kind(&[VarKind::State, VarKind::Output, VarKind::Derivative]);
+    let unknowns = of_kind(&[VarKind::Output, VarKind::Derivative]);
+    let knowns = of_kind(&[VarKind::State, VarKind::Input]);
+    let seeds = vec![1.0; knowns.len()];
+    let mut values = vec![0.0; outputs.len()];
+    let mut sensitivities = vec![0.0; unknowns.len()];
+    let mut t = 0.0;
+    let stats = || unsafe { &*(c as *const Instance<E::Model>) }.stats();
+    // One communication step as an importer takes it, with the allocations of each call.
+    let mut step = || Counts {
+        do_step: allocations(|| {
+            ok(capi::do_step::<E>(c, t, case.h, 1), "doStep");
+            t += case.h;
+        }),
+        get_real: allocations(|| {
+            let status = unsafe {
+                capi::get_real::<E>(c, outputs.as_ptr(), outputs.len(), values.as_mut_ptr())
+            };
+            ok(status, "getReal");
+        }),
+        directional: allocations(|| {
+            let status = unsafe {
+                capi::get_directional_derivative::<E>(
+                    c,
+                    unknowns.as_ptr(),
+                    unknowns.len(),
+                    knowns.as_ptr(),
+                    knowns.len(),
+                    seeds.as_ptr(),
+                    sensitivities.as_mut_ptr(),
+                )
+            };
+            ok(status, "getDirectionalDerivative");
+        }),
+    };
+    for _ in 0..WARM_UP {
+        step();
+    }
+    let steps_before = stats().steps;
+    let mut counts = Counts::default();
+    for _ in 0..COUNTED {
+        let c = step();
+        counts.do_step += c.do_step;
+        counts.get_real += c.get_real;
+        counts.directional += c.directional;
+    }
+    let steps = stats().steps - steps_before;
+    if adaptive(case.method) && case.landing {
+        assert!(steps >= COUNTED as u64, "{case:?}: {steps} steps");
+    } else if adaptive(case.method) {
+        // Dense mode: many communication points per step, and still steps in the window.
+        assert!(
+            steps >= 3 && steps < COUNTED as u64 / 3,
+            "{case:?}: {steps} steps"
+        );
+    } else {
+        let per_call = (case.h / case.step).round() as u64;
+        assert_eq!(steps, per_call * COUNTED as u64, "{case:?}");
+    }
+    unsafe { capi::free_instance::<E>(c) };
+    counts
+}
+
+fn adaptive(method: i32) -> bool {
+    matches!(method, 2 | 9 | 10)
+}
+
+/// Every case of `methods` on one scene: fixed-step methods with one and with `several`
+/// internal steps per doStep, adaptive ones with a communication step of `step` (far below
+/// theirs in dense mode). Prints the counts, and fails unless all are zero.
+fn check<E: Export>(
+    scene: (&str, &[(&str, f64)]),
+    methods: &[i32],
+    (step, several): (f64, f64),
+    landing: bool,
+) {
+    let mut failures = Vec::new();
+    for &method in methods {
+        let hs: &[f64] = if adaptive(method) {
+            &[step]
+        } else {
+            &[step, several * step]
+        };
+        for &h in hs {
+            let case = Case {
+                method,
+                step,
+                h,
+                landing,
+            };
+            let counts = run::<E>(scene, case);
+            let name = <E::Model as System>::NAME;
+            println!("{name} solver {method} h {h}: {counts:?} over {COUNTED} doSteps");
+            if counts != Counts::default() {
+                failures.push(format!("solver {method} h {h}: {counts:?}"));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "allocations: {failures:#?}");
+}
+
+/// 1 RK4, 2 DOPRI5, 3 ExplicitEuler, 4 SymplecticEuler, 5 Verlet, 6 ImplicitMidpoint,
+/// 7 Gauss4, 8 Gauss6, 9 DOP853, 10 RADAU5, 11 ExactLinear.
+const ALL_BUT_RATTLE: [i32; 11] = [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11];
+
+#[test]
+fn mass_spring_damper() {
+    check::<MassSpringDamper>(("damped", &[]), &ALL_BUT_RATTLE, (1e-3, 4.0), false);
+}
+
+#[test]
+fn two_mass_chain() {
+    check::<TwoMassChain>(("release", &[]), &ALL_BUT_RATTLE, (1e-3, 4.0), false);
+}
+
+#[test]
+fn whipple_bicycle() {
+    check::<WhippleBicycle>(("stable", &[]), &ALL_BUT_RATTLE, (1e-3, 4.0), false);
+}
+
+#[test]
+fn rigid_body() {
+    // No (q, q̇) split (symplectic Euler, Verlet refused), not linear (ExactLinear).
+    check::<RigidBody>(
+        ("symmetric_top", &[]),
+        &[1, 2, 3, 6, 7, 8, 9, 10],
+        (1e-3, 4.0),
+        false,
+    );
+}
+
+#[test]
+fn rolling_disk() {
+    // Constrained: projected after every doStep. Not linear (ExactLinear refused). The
+    // torques make the motion more than a polynomial the adaptive methods step over.
+    let torques: &[(&str, f64)] = &[("tau_phi", 0.1), ("tau_theta", 0.05)];
+    let methods = [1, 2, 3, 4, 5, 6, 7, 8, 9, 10];
+    check::<RollingDisk>(("circle", torques), &methods, (1e-3, 4.0), false);
+}
+
+#[test]
+fn sphere_slide() {
+    // On the sphere (it leaves at t = 2.376 s, after the counted window): an event
+    // indicator, so every method lands on each communication point and the event search
+    // copies the start of each doStep. Not second order, not linear.
+    let methods = [1, 2, 3, 6, 7, 8, 9, 10];
+    check::<SphereSlide>(("slide", &[]), &methods, (5e-4, 2.0), true);
+}
+
+/// A pendulum in Cartesian coordinates (mass 2 kg at (x, z), z down, on a 1.5 m rod):
+/// T = ½ m (ẋ² + ż²), V = −m g z, g(q) = (x² + z² − L²)/2.
+struct CartesianPendulum;
+
+impl Mechanics for CartesianPendulum {
+    fn dims(&self) -> (usize, usize) {
+        (2, 1)
+    }
+    fn mass_matrix(&mut self, _q: &[f64], m: &mut [f64]) {
+        m.copy_from_slice(&[2.0, 0.0, 0.0, 2.0]);
+    }
+    fn momentum_offset(&mut self, _q: &[f64], b: &mut [f64]) {
+        b.fill(0.0);
+    }
+    fn force(&mut self, _t: f64, _q: &[f64], _qd: &[f64], f: &mut [f64]) {
+        f.copy_from_slice(&[0.0, 2.0 * 9.81]);
+    }
+    fn constraints(&mut self, q: &[f64], g: &mut [f64], jac: &mut [f64]) {
+        g[0] = 0.5 * (q[0] * q[0] + q[1] * q[1] - 1.5 * 1.5);
+        jac.copy_from_slice(&[q[0], q[1]]);
+    }
+}
+
+/// A spring pendulum in polar coordinates (r, θ): a mass matrix that depends on q
+/// (diag(m, m r²)), no constraint.
+struct PolarSpringPendulum;
+
+impl Mechanics for PolarSpringPendulum {
+    fn dims(&self) -> (usize, usize) {
+        (2, 0)
+    }
+    fn mass_matrix(&mut self, q: &[f64], m: &mut [f64]) {
+        m.copy_from_slice(&[1.0, 0.0, 0.0, q[0] * q[0]]);
+    }
+    fn momentum_offset(&mut self, _q: &[f64], b: &mut [f64]) {
+        b.fill(0.0);
+    }
+    fn force(&mut self, _t: f64, q: &[f64], qd: &[f64], f: &mut [f64]) {
+        // ∂L/∂q: r θ̇² + g cos θ − c (r − r0), −g r sin θ.
+        let (r, theta) = (q[0], q[1]);
+        f[0] = r * qd[1] * qd[1] + 9.81 * theta.cos() - 40.0 * (r - 1.0);
+        f[1] = -9.81 * r * theta.sin();
+    }
+    fn constraints(&mut self, _q: &[f64], _g: &mut [f64], _jac: &mut [f64]) {}
+}
+
+/// RATTLE's own allocations over 1000 calls of `rattle::advance_in` after 300, with one
+/// and with four steps per call.
+fn rattle_allocations(mech: &mut dyn Mechanics, x0: [f64; 4]) -> [u64; 2] {
+    [1.0, 4.0].map(|steps| {
+        let (h, mut work, mut stats) = (1e-3, Workspace::default(), Stats::default());
+        let (mut t, mut x) = (0.0, x0);
+        let mut call = |stats: &mut Stats| {
+            let t_end = t + steps * h;
+            rattle::advance_in(mech, &mut t, &mut x, t_end, h, stats, &mut work).unwrap();
+        };
+        for _ in 0..WARM_UP {
+            call(&mut stats);
+        }
+        let before = stats.steps;
+        let count = allocations(|| (0..COUNTED).for_each(|_| call(&mut stats)));
+        assert_eq!(stats.steps - before, steps as u64 * COUNTED as u64);
+        count
+    })
+}
+
+#[test]
+fn rattle_itself() {
+    let (s, c) = 1.0f64.sin_cos();
+    let cartesian = rattle_allocations(&mut CartesianPendulum, [1.5 * s, 1.5 * c, 0.0, 0.0]);
+    let polar = rattle_allocations(&mut PolarSpringPendulum, [1.2, 0.5, 0.0, 0.3]);
+    println!("RATTLE: {cartesian:?} (Cartesian, 1 and 4 steps a call), {polar:?} (polar)");
+    assert_eq!((cartesian, polar), ([0, 0], [0, 0]));
+}
