@@ -125,7 +125,6 @@ fn run<E: Export>((scene, extra): (&str, &[(&str, f64)]), case: Case) -> Counts 
         capi::setup_experiment::<E>(c, 1, tolerance, 0.0, 0, 0.0),
         "setup",
     );
-    ok(capi::enter_initialization_mode::<E>(c), "init");
     let scene = <E::Model as System>::scenes()
         .into_iter()
         .find(|s| s.name == scene)
@@ -147,6 +146,9 @@ fn run<E: Export>((scene, extra): (&str, &[(&str, f64)]), case: Case) -> Counts 
         unsafe { capi::set_integer::<E>(c, r.as_ptr(), 1, &case.method) },
         "solver",
     );
+    // Start values before initialization mode, as fmpy sets them (a dependent state,
+    // initial = "approx", may only be set there).
+    ok(capi::enter_initialization_mode::<E>(c), "init");
     ok(capi::exit_initialization_mode::<E>(c), "exit init");
 
     let of_kind = |kinds: &[VarKind]| -> Vec<u32> {
