@@ -11,8 +11,8 @@ angles; the dynamics and the cost are those of our absolute-angle chain). Timed:
 articulated-body algorithm `aba` (forward dynamics, one RHS) and
 `computeABADerivatives` (∂q̈/∂q, ∂q̈/∂v: the Jacobian of the RHS). Each is timed in a
 Python loop, best of several repetitions; the Python-to-C++ call overhead is measured on
-the same calls with a model of no joint and taken off, so the numbers are Pinocchio's
-own C++ time per call.
+the same calls with a model of no joint, interleaved with them, and taken off, so the
+numbers are Pinocchio's own C++ time per call.
 """
 
 from __future__ import annotations
@@ -41,35 +41,35 @@ def chain(n: int, m: float = 1.0, l: float = 1.0) -> pin.Model:
     return model
 
 
-def best_per_call(stmt, number: int, repeat: int) -> float:
-    return min(timeit.repeat(stmt, number=number, repeat=repeat)) / number
-
-
-def measure(n: int, repeat: int) -> tuple[float, float]:
+def calls(n: int):
+    """The two timed calls on the n-link chain (n = 0: no joint, the binding's cost alone),
+    and how many of each make one timing loop."""
     model = chain(n)
     data = model.createData()
     rng = np.random.default_rng(n)
     q, v, tau = rng.normal(size=n), rng.normal(size=n), np.zeros(n)
-    number = max(2000, 200_000 // (n * n))
-    aba = best_per_call(lambda: pin.aba(model, data, q, v, tau), number, repeat)
-    der = best_per_call(lambda: pin.computeABADerivatives(model, data, q, v, tau), number, repeat)
-    return aba, der
+    aba = lambda: pin.aba(model, data, q, v, tau)
+    der = lambda: pin.computeABADerivatives(model, data, q, v, tau)
+    return (aba, der), max(2000, 100_000 // max(1, n * n))
 
 
-def overhead(repeat: int) -> tuple[float, float]:
-    """The same calls on a model with no joint: the binding's cost alone."""
-    model = pin.Model()
-    data = model.createData()
-    e = np.zeros(0)
-    aba = best_per_call(lambda: pin.aba(model, data, e, e, e), 200_000, repeat)
-    der = best_per_call(lambda: pin.computeABADerivatives(model, data, e, e, e), 200_000, repeat)
-    return aba, der
+def best_times(links: list[int], repeat: int) -> dict[int, tuple[float, float]]:
+    """Best seconds per call of (aba, derivatives) for each N. The loops of every N,
+    the joint-less model's included, are interleaved repetition by repetition, so that
+    the overhead taken off and the times it is taken from see the same machine."""
+    setups = {n: calls(n) for n in links}
+    best = {n: [np.inf, np.inf] for n in links}
+    for _ in range(repeat):
+        for n, (fns, number) in setups.items():
+            for k, fn in enumerate(fns):
+                best[n][k] = min(best[n][k], timeit.timeit(fn, number=number) / number)
+    return {n: (a, d) for n, (a, d) in best.items()}
 
 
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--out", default=str(REPO / "docs" / "bench"))
-    ap.add_argument("--repeat", type=int, default=7)
+    ap.add_argument("--repeat", type=int, default=15)
     args = ap.parse_args()
     out = pathlib.Path(args.out)
     # Check the model: for N = 1 the pendulum, q̈ = −(g/l) sin q (Pinocchio's sign
@@ -77,10 +77,11 @@ def main():
     m1 = chain(1)
     qdd = pin.aba(m1, m1.createData(), np.array([0.7]), np.zeros(1), np.zeros(1))
     assert abs(abs(qdd[0]) - 9.81 * np.sin(0.7)) < 1e-12, qdd
-    o_aba, o_der = overhead(args.repeat)
+    times = best_times([0] + LINKS, args.repeat)
+    o_aba, o_der = times[0]
     rows = []
     for n in LINKS:
-        aba, der = measure(n, args.repeat)
+        aba, der = times[n]
         rows.append((n, (aba - o_aba) * 1e9, (der - o_der) * 1e9))
         print(f"N = {n:2d}: aba {rows[-1][1]:8.0f} ns, ABA derivatives {rows[-1][2]:8.0f} ns")
     print(f"(binding overhead taken off: aba {o_aba * 1e9:.0f} ns, derivatives {o_der * 1e9:.0f} ns)")

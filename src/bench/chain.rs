@@ -11,11 +11,9 @@
 //! T = ½ m Σ_k (ẋ_k² + ż_k²),   V = −m g Σ_k z_k
 //! ```
 
-use super::speed::best_ns;
-use crate::model::jacobian::{directional, Direction};
+use super::speed::rhs_and_jacobian_ns;
 use crate::model::lagrangian::Lagrangian;
-use crate::model::{Scalar, Scene, System, Var};
-use std::hint::black_box;
+use crate::model::{Scalar, Scene, Var};
 
 /// The chain of `N` links; parameters `m l g` (1 kg, 1 m, 9.81 m/s²).
 pub struct Chain<const N: usize>;
@@ -82,31 +80,11 @@ impl<const N: usize> Lagrangian for Chain<N> {
     }
 }
 
-/// Cost of one RHS and one Jacobian (ns) of the N-link chain at a generic state.
+/// Cost of one RHS and one Jacobian (ns) of the N-link chain at a generic state, measured
+/// as `mbfmu speed` measures every system.
 pub fn costs<const N: usize>(reps: usize) -> (f64, f64) {
     let x: Vec<f64> = (0..2 * N).map(|i| 0.3 + 0.1 * i as f64).collect();
-    let p = [1.0, 1.0, 9.81];
-    let mut dx = vec![0.0; 2 * N];
-    let rhs = best_ns(reps, || {
-        <Chain<N> as System>::derivatives(0.0, black_box(&x), &[], &p, &mut dx);
-        black_box(&dx);
-    });
-    let zeros_p = [0.0; 3];
-    let mut e = vec![0.0; 2 * N];
-    let jacobian = best_ns(reps, || {
-        for j in 0..2 * N {
-            e.fill(0.0);
-            e[j] = 1.0;
-            let direction = Direction {
-                t: 0.0,
-                x: (black_box(&x), &e),
-                u: (&[], &[]),
-                p: (&p, &zeros_p),
-            };
-            black_box(directional::<Chain<N>>(&direction, 0));
-        }
-    });
-    (rhs, jacobian)
+    rhs_and_jacobian_ns::<Chain<N>>(&x, &[], &[1.0, 1.0, 9.81], reps)
 }
 
 /// `(N, ns per RHS, ns per Jacobian)` for N = 1, 2, 4, 8, 16.
@@ -141,6 +119,7 @@ pub fn growth_exponent(points: &[(usize, f64)]) -> f64 {
 mod tests {
     use super::*;
     use crate::model::lagrangian;
+    use crate::model::System;
 
     /// The N = 1 chain is the simple pendulum: θ̈ = −(g/l) sin θ; the N = 2 chain is the
     /// double pendulum of systems.md §5 with m1 = m2, r1 = l2.

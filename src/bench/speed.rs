@@ -142,17 +142,7 @@ pub fn measure<M: System>(reps: usize, floor: Option<FloorFn>) -> SpeedRow {
         })
         .fold(f64::INFINITY, f64::min);
 
-    let mut dx = vec![0.0; n];
-    let rhs_ns = best_ns(reps, || {
-        M::derivatives(0.0, black_box(&x), &u, &p, &mut dx);
-        black_box(&dx);
-    });
-
-    let (mut duals, mut jac) = (Duals::default(), vec![0.0; n * n]);
-    let jacobian_ns = best_ns(reps, || {
-        duals.jacobian::<M>(0.0, black_box(&x), &u, &p, &mut jac);
-        black_box(&jac);
-    });
+    let (rhs_ns, jacobian_ns) = rhs_and_jacobian_ns::<M>(&x, &u, &p, reps);
 
     SpeedRow {
         system: M::NAME,
@@ -162,6 +152,28 @@ pub fn measure<M: System>(reps: usize, floor: Option<FloorFn>) -> SpeedRow {
         jacobian_ns,
         floor: floor.map(|f| f(&x, &p, reps)),
     }
+}
+
+/// Best ns of one `System::derivatives` and of one ∂f/∂x in kept dual-number buffers
+/// (as the implicit methods and fmi2GetDirectionalDerivative build it) at `(x, u, p)`.
+pub(crate) fn rhs_and_jacobian_ns<M: System>(
+    x: &[f64],
+    u: &[f64],
+    p: &[f64],
+    reps: usize,
+) -> (f64, f64) {
+    let n = x.len();
+    let mut dx = vec![0.0; n];
+    let rhs_ns = best_ns(reps, || {
+        M::derivatives(0.0, black_box(x), u, p, &mut dx);
+        black_box(&dx);
+    });
+    let (mut duals, mut jac) = (Duals::default(), vec![0.0; n * n]);
+    let jacobian_ns = best_ns(reps, || {
+        duals.jacobian::<M>(0.0, black_box(x), u, p, &mut jac);
+        black_box(&jac);
+    });
+    (rhs_ns, jacobian_ns)
 }
 
 /// The floor's (doStep, RHS) in ns from the same start point.

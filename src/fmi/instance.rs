@@ -240,7 +240,14 @@ impl<M: System> Instance<M> {
         if M::STATE_CONSTRAINTS > 0 {
             consistent::solve::<M>(d.time, &d.params, &mut x)
                 .map_err(|e| format!("fmi2ExitInitializationMode: {e}"))?;
-            adjusted = consistent::overridden::<M>(d.time, &d.params, &self.states_set, &d.x, &x);
+            adjusted = consistent::overridden::<M>(
+                &self.info.layout,
+                d.time,
+                &d.params,
+                &self.states_set,
+                &d.x,
+                &x,
+            );
         } else {
             M::project(d.time, &d.params, &mut x);
         }

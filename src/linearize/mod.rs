@@ -77,7 +77,8 @@ impl OperatingPoint {
             .collect();
         let before = op.x.clone();
         consistent::solve::<M>(op.t, &op.p, &mut op.x)?;
-        let warnings = consistent::overridden::<M>(op.t, &op.p, &set, &before, &op.x);
+        let warnings =
+            consistent::overridden::<M>(&Layout::of::<M>(), op.t, &op.p, &set, &before, &op.x);
         Ok((op, warnings))
     }
 }

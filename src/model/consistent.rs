@@ -145,13 +145,13 @@ const AGREEMENT: f64 = 1e-10;
 /// The dependent states the user set (`set[i]`) to a value the constraints changed:
 /// one line each, naming the variable, the value set and the value used.
 pub fn overridden<M: System>(
+    layout: &Layout,
     t: f64,
     p: &[f64],
     set: &[bool],
     before: &[f64],
     after: &[f64],
 ) -> Vec<String> {
-    let layout = Layout::of::<M>();
     let states = M::states();
     let mut lines = Vec::new();
     for (i, v) in states.iter().enumerate() {
