@@ -5,12 +5,13 @@
 
 use crate::bench::speed::{self, SpeedRow};
 use crate::bench::{BenchConfig, BenchRow};
-use crate::linearize::{self, Linearization, OperatingPoint, Trim};
+use crate::linearize::{self, Linearization, OperatingPoint, States, Trim};
 use crate::model::{Scene, System};
 use crate::systems::*;
 
-/// Linearise at the start values with these `name = value` overrides, after an optional trim.
-pub type LinearizeFn = fn(&[(String, f64)], Option<Trim>) -> Result<Linearization, String>;
+/// Linearise at the start values with these `name = value` overrides, after an optional
+/// trim, in these states.
+pub type LinearizeFn = fn(&[(String, f64)], Option<Trim>, &States) -> Result<Linearization, String>;
 
 /// What the CLI needs of one system, without knowing its type.
 pub struct Entry {
@@ -31,12 +32,18 @@ pub struct Entry {
 fn linearize_at<M: System>(
     overrides: &[(String, f64)],
     trim: Option<Trim>,
+    states: &States,
 ) -> Result<Linearization, String> {
     let (mut op, warnings) = OperatingPoint::consistent::<M>(overrides)?;
     if let Some(what) = trim {
         linearize::trim::<M>(&mut op, what)?;
     }
     let mut lin = linearize::linearize::<M>(&op);
+    lin = match states {
+        States::All => lin,
+        States::Independent => linearize::reduced::<M>(&lin, None)?,
+        States::Only(keep) => linearize::reduced::<M>(&lin, Some(keep))?,
+    };
     lin.warnings = warnings;
     let finite = |m: &nalgebra::DMatrix<f64>| m.iter().all(|v| v.is_finite());
     let all_finite = finite(&lin.a)
@@ -84,5 +91,6 @@ pub fn all() -> Vec<Entry> {
         entry::<SpringRodPendulum>("spring_rod_pendulum"),
         entry::<SliderCrank>("slider_crank"),
         entry::<SliderCrankSurplus>("slider_crank_surplus"),
+        entry::<NonlinearBicycle>("nonlinear_bicycle"),
     ]
 }

@@ -8,7 +8,8 @@
 //! - `mbfmu symbolic [--check]`: write (or check) the generated equations of motion of the
 //!   symbolic prototype, `src/model/symbolic/generated/`, with their sizes.
 //! - `mbfmu linearize MODEL [--scene S] [--set p=v]... [--at x=v]... [--trim|--trim-inputs]
-//!   [--format json|py|csv] [--out FILE]`: exact A, B, C, D at an operating point.
+//!   [--independent | --keep NAME,...] [--format json|py|csv] [--out FILE]`: exact A, B, C, D at an
+//!   operating point, in all the states or (constrained systems) the independent ones.
 //! - `mbfmu bench [--quick] [--out DIR]`: work–precision of every method on every scene
 //!   (`results.csv`, default DIR docs/bench); see `benches/` for the peers and the charts.
 
@@ -22,7 +23,8 @@ const USAGE: &str = "usage:
   mbfmu xml [--check]
   mbfmu symbolic [--check]
   mbfmu linearize MODEL [--scene S] [--set PARAM=VALUE]... [--at STATE_OR_INPUT=VALUE]...
-                  [--trim | --trim-inputs] [--format json|py|csv] [--out FILE]
+                  [--trim | --trim-inputs] [--independent | --keep STATE,...]
+                  [--format json|py|csv] [--out FILE]
   mbfmu speed [--system MODEL]... [--reps N] [--out DIR] [--chain | --symbolic]
   mbfmu bench [--quick] [--out DIR] [--system MODEL]... [--scene S]... [--reps N] [--no-energy] [--no-springy]";
 
@@ -87,7 +89,7 @@ fn build(args: &[String]) -> Result<(), String> {
             .join(mbfmu::package::library_file(e.crate_name));
         let fmu = out.join(format!("{}.fmu", e.name));
         // The linearisation at the default operating point (the start values).
-        let lin = (e.linearize)(&[], None)?;
+        let lin = (e.linearize)(&[], None, &Default::default())?;
         let resources = [
             (
                 "linearization.json".to_string(),
@@ -224,7 +226,7 @@ fn parse_assignment(text: &str) -> Result<(String, f64), String> {
 }
 
 fn linearize(args: &[String]) -> Result<(), String> {
-    use mbfmu::linearize::{to_csv, to_json, to_py, Trim};
+    use mbfmu::linearize::{to_csv, to_json, to_py, States, Trim};
     let (model, rest) = args.split_first().ok_or(USAGE)?;
     let entry = catalogue::all()
         .into_iter()
@@ -234,6 +236,7 @@ fn linearize(args: &[String]) -> Result<(), String> {
     let mut sets = Vec::new();
     let mut ats = Vec::new();
     let mut trim = None;
+    let mut states = States::All;
     let mut format = "json".to_string();
     let mut out = None;
     let mut it = rest.iter();
@@ -252,12 +255,17 @@ fn linearize(args: &[String]) -> Result<(), String> {
             "--at" => ats.push(parse_assignment(value()?)?),
             "--trim" => trim = Some(Trim::States),
             "--trim-inputs" => trim = Some(Trim::Inputs),
+            "--independent" => states = States::Independent,
+            "--keep" => {
+                let names = value()?.split(',').map(|s| s.trim().to_string()).collect();
+                states = States::Only(names);
+            }
             "--format" => format = value()?.clone(),
             "--out" => out = Some(PathBuf::from(value()?)),
             other => return Err(format!("unknown option {other}\n{USAGE}")),
         }
     }
-    let params: Vec<String> = (entry.linearize)(&[], None)?.parameter_names;
+    let params: Vec<String> = (entry.linearize)(&[], None, &Default::default())?.parameter_names;
     for (name, _) in &sets {
         if !params.contains(name) {
             return Err(format!(
@@ -273,7 +281,7 @@ fn linearize(args: &[String]) -> Result<(), String> {
     }
     overrides.extend(sets);
     overrides.extend(ats);
-    let lin = (entry.linearize)(&overrides, trim)?;
+    let lin = (entry.linearize)(&overrides, trim, &states)?;
     for line in &lin.warnings {
         eprintln!("warning: {line}");
     }

@@ -1045,9 +1045,15 @@ fn advance_locating_events<M: System>(
         let (mut xx, mut mm) = rerun(hi, &mut counted)?;
         mm.stats.rhs_evals += extra_evals;
         *memory = mm;
-        M::on_event(hi, &mut xx, p);
+        let applied = M::on_event(hi, &mut xx, p);
         *t = hi;
         x.copy_from_slice(&xx);
+        if let Err(reason) = applied {
+            return Err(Stop {
+                reason,
+                step_limit: false,
+            });
+        }
         if *t >= t_end {
             return Ok(());
         }

@@ -47,17 +47,28 @@ pub fn to_json(l: &Linearization) -> String {
         .zip(&l.point.p)
         .map(|(n, v)| format!("\"{n}\": {}", num(*v)))
         .collect();
+    // Only a reduced model says what it left out (the full one's text is unchanged).
+    let reduction = if l.eliminated.is_empty() && l.dropped.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "\n  \"eliminated\": [{}],\n  \"dropped\": [{}],",
+            quoted(&l.eliminated, '"'),
+            quoted(&l.dropped, '"')
+        )
+    };
     format!(
-        "{{\n  \"model\": \"{}\",\n  \"n\": {},\n  \"m\": {},\n  \"p\": {},\n  \"states\": [{}],\n  \"inputs\": [{}],\n  \"outputs\": [{}],\n  \"t0\": {},\n  \"x0\": {},\n  \"u0\": {},\n  \"y0\": {},\n  \"parameters\": {{{}}},\n  \"residual\": {},\n  \"A\": {},\n  \"B\": {},\n  \"C\": {},\n  \"D\": {},\n  \"method\": \"{}\"\n}}\n",
+        "{{\n  \"model\": \"{}\",\n  \"n\": {},\n  \"m\": {},\n  \"p\": {},\n  \"states\": [{}],{}\n  \"inputs\": [{}],\n  \"outputs\": [{}],\n  \"t0\": {},\n  \"x0\": {},\n  \"u0\": {},\n  \"y0\": {},\n  \"parameters\": {{{}}},\n  \"residual\": {},\n  \"A\": {},\n  \"B\": {},\n  \"C\": {},\n  \"D\": {},\n  \"method\": \"{}\"\n}}\n",
         l.model,
         l.a.nrows(),
         l.b.ncols(),
         l.c.nrows(),
         quoted(&l.state_names, '"'),
+        reduction,
         quoted(&l.input_names, '"'),
         quoted(&l.output_names, '"'),
         num(l.point.t),
-        list(&l.point.x),
+        list(&l.x0()),
         list(&l.point.u),
         list(&l.y0),
         params.join(", "),
@@ -87,7 +98,7 @@ pub fn to_py(l: &Linearization) -> String {
         n = l.a.nrows(),
         m = l.b.ncols(),
         p = l.c.nrows(),
-        x0 = list(&l.point.x),
+        x0 = list(&l.x0()),
         u0 = list(&l.point.u),
         a = rows(&l.a),
         b = rows(&l.b),

@@ -88,6 +88,13 @@ impl OperatingPoint {
 pub struct Linearization {
     pub model: &'static str,
     pub state_names: Vec<String>,
+    /// Where each of `state_names` is in the full state `point.x`.
+    pub state_index: Vec<usize>,
+    /// Dependent states eliminated through the constraints ([`reduced`]); empty when
+    /// the model is in all the states.
+    pub eliminated: Vec<String>,
+    /// Independent states left out ([`reduced`] with `keep`): nothing retained depends on them.
+    pub dropped: Vec<String>,
     pub input_names: Vec<String>,
     pub output_names: Vec<String>,
     pub parameter_names: Vec<String>,
@@ -162,6 +169,9 @@ pub fn linearize<M: System>(op: &OperatingPoint) -> Linearization {
     output_names.extend(names(M::outputs()));
     Linearization {
         model: M::NAME,
+        state_index: (0..n).collect(),
+        eliminated: Vec::new(),
+        dropped: Vec::new(),
         state_names,
         input_names: names(M::inputs()),
         output_names,
@@ -176,6 +186,25 @@ pub fn linearize<M: System>(op: &OperatingPoint) -> Linearization {
         method: "exact: forward-mode dual numbers (num-dual)",
         warnings: Vec::new(),
     }
+}
+
+impl Linearization {
+    /// The operating point's values of the states the model is written in.
+    pub fn x0(&self) -> Vec<f64> {
+        self.state_index.iter().map(|&i| self.point.x[i]).collect()
+    }
+}
+
+/// Which states a linear model is written in.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum States {
+    /// All of them (dependent ones included), as the FMU integrates them.
+    #[default]
+    All,
+    /// The independent ones: the dependent states eliminated through the constraints.
+    Independent,
+    /// These independent ones, in this order.
+    Only(Vec<String>),
 }
 
 /// What `--trim` solves for.
@@ -239,4 +268,153 @@ pub fn trim<M: System>(op: &mut OperatingPoint, what: Trim) -> Result<f64, Strin
     Err(format!(
         "trim: Newton did not converge in {TRIM_MAX_ITERATIONS} iterations (residual {r:e})"
     ))
+}
+
+/// Relative size (to the largest entry of A) below which a coupling counts as zero when
+/// a state is dropped: ~100 ulp of sums of terms of the size of A's entries.
+const DROP_TOLERANCE: f64 = 1e-13;
+
+/// The linearisation on the constraint manifold, in the independent states only.
+///
+/// A constrained system's state `x = (x_i, x_d)` satisfies `c(x) = 0`
+/// ([`System::state_constraints`]), which gives the dependent states as functions of the
+/// independent ones, `x_d = h(x_i)`, with `∂h/∂x_i = −(∂c/∂x_d)⁻¹ ∂c/∂x_i` (implicit
+/// functions; ∂c exact by dual numbers). The motion on the manifold is
+/// `ẋ_i = f_i(x_i, h(x_i))`, so
+///
+/// ```text
+/// A_r = A_ii + A_id ∂h/∂x_i,   B_r = B_i,   C_r = C_·i + C_·d ∂h/∂x_i,   D_r = D
+/// ```
+///
+/// The full A also has eigenvalues of the motion off the manifold (the constraint drift
+/// the λ-method leaves undamped: zeros); A_r has only those of the mechanics. Then
+/// `keep`, if given, names the independent states to retain (rows and columns of A,
+/// rows of B, columns of C, in that order): dropping a state is exact where no retained
+/// state depends on it (an ignorable coordinate), which this checks and refuses
+/// otherwise. A system without dependent states is returned as it is (then only `keep`).
+pub fn reduced<M: System>(
+    lin: &Linearization,
+    keep: Option<&[String]>,
+) -> Result<Linearization, String> {
+    reduced_on::<M>(lin, &consistent::dependent_states::<M>(), keep)
+}
+
+/// [`reduced`] with another choice of the dependent states (as many as the system has
+/// constraints on its state): the same motion in other independent coordinates.
+pub fn reduced_on<M: System>(
+    lin: &Linearization,
+    dependent: &[usize],
+    keep: Option<&[String]>,
+) -> Result<Linearization, String> {
+    let n = lin.state_names.len();
+    let independent: Vec<usize> = (0..n).filter(|i| !dependent.contains(i)).collect();
+    let op = &lin.point;
+    // ∂c/∂x, one dual pass per state.
+    let k = dependent.len();
+    let mut cx = DMatrix::zeros(k, n);
+    if k > 0 {
+        let pd: Vec<num_dual::Dual64> = op.p.iter().map(|&v| v.into()).collect();
+        let mut out = vec![num_dual::Dual64::from(0.0); k];
+        for j in 0..n {
+            let mut xd: Vec<num_dual::Dual64> = op.x.iter().map(|&v| v.into()).collect();
+            xd[j].eps = 1.0;
+            if !M::state_constraints(op.t, &xd, &pd, &mut out) {
+                return Err(format!(
+                    "{}: the constraints do not hold at this state, nothing to reduce",
+                    M::NAME
+                ));
+            }
+            for (i, v) in out.iter().enumerate() {
+                cx[(i, j)] = v.eps;
+            }
+        }
+    }
+    let pick = |m: &DMatrix<f64>, rows: &[usize], cols: &[usize]| {
+        DMatrix::from_fn(rows.len(), cols.len(), |i, j| m[(rows[i], cols[j])])
+    };
+    // Columns of x (all states) for a change of the independent ones: [I; ∂h/∂x_i].
+    let mut lift = DMatrix::zeros(n, independent.len());
+    for (col, &i) in independent.iter().enumerate() {
+        lift[(i, col)] = 1.0;
+    }
+    if k > 0 {
+        let cd = pick(&cx, &(0..k).collect::<Vec<_>>(), dependent);
+        let ci = pick(&cx, &(0..k).collect::<Vec<_>>(), &independent);
+        let dh = cd.lu().solve(&(-ci)).ok_or_else(|| {
+            format!(
+                "{}: the constraints cannot be solved for the dependent states here (singular)",
+                M::NAME
+            )
+        })?;
+        for (row, &d) in dependent.iter().enumerate() {
+            lift.row_mut(d).copy_from(&dh.row(row));
+        }
+    }
+    let a_full = &lin.a * &lift;
+    let mut a = pick(
+        &a_full,
+        &independent,
+        &(0..independent.len()).collect::<Vec<_>>(),
+    );
+    let mut b = pick(
+        &lin.b,
+        &independent,
+        &(0..lin.b.ncols()).collect::<Vec<_>>(),
+    );
+    let mut c = &lin.c * &lift;
+    let mut names: Vec<String> = independent
+        .iter()
+        .map(|&i| lin.state_names[i].clone())
+        .collect();
+    let mut index = independent.clone();
+    let mut dropped_names = Vec::new();
+    if let Some(keep) = keep {
+        let mut chosen = Vec::new();
+        for name in keep {
+            let at = names.iter().position(|s| s == name).ok_or_else(|| {
+                let why = if lin.state_names.contains(name) {
+                    "is a dependent state (computed from the constraints)"
+                } else {
+                    "is not a state"
+                };
+                format!("{}: cannot keep {name}: it {why}", M::NAME)
+            })?;
+            chosen.push(at);
+        }
+        let dropped: Vec<usize> = (0..names.len()).filter(|i| !chosen.contains(i)).collect();
+        for &j in &dropped {
+            for &i in &chosen {
+                // Zero to rounding: the entries of A are sums of O(‖A‖) terms.
+                if a[(i, j)].abs() > DROP_TOLERANCE * a.amax() {
+                    return Err(format!(
+                        "{}: cannot drop {}: the derivative of {} depends on it (∂/∂ = {:e}); keep it too",
+                        M::NAME,
+                        names[j],
+                        names[i],
+                        a[(i, j)]
+                    ));
+                }
+            }
+        }
+        let all_inputs: Vec<usize> = (0..b.ncols()).collect();
+        let all_outputs: Vec<usize> = (0..c.nrows()).collect();
+        a = pick(&a, &chosen, &chosen);
+        b = pick(&b, &chosen, &all_inputs);
+        c = pick(&c, &all_outputs, &chosen);
+        dropped_names = dropped.iter().map(|&i| names[i].clone()).collect();
+        index = chosen.iter().map(|&i| index[i]).collect();
+        names = chosen.iter().map(|&i| names[i].clone()).collect();
+    }
+    let mut out = lin.clone();
+    out.state_index = index;
+    out.eliminated = dependent
+        .iter()
+        .map(|&i| lin.state_names[i].clone())
+        .collect();
+    out.dropped = dropped_names;
+    out.state_names = names;
+    out.a = a;
+    out.b = b;
+    out.c = c;
+    Ok(out)
 }

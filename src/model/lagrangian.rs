@@ -104,6 +104,16 @@ pub trait Lagrangian: 'static {
     fn default_experiment() -> (f64, f64, f64) {
         (10.0, 1e-8, 1e-2)
     }
+
+    /// An event indicator on `(t, q, q̇)`, as [`System::event_indicator`]. Default: none.
+    fn event_indicator(_t: f64, _q: &[f64], _qd: &[f64], _u: &[f64], _p: &[f64]) -> Option<f64> {
+        None
+    }
+
+    /// At an event, as [`System::on_event`]: `Err(why)` stops the integration there.
+    fn on_event(_t: f64, _q: &mut [f64], _qd: &mut [f64], _p: &[f64]) -> Result<(), String> {
+        Ok(())
+    }
 }
 
 /// `L = T − V` at a point of any scalar type.
@@ -531,6 +541,17 @@ impl<L: Lagrangian> System for L {
     fn mechanics<'a>(u: &'a [f64], p: &'a [f64]) -> Option<Box<dyn Mechanics + 'a>> {
         (L::VELOCITY_CONSTRAINTS == 0)
             .then(|| Box::new(LagrangianMechanics::<L>::new(u, p)) as Box<dyn Mechanics + 'a>)
+    }
+
+    fn event_indicator(t: f64, x: &[f64], u: &[f64], p: &[f64]) -> Option<f64> {
+        let (q, qd) = x.split_at(x.len() / 2);
+        <L as Lagrangian>::event_indicator(t, q, qd, u, p)
+    }
+
+    fn on_event(t: f64, x: &mut [f64], p: &[f64]) -> Result<(), String> {
+        let n = x.len() / 2;
+        let (q, qd) = x.split_at_mut(n);
+        <L as Lagrangian>::on_event(t, q, qd, p)
     }
 
     fn project(_t: f64, p: &[f64], x: &mut [f64]) {

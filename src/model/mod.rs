@@ -8,6 +8,7 @@
 
 pub mod consistent;
 pub mod jacobian;
+pub mod kinematics;
 pub mod lagrangian;
 mod layout;
 mod scene;
@@ -188,6 +189,10 @@ pub trait System: 'static {
     }
 
     /// Applies an event at time `t`: changes the discrete part of the state (a mode
-    /// variable the dynamics hold constant) or the state itself (an impact).
-    fn on_event(_t: f64, _x: &mut [f64], _p: &[f64]) {}
+    /// variable the dynamics hold constant) or the state itself (an impact), and returns
+    /// `Ok`; or returns `Err(why)` where the model stops holding (a bicycle that has
+    /// fallen): the integration stops at the event and doStep answers fmi2Discard there.
+    fn on_event(_t: f64, _x: &mut [f64], _p: &[f64]) -> Result<(), String> {
+        Ok(())
+    }
 }

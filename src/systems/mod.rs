@@ -3,6 +3,7 @@
 mod compound_pendulum;
 mod double_pendulum;
 mod mass_spring_damper;
+mod nonlinear_bicycle;
 mod projectile;
 mod rigid_body;
 mod rolling_disk;
@@ -17,6 +18,7 @@ mod whipple_bicycle;
 pub use compound_pendulum::CompoundPendulum;
 pub use double_pendulum::DoublePendulum;
 pub use mass_spring_damper::MassSpringDamper;
+pub use nonlinear_bicycle::NonlinearBicycle;
 pub use projectile::Projectile;
 pub use rigid_body::RigidBody;
 pub use rolling_disk::RollingDisk;
@@ -80,5 +82,6 @@ mod tests {
         writes_every_component::<SpringRodPendulum>();
         writes_every_component::<SliderCrank>();
         writes_every_component::<SliderCrankSurplus>();
+        writes_every_component::<NonlinearBicycle>();
     }
 }

@@ -1,0 +1,2 @@
+//! The NonlinearBicycle FMU: this binary carries only this model.
+mbfmu::export_fmu!(mbfmu::systems::NonlinearBicycle);
