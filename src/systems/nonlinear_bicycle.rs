@@ -242,19 +242,36 @@ impl Lagrangian for NonlinearBicycle {
     }
 
     fn velocities() -> Vec<Var> {
-        let computed = |name, unit, what| {
-            Var::new(name, Some(unit), 0.0, what)
+        // Start values: the consistent ones of the default state (5 m/s, lean 0.05).
+        let computed = |name, unit, start, what| {
+            Var::new(name, Some(unit), start, what)
                 .nominal(1.0)
                 .dependent()
         };
         vec![
-            computed("x_dot", "m/s", "Rear contact velocity, forward (computed: rolling)"),
-            computed("y_dot", "m/s", "Rear contact velocity, right (computed: rolling)"),
-            computed("yaw_dot", "rad/s", "Yaw rate (computed: rolling of the front wheel)"),
+            computed(
+                "x_dot",
+                "m/s",
+                5.0,
+                "Rear contact velocity, forward (computed: rolling)",
+            ),
+            computed(
+                "y_dot",
+                "m/s",
+                0.0,
+                "Rear contact velocity, right (computed: rolling)",
+            ),
+            computed(
+                "yaw_dot",
+                "rad/s",
+                0.0,
+                "Yaw rate (computed: rolling of the front wheel)",
+            ),
             Var::new("roll_dot", Some("rad/s"), 0.0, "Roll rate").nominal(1.0),
             computed(
                 "pitch_dot",
                 "rad/s",
+                0.0,
                 "Pitch rate (computed: the front wheel stays on the ground)",
             ),
             Var::new("steer_dot", Some("rad/s"), 0.0, "Steer rate").nominal(1.0),
@@ -268,6 +285,7 @@ impl Lagrangian for NonlinearBicycle {
             computed(
                 "front_wheel_dot",
                 "rad/s",
+                -5.0 / 0.35,
                 "Front wheel rate relative to the front frame (computed: rolling)",
             ),
         ]
@@ -379,9 +397,9 @@ impl Lagrangian for NonlinearBicycle {
             .set("rear_wheel_dot", at(5.0))
             .set("roll", 0.05),
             Scene::new(
-                "falls",
-                "2 m/s, below the weave speed: a lean of 0.05 rad grows in a weave until the bicycle falls (fmi2Discard at roll_max)",
-                10.0,
+                "weave",
+                "2 m/s, below the weave speed: a lean of 0.05 rad grows fast; the bicycle falls (|roll| = roll_max, fmi2Discard) at t = 1.89 s, just after this scene ends",
+                1.5,
             )
             .set("rear_wheel_dot", at(2.0))
             .set("roll", 0.05),
