@@ -87,6 +87,10 @@ def test_scheduled_closed_loop_is_stable(schedule):
         a, b = bc.linearize(v)
         ev = np.linalg.eigvals(a - b @ schedule.gain(v)[None, :])
         assert ev.real.max() < -0.5, (v, ev)
+    # the schedule matters: the 3 m/s gain alone does not hold the bicycle at 2 m/s
+    i2, i3 = list(schedule.speeds).index(2.0), list(schedule.speeds).index(3.0)
+    ev = np.linalg.eigvals(schedule.a[i2] - schedule.b[i2] @ schedule.k[i3][None, :])
+    assert ev.real.max() > 0.5, ev
     # and the open loop is unstable at the operating speed (weave): the loop matters
     a, b = bc.linearize(V)
     assert np.linalg.eigvals(a).real.max() > 1.0
