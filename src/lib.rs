@@ -8,14 +8,19 @@
 //! - [`package`]: the FMU archive and its documentation page.
 //! - [`linearize`]: A, B, C, D at an operating point, exact, and their export formats.
 //! - [`bench`]: the work–precision sweeps of `mbfmu bench`.
+//! - [`describe`]: what a compiled model answers the packager (its FMU contents, its
+//!   linearisation), behind its cdylib's `mbfmu_describe`.
+//! - [`own_model`]: a user's model in its own crate: `mbfmu new`, and building that crate.
 //! - [`catalogue`]: every system with an FMU, and what the CLI does with each.
 
 pub mod bench;
 pub mod catalogue;
+pub mod describe;
 pub mod fmi;
 pub mod integrators;
 pub mod linearize;
 pub mod model;
+pub mod own_model;
 pub mod package;
 pub mod systems;
 pub mod xml;
