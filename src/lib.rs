@@ -3,7 +3,8 @@
 //! - [`model`]: how a system is declared (variables, dynamics, scenes): physics only.
 //! - [`systems`]: the textbook systems, one file each.
 //! - [`integrators`]: the methods that advance a system inside `fmi2DoStep`.
-//! - [`fmi`]: the FMI 2.0 Co-Simulation boundary (the only `unsafe` and `extern "C"`).
+//! - [`fmi`]: the FMI 2.0 Co-Simulation boundary (the only `unsafe` and `extern "C"`
+//!   but the packager's dlopen in `package::library`).
 //! - [`xml`]: modelDescription.xml and its ModelStructure, generated from a system.
 //! - [`package`]: the FMU archive and its documentation page.
 //! - [`linearize`]: A, B, C, D at an operating point, exact, and their export formats.

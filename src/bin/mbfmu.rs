@@ -3,7 +3,7 @@
 //!
 //! Subcommand names and flags are a stable interface (outside tools and tests/ script
 //! them); `mbfmu help SUBCOMMAND` or `--help` documents each. Errors go to stderr as one
-//! `mbfmu: ...` line with exit status 1 (a bad command line: clap's message, status 2).
+//! `mbfmu: ...` line with exit status 1 (a bad command line: status 2).
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -600,8 +600,52 @@ fn new(args: NewArgs) -> Result<(), String> {
     Ok(())
 }
 
+/// Parses the command line; a usage error is one `mbfmu: ...` line with the usage and
+/// status 2 (help and version print as clap prints them).
+fn parse() -> Result<Cli, ExitCode> {
+    use clap::error::ErrorKind;
+    match Cli::try_parse() {
+        Ok(cli) => Ok(cli),
+        Err(e)
+            if matches!(
+                e.kind(),
+                ErrorKind::DisplayHelp
+                    | ErrorKind::DisplayVersion
+                    | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+            ) =>
+        {
+            e.exit()
+        }
+        Err(e) => {
+            let text = e.to_string();
+            let lines: Vec<&str> = text.lines().map(str::trim).collect();
+            let what: Vec<&str> = lines
+                .iter()
+                .copied()
+                .filter(|l| {
+                    !l.is_empty()
+                        && !l.starts_with("Usage: ")
+                        && !l.starts_with("tip: ")
+                        && !l.starts_with("For more information")
+                })
+                .collect();
+            let what = what.join(" ");
+            let what = what.strip_prefix("error: ").unwrap_or(&what);
+            match lines.iter().find(|l| l.starts_with("Usage: ")) {
+                Some(usage) => eprintln!("mbfmu: {what}; {usage} (see --help)"),
+                None => eprintln!("mbfmu: {what} (see --help)"),
+            }
+            Err(ExitCode::from(2))
+        }
+    }
+}
+
 fn main() -> ExitCode {
-    let result = match Cli::parse().command {
+    let cli = match parse() {
+        Ok(cli) => cli,
+        Err(code) => return code,
+    };
+    let result = match cli.command {
         Cmd::List { json } => {
             list(json);
             Ok(())

@@ -103,7 +103,8 @@ def test_linearize_a_users_crate(crate):
 
 def test_a_copied_system_agrees_with_the_in_tree_fmu(crate):
     """CompoundPendulum's file copied into the crate as a user would (renamed, its imports
-    from mbfmu): the same trajectory as the in-tree FMU, to rounding."""
+    from mbfmu): the same trajectory as the in-tree FMU, to rounding (measured: bit for bit,
+    as it is the same code; also under RADAU5 and RATTLE)."""
     source = (fs.REPO / "src" / "systems" / "compound_pendulum.rs").read_text()
     source = source.replace("crate::", "mbfmu::").replace("CompoundPendulum", NAME)
     (crate / "src" / "lib.rs").write_text(source + f"\nmbfmu::export_fmu!({NAME});\n")
@@ -119,6 +120,8 @@ def test_a_copied_system_agrees_with_the_in_tree_fmu(crate):
 
 
 def test_help_version_and_errors():
+    """`--version` and every `--help` exit 0; a bad flag, an unknown model or subcommand, a
+    missing crate, a bad name: non-zero, nothing on stdout, one `mbfmu: ...` line on stderr."""
     out = run("--version")
     assert out.stdout.startswith("mbfmu ")
     for sub in ["list", "build", "xml", "symbolic", "linearize", "speed", "bench", "new"]:
@@ -134,9 +137,8 @@ def test_help_version_and_errors():
     ]:
         bad = run(*args, check=False)
         assert bad.returncode != 0 and bad.stdout == "", args
-        assert needle in bad.stderr, (args, bad.stderr)
-    one_line = run("build", "NoSuchModel", check=False).stderr
-    assert one_line.count("\n") == 1
+        assert needle in bad.stderr and bad.stderr.count("\n") == 1, (args, bad.stderr)
+        assert bad.stderr.startswith("mbfmu: "), (args, bad.stderr)
 
 
 @pytest.mark.parametrize("path", sorted((fs.REPO / "modelDescription").glob("*.xml")),
