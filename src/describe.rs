@@ -199,3 +199,39 @@ pub fn respond<M: System>(request: &str) -> String {
     }
     protocol::encode(&records)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::systems::CompoundPendulum;
+
+    #[test]
+    fn a_linearize_request_round_trips() {
+        let req = LinearizeRequest {
+            scenes: vec!["large".into()],
+            sets: vec![("m".into(), 0.1 + 0.2)],
+            ats: vec![("theta".into(), -1e-300)],
+            trim: Some(Trim::Inputs),
+            format: "py".into(),
+        };
+        let records = protocol::decode(&req.encode()).unwrap();
+        assert_eq!(LinearizeRequest::decode(&records).unwrap(), req);
+    }
+
+    #[test]
+    fn the_package_answer_is_what_the_catalogue_generates() {
+        let request = protocol::encode(&[("request", "package")]);
+        let records = protocol::parse_response(&respond::<CompoundPendulum>(&request)).unwrap();
+        let get = |k| protocol::value(&records, k).unwrap();
+        assert_eq!(get("model_identifier"), "CompoundPendulum");
+        assert_eq!(
+            get("model_description"),
+            crate::xml::model_description::<CompoundPendulum>()
+        );
+        assert!(get("resource:linearization.json").contains("\"A\""));
+        let bad = respond::<CompoundPendulum>(&protocol::encode(&[("request", "fly")]));
+        assert!(protocol::parse_response(&bad)
+            .unwrap_err()
+            .contains("unknown describe request"));
+    }
+}
