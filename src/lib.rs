@@ -3,19 +3,25 @@
 //! - [`model`]: how a system is declared (variables, dynamics, scenes): physics only.
 //! - [`systems`]: the textbook systems, one file each.
 //! - [`integrators`]: the methods that advance a system inside `fmi2DoStep`.
-//! - [`fmi`]: the FMI 2.0 Co-Simulation boundary (the only `unsafe` and `extern "C"`).
+//! - [`fmi`]: the FMI 2.0 Co-Simulation boundary (the only `unsafe` and `extern "C"`
+//!   but the packager's dlopen in `package::library`).
 //! - [`xml`]: modelDescription.xml and its ModelStructure, generated from a system.
 //! - [`package`]: the FMU archive and its documentation page.
 //! - [`linearize`]: A, B, C, D at an operating point, exact, and their export formats.
 //! - [`bench`]: the work–precision sweeps of `mbfmu bench`.
+//! - [`describe`]: what a compiled model answers the packager (its FMU contents, its
+//!   linearisation), behind its cdylib's `mbfmu_describe`.
+//! - [`own_model`]: a user's model in its own crate: `mbfmu new`, and building that crate.
 //! - [`catalogue`]: every system with an FMU, and what the CLI does with each.
 
 pub mod bench;
 pub mod catalogue;
+pub mod describe;
 pub mod fmi;
 pub mod integrators;
 pub mod linearize;
 pub mod model;
+pub mod own_model;
 pub mod package;
 pub mod systems;
 pub mod xml;

@@ -37,7 +37,7 @@ use crate::fmi::{Instance, Logger, ModelInfo, StepOutcome};
 use crate::integrators::Method;
 use crate::model::{Scene, System, VarKind};
 use std::fmt::Write as _;
-use std::path::Path;
+use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
@@ -913,46 +913,58 @@ fn reference_rows<M: System>(
 /// One system's sweep, as the catalogue hands it to [`cli`].
 pub type BenchFn = fn(&BenchConfig) -> Vec<BenchRow>;
 
+/// The options of `mbfmu bench` (the CLI parses them).
+#[derive(Clone, Debug)]
+pub struct BenchOptions {
+    /// Two settings per method, MassSpringDamper and TwoMassChain unless `systems` says.
+    pub quick: bool,
+    pub out: PathBuf,
+    /// Only these systems (all when empty).
+    pub systems: Vec<String>,
+    /// Only these scenes (all when empty).
+    pub scenes: Vec<String>,
+    pub reps: Option<usize>,
+    /// The long runs of the conservative scenes.
+    pub energy: bool,
+    /// The springy-vs-rigid comparison.
+    pub springy: bool,
+}
+
+/// What [`cli`] reports as it goes, so the CLI can draw progress without the library
+/// knowing of terminals.
+pub enum BenchEvent<'a> {
+    /// This many systems will be swept.
+    Start(usize),
+    /// One system's sweep begins.
+    System(&'a str),
+    /// One system's sweep ended: its summary line.
+    Done(String),
+    /// Any other line for the user (files written, the total).
+    Note(String),
+}
+
 /// `mbfmu bench [--quick] [--out DIR] [--system NAME]... [--scene NAME]... [--reps N]
-/// [--no-energy] [--no-springy]`; `default_out` is docs/bench of the workspace.
+/// [--no-energy] [--no-springy]`.
 ///
 /// Writes `results.csv` and `reference.csv`; unless `--no-energy`, the long runs of the
 /// conservative scenes (`longrun.csv`, `invariant.csv`); unless `--no-springy` or when the
 /// selection leaves out SpringyPendulum/stiff, the springy-vs-rigid comparison
 /// (`springy_rigid*.csv`).
 pub fn cli(
-    args: &[String],
-    default_out: &Path,
+    options: &BenchOptions,
     systems: &[(&'static str, BenchFn)],
+    report: &dyn Fn(BenchEvent),
 ) -> Result<(), String> {
     let clock = Instant::now();
-    let mut quick = false;
-    let mut out = default_out.to_path_buf();
-    let mut only = Vec::new();
-    let mut scenes = Vec::new();
-    let mut reps = None;
-    let mut energy = true;
-    let mut springy = true;
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        let mut value = || it.next().ok_or_else(|| format!("{a} needs a value"));
-        match a.as_str() {
-            "--quick" => quick = true,
-            "--out" => out = value()?.into(),
-            "--system" => only.push(value()?.clone()),
-            "--scene" => scenes.push(value()?.clone()),
-            "--reps" => {
-                reps = Some(
-                    value()?
-                        .parse::<usize>()
-                        .map_err(|_| "--reps needs a positive integer".to_string())?,
-                )
-            }
-            "--no-energy" => energy = false,
-            "--no-springy" => springy = false,
-            other => return Err(format!("bench: unknown option {other}")),
-        }
-    }
+    let BenchOptions {
+        quick,
+        out,
+        systems: mut only,
+        scenes,
+        reps,
+        energy,
+        springy,
+    } = options.clone();
     let mut config = if quick {
         BenchConfig::quick()
     } else {
@@ -983,22 +995,24 @@ pub fn cli(
     }
     std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
     let mut rows = Vec::new();
+    report(BenchEvent::Start(entries.len()));
     for (name, bench) in &entries {
+        report(BenchEvent::System(name));
         let start = Instant::now();
         let mine = bench(&config);
         let failed = mine.iter().filter(|r| r.status != "ok").count();
-        eprintln!(
+        report(BenchEvent::Done(format!(
             "bench: {:<18} {:>4} runs ({failed} failed or refused) in {:.1} s",
             name,
             mine.len(),
             start.elapsed().as_secs_f64()
-        );
+        )));
         rows.extend(mine);
     }
     let write = |name: &str, text: &str| {
         let path = out.join(name);
         std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
-        eprintln!("wrote {}", path.display());
+        report(BenchEvent::Note(format!("wrote {}", path.display())));
         Ok::<(), String>(())
     };
     write("results.csv", &to_csv(&rows))?;
@@ -1020,20 +1034,21 @@ pub fn cli(
     let wants = |name: &str, list: &[String]| list.is_empty() || list.iter().any(|n| n == name);
     if springy && wants("SpringyPendulum", &only) && wants("stiff", &config.scenes) {
         let start = Instant::now();
+        report(BenchEvent::System("springy vs rigid"));
         let cmp = springy_rigid::compare(&config)?;
-        eprintln!(
+        report(BenchEvent::Note(format!(
             "bench: springy vs rigid in {:.1} s",
             start.elapsed().as_secs_f64()
-        );
+        )));
         write("springy_rigid.csv", &cmp.trajectory)?;
         write("springy_rigid_cost.csv", &cmp.cost)?;
         write("springy_rigid_stiffness.csv", &cmp.stiffness)?;
     }
-    eprintln!(
+    report(BenchEvent::Note(format!(
         "bench: done in {:.1} s; next: python benches/peers.py --out {dir} && python benches/plot.py --out {dir}",
         clock.elapsed().as_secs_f64(),
         dir = out.display()
-    );
+    )));
     Ok(())
 }
 

@@ -1,33 +1,191 @@
-//! `mbfmu`: build and package the FMUs, list the systems, keep modelDescription/ current.
+//! `mbfmu`: build and package the FMUs, list the systems, keep modelDescription/ current,
+//! and start and package a model of your own (`mbfmu new`, `build --manifest-path`).
 //!
-//! Subcommands are a stable interface (outside tools script them):
-//! - `mbfmu list [--json]`: the systems and their scenes (JSON: with start values and stop times).
-//! - `mbfmu build --all | MODEL...`: compile each FMU's cdylib in release mode and
-//!   write `target/fmu/<Model>.fmu`.
-//! - `mbfmu xml [--check]`: write (or check) `modelDescription/<Model>.xml`.
-//! - `mbfmu symbolic [--check]`: write (or check) the generated equations of motion of the
-//!   symbolic prototype, `src/model/symbolic/generated/`, with their sizes.
-//! - `mbfmu linearize MODEL [--scene S] [--set p=v]... [--at x=v]... [--trim|--trim-inputs]
-//!   [--independent | --keep NAME,...] [--format json|py|csv] [--out FILE]`: exact A, B, C, D at an
-//!   operating point, in all the states or (constrained systems) the independent ones.
-//! - `mbfmu bench [--quick] [--out DIR]`: work–precision of every method on every scene
-//!   (`results.csv`, default DIR docs/bench); see `benches/` for the peers and the charts.
+//! Subcommand names and flags are a stable interface (outside tools and tests/ script
+//! them); `mbfmu help SUBCOMMAND` or `--help` documents each. Errors go to stderr as one
+//! `mbfmu: ...` line with exit status 1 (a bad command line: status 2).
 
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use mbfmu::catalogue::{self, Entry};
+use mbfmu::describe::{LinearizeAnswer, LinearizeRequest};
+use mbfmu::linearize::{States, Trim};
+use mbfmu::package::{self, protocol, ModelLibrary};
+use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
+use std::time::Duration;
 
-const USAGE: &str = "usage:
-  mbfmu list [--json]
-  mbfmu build (--all | MODEL...) [--out DIR]
-  mbfmu xml [--check]
-  mbfmu symbolic [--check]
-  mbfmu linearize MODEL [--scene S] [--set PARAM=VALUE]... [--at STATE_OR_INPUT=VALUE]...
-                  [--trim | --trim-inputs] [--independent | --keep STATE,...]
-                  [--format json|py|csv] [--out FILE]
-  mbfmu speed [--system MODEL]... [--reps N] [--out DIR] [--chain | --symbolic]
-  mbfmu bench [--quick] [--out DIR] [--system MODEL]... [--scene S]... [--reps N] [--no-energy] [--no-springy]";
+#[derive(Parser)]
+#[command(
+    name = "mbfmu",
+    version,
+    about = "Multibody mechanics models as FMI 2.0 Co-Simulation FMUs",
+    arg_required_else_help = true
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Cmd,
+}
 
+#[derive(Subcommand)]
+enum Cmd {
+    /// The systems and their scenes
+    List {
+        /// As JSON, with start values and stop times
+        #[arg(long)]
+        json: bool,
+    },
+    /// Compile FMUs (release) and package them: in-tree models, or a crate of your own
+    Build(BuildArgs),
+    /// Write modelDescription/<Model>.xml of every in-tree model (committed, reviewed)
+    Xml {
+        /// Only check that the committed files are current
+        #[arg(long)]
+        check: bool,
+    },
+    /// PROTOTYPE: write the equations generated from the Lagrangians (src/model/symbolic/generated/)
+    Symbolic {
+        /// Only check that the committed files are current
+        #[arg(long)]
+        check: bool,
+    },
+    /// Exact A, B, C, D of a model at an operating point
+    Linearize(LinearizeArgs),
+    /// ns per doStep, RHS and Jacobian of every system beside hand-written floors
+    Speed(SpeedArgs),
+    /// Work-precision runs of every scene and method into docs/bench/*.csv
+    Bench(BenchArgs),
+    /// Start a model of your own: a crate with a commented Lagrangian template (a pendulum)
+    New(NewArgs),
+}
+
+#[derive(Args)]
+struct BuildArgs {
+    /// Every in-tree model
+    #[arg(long)]
+    all: bool,
+    /// In-tree models by name (`mbfmu list`)
+    #[arg(value_name = "MODEL")]
+    models: Vec<String>,
+    /// A model crate of your own (`mbfmu new`): its Cargo.toml or its folder
+    #[arg(long, value_name = "PATH", conflicts_with_all = ["all", "models"])]
+    manifest_path: Option<PathBuf>,
+    /// Where to write the .fmu files [default: target/fmu, of this tree or of the crate]
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum Format {
+    Json,
+    Py,
+    Csv,
+}
+
+#[derive(Args)]
+struct LinearizeArgs {
+    /// An in-tree model (`mbfmu list`)
+    #[arg(
+        value_name = "MODEL",
+        required_unless_present = "manifest_path",
+        conflicts_with = "manifest_path"
+    )]
+    model: Option<String>,
+    /// A model crate of your own (`mbfmu new`): its Cargo.toml or its folder
+    #[arg(long, value_name = "PATH")]
+    manifest_path: Option<PathBuf>,
+    /// Start from a scene's start values
+    #[arg(long, value_name = "S")]
+    scene: Vec<String>,
+    /// A parameter value
+    #[arg(long, value_name = "PARAM=VALUE", value_parser = parse_assignment)]
+    set: Vec<(String, f64)>,
+    /// A state or input value
+    #[arg(long, value_name = "STATE_OR_INPUT=VALUE", value_parser = parse_assignment)]
+    at: Vec<(String, f64)>,
+    /// First solve for the states with zero derivatives (Newton)
+    #[arg(long, conflicts_with = "trim_inputs")]
+    trim: bool,
+    /// First solve for the inputs that hold the state (least squares)
+    #[arg(long)]
+    trim_inputs: bool,
+    /// Write the model in the independent states only (dependent ones eliminated through the constraints)
+    #[arg(long, conflicts_with = "keep")]
+    independent: bool,
+    /// Keep only these independent states, in this order (comma-separated); refused if a kept state depends on a dropped one
+    #[arg(long, value_name = "STATE,...", value_delimiter = ',')]
+    keep: Vec<String>,
+    /// json (canonical), py (OpenModelica's linearized_model.py) or csv
+    #[arg(long, value_enum, default_value_t = Format::Json)]
+    format: Format,
+    /// Write to FILE instead of stdout
+    #[arg(long, value_name = "FILE")]
+    out: Option<PathBuf>,
+}
+
+#[derive(Args)]
+struct SpeedArgs {
+    /// Only this system (repeatable)
+    #[arg(long, value_name = "MODEL")]
+    system: Vec<String>,
+    /// Best of N repetitions
+    #[arg(long, value_name = "N", default_value_t = 5, value_parser = positive)]
+    reps: usize,
+    /// Where speed.csv (chain.csv, symbolic.csv) goes [default: docs/bench]
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// The planar chain of N links instead (chain.csv)
+    #[arg(long, conflicts_with = "symbolic")]
+    chain: bool,
+    /// The symbolic prototype's generated equations instead (symbolic.csv)
+    #[arg(long)]
+    symbolic: bool,
+}
+
+#[derive(Args)]
+struct BenchArgs {
+    /// Two settings per method, MassSpringDamper and TwoMassChain unless --system
+    #[arg(long)]
+    quick: bool,
+    /// Where the CSVs go [default: docs/bench]
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Only this system (repeatable)
+    #[arg(long, value_name = "MODEL")]
+    system: Vec<String>,
+    /// Only this scene (repeatable)
+    #[arg(long, value_name = "S")]
+    scene: Vec<String>,
+    /// Timing repetitions per run
+    #[arg(long, value_name = "N")]
+    reps: Option<usize>,
+    /// Skip the long runs of the conservative scenes
+    #[arg(long)]
+    no_energy: bool,
+    /// Skip the springy-vs-rigid comparison
+    #[arg(long)]
+    no_springy: bool,
+}
+
+#[derive(Args)]
+struct NewArgs {
+    /// The model's name: its FMU's modelIdentifier (letters, digits, _), e.g. MyPendulum
+    name: String,
+    /// The crate's folder [default: ./NAME]
+    #[arg(long, value_name = "DIR")]
+    dir: Option<PathBuf>,
+}
+
+fn positive(text: &str) -> Result<usize, String> {
+    text.parse::<usize>()
+        .ok()
+        .filter(|&r| r > 0)
+        .ok_or_else(|| "needs a positive integer".into())
+}
+
+/// This source tree: the in-tree FMU crates, modelDescription/, docs/bench, and the mbfmu
+/// library a new crate depends on (where this binary was built from, also when installed).
 fn workspace_root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
@@ -38,13 +196,30 @@ fn target_dir() -> PathBuf {
         .unwrap_or_else(|| workspace_root().join("target"))
 }
 
+/// A progress bar on stderr, hidden unless stdout and stderr are both terminals (so logs
+/// and pipes stay clean).
+fn progress(len: u64, what: &str) -> ProgressBar {
+    let bar = ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::stderr());
+    if !(std::io::stdout().is_terminal() && std::io::stderr().is_terminal()) {
+        bar.set_draw_target(ProgressDrawTarget::hidden());
+    }
+    bar.set_style(
+        ProgressStyle::with_template(&format!(
+            "{what} {{bar:30}} {{pos}}/{{len}} {{elapsed}} {{msg}}"
+        ))
+        .expect("a valid template"),
+    );
+    bar.enable_steady_tick(Duration::from_millis(200));
+    bar
+}
+
 fn select(names: &[String], all: bool) -> Result<Vec<Entry>, String> {
     let entries = catalogue::all();
     if all {
         return Ok(entries);
     }
     if names.is_empty() {
-        return Err(format!("name the models to build, or --all\n{USAGE}"));
+        return Err("name the models to build, or --all, or --manifest-path".into());
     }
     let known: Vec<&str> = entries.iter().map(|e| e.name).collect();
     for n in names {
@@ -58,20 +233,24 @@ fn select(names: &[String], all: bool) -> Result<Vec<Entry>, String> {
         .collect())
 }
 
-fn build(args: &[String]) -> Result<(), String> {
-    let mut all = false;
-    let mut out = target_dir().join("fmu");
-    let mut names = Vec::new();
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        match a.as_str() {
-            "--all" => all = true,
-            "--out" => out = PathBuf::from(it.next().ok_or("--out needs a folder")?),
-            s if s.starts_with('-') => return Err(format!("unknown option {s}\n{USAGE}")),
-            s => names.push(s.to_string()),
-        }
+/// Packages from the compiled cdylibs alone (their `mbfmu_describe`): the in-tree models
+/// and a user's crate take the same path.
+fn build(args: BuildArgs) -> Result<(), String> {
+    if let Some(path) = args.manifest_path {
+        let manifest = mbfmu::own_model::manifest(&path)?;
+        let library = mbfmu::own_model::build_cdylib(&manifest, false)?;
+        let out = args.out.unwrap_or_else(|| {
+            manifest
+                .parent()
+                .expect("a manifest has a folder")
+                .join("target/fmu")
+        });
+        let fmu = package::package_library(&library, &out)?;
+        println!("wrote {}", fmu.display());
+        return Ok(());
     }
-    let entries = select(&names, all)?;
+    let entries = select(&args.models, args.all)?;
+    let out = args.out.unwrap_or_else(|| target_dir().join("fmu"));
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let mut cmd = Command::new(cargo);
     cmd.current_dir(workspace_root())
@@ -83,42 +262,29 @@ fn build(args: &[String]) -> Result<(), String> {
     if !status.success() {
         return Err(format!("cargo build failed ({status})"));
     }
+    let bar = progress(entries.len() as u64, "packaging");
     for e in &entries {
+        bar.set_message(e.name);
         let library = target_dir()
             .join("release")
-            .join(mbfmu::package::library_file(e.crate_name));
-        let fmu = out.join(format!("{}.fmu", e.name));
-        // The linearisation at the default operating point (the start values).
-        let lin = (e.linearize)(&[], None, &Default::default())?;
-        let resources = [
-            (
-                "linearization.json".to_string(),
-                mbfmu::linearize::to_json(&lin),
-            ),
-            (
-                "linearized_model.py".to_string(),
-                mbfmu::linearize::to_py(&lin),
-            ),
-        ];
-        mbfmu::package::write_fmu(
-            &fmu,
-            e.name,
-            &(e.model_description)(),
-            &(e.documentation)(),
-            &library,
-            &resources,
-        )?;
-        println!("wrote {}", fmu.display());
+            .join(package::library_file(e.crate_name));
+        let fmu = package::package_library(&library, &out)?;
+        if fmu.file_stem().and_then(|s| s.to_str()) != Some(e.name) {
+            return Err(format!(
+                "{} describes itself as {}, not {}",
+                library.display(),
+                fmu.display(),
+                e.name
+            ));
+        }
+        bar.suspend(|| println!("wrote {}", fmu.display()));
+        bar.inc(1);
     }
+    bar.finish_and_clear();
     Ok(())
 }
 
-fn xml(args: &[String]) -> Result<(), String> {
-    let check = match args {
-        [] => false,
-        [flag] if flag == "--check" => true,
-        _ => return Err(USAGE.into()),
-    };
+fn xml(check: bool) -> Result<(), String> {
     let dir = workspace_root().join("modelDescription");
     let mut stale = Vec::new();
     for e in catalogue::all() {
@@ -146,13 +312,8 @@ fn xml(args: &[String]) -> Result<(), String> {
 /// `mbfmu symbolic [--check]`: trace, differentiate and emit the equations of motion of the
 /// symbolic prototype into `src/model/symbolic/generated/` (or check they are current), and
 /// print each module's size and generation time.
-fn symbolic(args: &[String]) -> Result<(), String> {
+fn symbolic(check: bool) -> Result<(), String> {
     use mbfmu::bench::symbolic;
-    let check = match args {
-        [] => false,
-        [flag] if flag == "--check" => true,
-        _ => return Err(USAGE.into()),
-    };
     let (generated, files) = symbolic::generate_all().map_err(|e| e.to_string())?;
     println!("| module | n | nodes | operations | lets | lines | generation ms |");
     println!("|---|---|---|---|---|---|---|");
@@ -225,73 +386,54 @@ fn parse_assignment(text: &str) -> Result<(String, f64), String> {
     Ok((name.trim().to_string(), value))
 }
 
-fn linearize(args: &[String]) -> Result<(), String> {
-    use mbfmu::linearize::{to_csv, to_json, to_py, States, Trim};
-    let (model, rest) = args.split_first().ok_or(USAGE)?;
-    let entry = catalogue::all()
-        .into_iter()
-        .find(|e| e.name == model)
-        .ok_or_else(|| format!("unknown model {model}"))?;
-    let mut overrides: Vec<(String, f64)> = Vec::new();
-    let mut sets = Vec::new();
-    let mut ats = Vec::new();
-    let mut trim = None;
-    let mut states = States::All;
-    let mut format = "json".to_string();
-    let mut out = None;
-    let mut it = rest.iter();
-    while let Some(a) = it.next() {
-        let mut value = || it.next().ok_or_else(|| format!("{a} needs a value"));
-        match a.as_str() {
-            "--scene" => {
-                let name = value()?;
-                let scene = (entry.scenes)()
-                    .into_iter()
-                    .find(|s| s.name == name.as_str())
-                    .ok_or_else(|| format!("{model} has no scene {name}"))?;
-                overrides.extend(scene.start_values.iter().map(|(n, v)| (n.to_string(), *v)));
-            }
-            "--set" => sets.push(parse_assignment(value()?)?),
-            "--at" => ats.push(parse_assignment(value()?)?),
-            "--trim" => trim = Some(Trim::States),
-            "--trim-inputs" => trim = Some(Trim::Inputs),
-            "--independent" => states = States::Independent,
-            "--keep" => {
-                let names = value()?.split(',').map(|s| s.trim().to_string()).collect();
-                states = States::Only(names);
-            }
-            "--format" => format = value()?.clone(),
-            "--out" => out = Some(PathBuf::from(value()?)),
-            other => return Err(format!("unknown option {other}\n{USAGE}")),
+/// Asks the model, in-tree (in process) or a user's crate (its compiled cdylib), the same
+/// linearize request.
+fn linearize(args: LinearizeArgs) -> Result<(), String> {
+    let request = LinearizeRequest {
+        scenes: args.scene,
+        sets: args.set,
+        ats: args.at,
+        trim: if args.trim {
+            Some(Trim::States)
+        } else if args.trim_inputs {
+            Some(Trim::Inputs)
+        } else {
+            None
+        },
+        states: if !args.keep.is_empty() {
+            States::Only(args.keep)
+        } else if args.independent {
+            States::Independent
+        } else {
+            States::All
+        },
+        format: match args.format {
+            Format::Json => "json",
+            Format::Py => "py",
+            Format::Csv => "csv",
         }
-    }
-    let params: Vec<String> = (entry.linearize)(&[], None, &Default::default())?.parameter_names;
-    for (name, _) in &sets {
-        if !params.contains(name) {
-            return Err(format!(
-                "--set {name}: not a parameter of {model} (parameters: {})",
-                params.join(", ")
-            ));
+        .into(),
+    };
+    let records = match (&args.model, &args.manifest_path) {
+        (_, Some(path)) => {
+            let manifest = mbfmu::own_model::manifest(path)?;
+            let library = mbfmu::own_model::build_cdylib(&manifest, true)?;
+            ModelLibrary::open(&library)?.call(&request.encode())?
         }
-    }
-    for (name, _) in &ats {
-        if params.contains(name) {
-            return Err(format!("--at {name}: a parameter; use --set"));
+        (Some(model), None) => {
+            let entry = catalogue::all()
+                .into_iter()
+                .find(|e| e.name == model)
+                .ok_or_else(|| format!("unknown model {model}"))?;
+            protocol::parse_response(&(entry.describe)(&request.encode()))?
         }
-    }
-    overrides.extend(sets);
-    overrides.extend(ats);
-    let lin = (entry.linearize)(&overrides, trim, &states)?;
-    for line in &lin.warnings {
+        (None, None) => return Err("name a model, or --manifest-path".into()),
+    };
+    let LinearizeAnswer { text, warnings } = LinearizeRequest::parse_answer(&records)?;
+    for line in &warnings {
         eprintln!("warning: {line}");
     }
-    let text = match format.as_str() {
-        "json" => to_json(&lin),
-        "py" => to_py(&lin),
-        "csv" => to_csv(&lin),
-        other => return Err(format!("unknown format {other} (json, py, csv)")),
-    };
-    match out {
+    match args.out {
         Some(path) => write(&path, &text),
         None => {
             print!("{text}");
@@ -300,20 +442,17 @@ fn linearize(args: &[String]) -> Result<(), String> {
     }
 }
 
-fn list(args: &[String]) -> Result<(), String> {
-    match args {
-        [] => {
-            for e in catalogue::all() {
-                println!("{}: {}", e.name, e.description);
-                for s in (e.scenes)() {
-                    println!("  {:<18} {}", s.name, s.description);
-                }
-            }
-        }
-        [flag] if flag == "--json" => print!("{}", list_json()),
-        _ => return Err(USAGE.into()),
+fn list(json: bool) {
+    if json {
+        print!("{}", list_json());
+        return;
     }
-    Ok(())
+    for e in catalogue::all() {
+        println!("{}: {}", e.name, e.description);
+        for s in (e.scenes)() {
+            println!("  {:<18} {}", s.name, s.description);
+        }
+    }
 }
 
 /// `mbfmu list --json`: every system and its scenes (start values, stop time), for scripts.
@@ -356,31 +495,16 @@ fn list_json() -> String {
 /// `--chain`: the planar chain of N = 1 … 16 links instead, into `DIR/chain.csv`;
 /// `--symbolic`: the symbolic prototype's generated equations against today's path and the
 /// floors, into `DIR/symbolic.csv`.
-fn speed(args: &[String]) -> Result<(), String> {
+fn speed(args: SpeedArgs) -> Result<(), String> {
     use mbfmu::bench::speed;
-    let mut only = Vec::new();
-    let mut reps = 5;
-    let mut out = workspace_root().join("docs/bench");
-    let mut chain = false;
-    let mut symbolic = false;
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        let mut value = || it.next().ok_or_else(|| format!("{a} needs a value"));
-        match a.as_str() {
-            "--chain" => chain = true,
-            "--symbolic" => symbolic = true,
-            "--system" => only.push(value()?.clone()),
-            "--reps" => {
-                reps = value()?
-                    .parse::<usize>()
-                    .ok()
-                    .filter(|&r| r > 0)
-                    .ok_or("--reps needs a positive integer")?
-            }
-            "--out" => out = PathBuf::from(value()?),
-            other => return Err(format!("unknown option {other}\n{USAGE}")),
-        }
-    }
+    let SpeedArgs {
+        system: only,
+        reps,
+        out,
+        chain,
+        symbolic,
+    } = args;
+    let out = out.unwrap_or_else(|| workspace_root().join("docs/bench"));
     std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
     if symbolic {
         use mbfmu::bench::{chain::growth_exponent, symbolic};
@@ -447,24 +571,105 @@ fn speed(args: &[String]) -> Result<(), String> {
     write(&out.join("speed.csv"), &csv)
 }
 
-fn main() -> ExitCode {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let result = match args.first().map(String::as_str) {
-        Some("list") => list(&args[1..]),
-        Some("build") => build(&args[1..]),
-        Some("xml") => xml(&args[1..]),
-        Some("symbolic") => symbolic(&args[1..]),
-        Some("linearize") => linearize(&args[1..]),
-        Some("bench") => {
-            let systems: Vec<_> = catalogue::all().iter().map(|e| (e.name, e.bench)).collect();
-            mbfmu::bench::cli(&args[1..], &workspace_root().join("docs/bench"), &systems)
+fn bench(args: BenchArgs) -> Result<(), String> {
+    use mbfmu::bench::{BenchEvent, BenchOptions};
+    let options = BenchOptions {
+        quick: args.quick,
+        out: args
+            .out
+            .unwrap_or_else(|| workspace_root().join("docs/bench")),
+        systems: args.system,
+        scenes: args.scene,
+        reps: args.reps,
+        energy: !args.no_energy,
+        springy: !args.no_springy,
+    };
+    let systems: Vec<_> = catalogue::all().iter().map(|e| (e.name, e.bench)).collect();
+    let bar = progress(0, "bench");
+    let report = |event: BenchEvent| match event {
+        BenchEvent::Start(n) => bar.set_length(n as u64),
+        BenchEvent::System(name) => bar.set_message(name.to_string()),
+        BenchEvent::Done(line) => {
+            bar.suspend(|| eprintln!("{line}"));
+            bar.inc(1);
         }
-        Some("speed") => speed(&args[1..]),
-        Some("-h" | "--help" | "help") => {
-            println!("{USAGE}");
+        BenchEvent::Note(line) => bar.suspend(|| eprintln!("{line}")),
+    };
+    let result = mbfmu::bench::cli(&options, &systems, &report);
+    bar.finish_and_clear();
+    result
+}
+
+fn new(args: NewArgs) -> Result<(), String> {
+    let dir = args.dir.unwrap_or_else(|| PathBuf::from(&args.name));
+    mbfmu::own_model::write_template(&args.name, &dir, &workspace_root())?;
+    let manifest = dir.join("Cargo.toml");
+    println!(
+        "created {}: edit {}, then\n  mbfmu build --manifest-path {}",
+        dir.display(),
+        dir.join("src/lib.rs").display(),
+        manifest.display()
+    );
+    Ok(())
+}
+
+/// Parses the command line; a usage error is one `mbfmu: ...` line with the usage and
+/// status 2 (help and version print as clap prints them).
+fn parse() -> Result<Cli, ExitCode> {
+    use clap::error::ErrorKind;
+    match Cli::try_parse() {
+        Ok(cli) => Ok(cli),
+        Err(e)
+            if matches!(
+                e.kind(),
+                ErrorKind::DisplayHelp
+                    | ErrorKind::DisplayVersion
+                    | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+            ) =>
+        {
+            e.exit()
+        }
+        Err(e) => {
+            let text = e.to_string();
+            let lines: Vec<&str> = text.lines().map(str::trim).collect();
+            let what: Vec<&str> = lines
+                .iter()
+                .copied()
+                .filter(|l| {
+                    !l.is_empty()
+                        && !l.starts_with("Usage: ")
+                        && !l.starts_with("tip: ")
+                        && !l.starts_with("For more information")
+                })
+                .collect();
+            let what = what.join(" ");
+            let what = what.strip_prefix("error: ").unwrap_or(&what);
+            match lines.iter().find(|l| l.starts_with("Usage: ")) {
+                Some(usage) => eprintln!("mbfmu: {what}; {usage} (see --help)"),
+                None => eprintln!("mbfmu: {what} (see --help)"),
+            }
+            Err(ExitCode::from(2))
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = match parse() {
+        Ok(cli) => cli,
+        Err(code) => return code,
+    };
+    let result = match cli.command {
+        Cmd::List { json } => {
+            list(json);
             Ok(())
         }
-        _ => Err(USAGE.to_string()),
+        Cmd::Build(args) => build(args),
+        Cmd::Xml { check } => xml(check),
+        Cmd::Symbolic { check } => symbolic(check),
+        Cmd::Linearize(args) => linearize(args),
+        Cmd::Speed(args) => speed(args),
+        Cmd::Bench(args) => bench(args),
+        Cmd::New(args) => new(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

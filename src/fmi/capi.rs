@@ -713,3 +713,37 @@ pub unsafe fn get_string_status<E: Export>(
         unavailable::<E>(inst, "fmi2GetStringStatus", kind)
     })
 }
+
+/// `mbfmu_describe` (not FMI): the packager's questions to the compiled model, answered by
+/// `respond` (`describe::respond::<Model>`, wired by `export_fmu!` so this layer does not
+/// import the ones above). Returns a string for [`free_string`], or NULL on a NULL request
+/// or a panic.
+///
+/// # Safety
+/// `request` is NULL or a NUL-terminated string.
+pub unsafe fn describe(request: *const c_char, respond: fn(&str) -> String) -> *mut c_char {
+    if request.is_null() {
+        return std::ptr::null_mut();
+    }
+    catch_unwind(AssertUnwindSafe(|| {
+        // SAFETY: non-null and NUL-terminated (the caller's contract).
+        let request = unsafe { CStr::from_ptr(request) }.to_string_lossy();
+        // The protocol's text never holds a NUL; replace one rather than fail.
+        let answer = respond(&request).replace('\0', "\u{fffd}");
+        std::ffi::CString::new(answer)
+            .expect("NULs replaced")
+            .into_raw()
+    }))
+    .unwrap_or(std::ptr::null_mut())
+}
+
+/// `mbfmu_free`: frees what [`describe`] returned, with this library's allocator.
+///
+/// # Safety
+/// `text` is NULL or a pointer returned by [`describe`] of this library, not yet freed.
+pub unsafe fn free_string(text: *mut c_char) {
+    if !text.is_null() {
+        // SAFETY: it came from CString::into_raw (the caller's contract).
+        drop(unsafe { std::ffi::CString::from_raw(text) });
+    }
+}

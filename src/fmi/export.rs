@@ -3,6 +3,11 @@
 //! Thin on purpose: each symbol forwards to the generic function of the same name in
 //! [`capi`](crate::fmi::capi), where the checks live. One macro line per FMU crate:
 //! `mbfmu::export_fmu!(mbfmu::systems::MassSpringDamper);`
+//!
+//! Beside FMI it exports `mbfmu_describe` and `mbfmu_free`, through which the packager asks
+//! the compiled model for its XML, documentation and linearisation
+//! ([`package::protocol`](crate::package::protocol)): the FMU's interface comes from the
+//! binary it ships.
 
 /// Defines the complete FMI 2.0 Co-Simulation C API for one [`System`](crate::model::System).
 #[macro_export]
@@ -27,6 +32,19 @@ macro_rules! export_fmu {
             use $crate::fmi::capi::{self, Component, FmuState};
             use $crate::fmi::{CallbackFunctions, Status};
 
+            /// Not FMI: the packager's questions (`mbfmu::package::protocol`).
+            #[no_mangle]
+            pub unsafe extern "C" fn mbfmu_describe(request: *const c_char) -> *mut c_char {
+                capi::describe(
+                    request,
+                    $crate::describe::respond::<<E as $crate::fmi::Export>::Model>,
+                )
+            }
+            /// Not FMI: frees what `mbfmu_describe` returned.
+            #[no_mangle]
+            pub unsafe extern "C" fn mbfmu_free(text: *mut c_char) {
+                capi::free_string(text)
+            }
             #[no_mangle]
             pub extern "C" fn fmi2GetTypesPlatform() -> *const c_char {
                 capi::get_types_platform()

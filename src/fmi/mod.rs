@@ -4,7 +4,8 @@
 //! 1. [`export_fmu!`](crate::export_fmu) (in `export.rs`) defines every `fmi2*` symbol of one
 //!    FMU's cdylib, each a one-line forward to [`capi`].
 //! 2. [`capi`] turns C pointers into checked Rust values, catches panics and logs
-//!    failures: the only `unsafe`, `extern "C"` and `catch_unwind` of the crate.
+//!    failures: the only `unsafe`, `extern "C"` and `catch_unwind` of the FMU side (the
+//!    packager's side of `mbfmu_describe`, dlopen, is in `package::library`).
 //! 3. [`Instance`] is the safe state machine of the standard: argument checks, get/set,
 //!    doStep around an integrator, FMU state.
 //! 4. The [`System`](crate::model::System) computes `ẋ` and the outputs.

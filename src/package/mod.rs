@@ -1,8 +1,12 @@
-//! The FMU archive: modelDescription.xml, the platform binary, and a documentation page.
+//! The FMU archive: modelDescription.xml, the platform binary, and a documentation page,
+//! filled from what the compiled model itself answers ([`protocol`], [`library`]).
 
 mod documentation;
+pub mod library;
+pub mod protocol;
 
 pub use documentation::index_html;
+pub use library::ModelLibrary;
 
 use std::io::Write;
 use std::path::Path;
@@ -74,4 +78,43 @@ pub fn write_fmu(
     zip.finish()
         .map_err(|e| format!("cannot finish {}: {e}", out.display()))?;
     Ok(())
+}
+
+/// Whether `name` can be an FMI modelIdentifier: a C identifier (it names the binary and
+/// prefixes nothing, but importers build file names and C code from it).
+pub fn is_model_identifier(name: &str) -> bool {
+    let mut chars = name.chars();
+    matches!(chars.next(), Some(c) if c.is_ascii_alphabetic() || c == '_')
+        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
+}
+
+/// Writes `<out_dir>/<model identifier>.fmu` from the cdylib `library` alone: its
+/// `mbfmu_describe` gives the XML, the documentation and the resources.
+pub fn package_library(library: &Path, out_dir: &Path) -> Result<std::path::PathBuf, String> {
+    let records =
+        ModelLibrary::open(library)?.call(&protocol::encode(&[("request", "package")]))?;
+    let get = |key: &str| {
+        protocol::value(&records, key)
+            .ok_or_else(|| format!("{}: the package answer has no {key}", library.display()))
+    };
+    let identifier = get("model_identifier")?;
+    if !is_model_identifier(identifier) {
+        return Err(format!(
+            "{identifier:?} is not a valid modelIdentifier (letters, digits and _, not starting with a digit): change the model's NAME"
+        ));
+    }
+    let resources: Vec<(String, String)> = records
+        .iter()
+        .filter_map(|(k, v)| Some((k.strip_prefix("resource:")?.to_string(), v.clone())))
+        .collect();
+    let fmu = out_dir.join(format!("{identifier}.fmu"));
+    write_fmu(
+        &fmu,
+        identifier,
+        get("model_description")?,
+        get("documentation")?,
+        library,
+        &resources,
+    )?;
+    Ok(fmu)
 }

@@ -1,0 +1,256 @@
+//! What a compiled model answers about itself (the model's side of
+//! [`package::protocol`](crate::package::protocol), behind its cdylib's `mbfmu_describe`):
+//! the FMU's contents and its linearisation. So the CLI packages and linearises a model it
+//! was not compiled with (a user's crate), and the in-tree systems take the same path.
+//! Above `xml`, `package` and `linearize`, which it ties together for one system.
+
+use crate::linearize::{self, to_csv, to_json, to_py, Linearization, OperatingPoint, States, Trim};
+use crate::model::System;
+use crate::package::protocol::{self, Records, ABI};
+
+/// Linearise `M` at its start values with these `name = value` overrides, after an
+/// optional trim, in these states; an error when the result is not finite.
+pub fn linearize_at<M: System>(
+    overrides: &[(String, f64)],
+    trim: Option<Trim>,
+    states: &States,
+) -> Result<Linearization, String> {
+    let (mut op, warnings) = OperatingPoint::consistent::<M>(overrides)?;
+    if let Some(what) = trim {
+        linearize::trim::<M>(&mut op, what)?;
+    }
+    let mut lin = linearize::linearize::<M>(&op);
+    lin = match states {
+        States::All => lin,
+        States::Independent => linearize::reduced::<M>(&lin, None)?,
+        States::Only(keep) => linearize::reduced::<M>(&lin, Some(keep))?,
+    };
+    lin.warnings = warnings;
+    let finite = |m: &nalgebra::DMatrix<f64>| m.iter().all(|v| v.is_finite());
+    let all_finite = finite(&lin.a)
+        && finite(&lin.b)
+        && finite(&lin.c)
+        && finite(&lin.d)
+        && lin.y0.iter().all(|v| v.is_finite());
+    if !all_finite {
+        return Err(format!(
+            "{}: the linearisation at this point is not finite (a derivative is singular there)",
+            M::NAME
+        ));
+    }
+    Ok(lin)
+}
+
+/// `mbfmu linearize`'s options, as sent to the model.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LinearizeRequest {
+    /// Scenes whose start values apply first, in order.
+    pub scenes: Vec<String>,
+    /// Parameter values (`--set`).
+    pub sets: Vec<(String, f64)>,
+    /// State or input values (`--at`).
+    pub ats: Vec<(String, f64)>,
+    pub trim: Option<Trim>,
+    /// All the states, the independent ones, or some of those (`--independent`, `--keep`).
+    pub states: States,
+    /// `json`, `py` or `csv`.
+    pub format: String,
+}
+
+/// What a linearize request answers: the text, and one line per value that had to give.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LinearizeAnswer {
+    pub text: String,
+    pub warnings: Vec<String>,
+}
+
+impl LinearizeRequest {
+    /// The request in the protocol's framing.
+    pub fn encode(&self) -> String {
+        let mut r: Vec<(&str, String)> = vec![("request", "linearize".into())];
+        r.extend(self.scenes.iter().map(|s| ("scene", s.clone())));
+        r.extend(self.sets.iter().map(|(n, v)| ("set", format!("{n}={v:?}"))));
+        r.extend(self.ats.iter().map(|(n, v)| ("at", format!("{n}={v:?}"))));
+        match self.trim {
+            Some(Trim::States) => r.push(("trim", "states".into())),
+            Some(Trim::Inputs) => r.push(("trim", "inputs".into())),
+            None => {}
+        }
+        match &self.states {
+            States::All => {}
+            States::Independent => r.push(("states", "independent".into())),
+            States::Only(keep) => r.push(("states", format!("keep:{}", keep.join(",")))),
+        }
+        r.push(("format", self.format.clone()));
+        protocol::encode(&r)
+    }
+
+    fn decode(records: &Records) -> Result<Self, String> {
+        let assignment = |text: &str| -> Result<(String, f64), String> {
+            let (n, v) = text
+                .split_once('=')
+                .ok_or_else(|| format!("expected NAME=VALUE, got {text}"))?;
+            let v = v.parse().map_err(|_| format!("{n}: {v} is not a number"))?;
+            Ok((n.to_string(), v))
+        };
+        let mut req = LinearizeRequest {
+            format: "json".into(),
+            ..Default::default()
+        };
+        for (k, v) in records {
+            match k.as_str() {
+                "request" => {}
+                "scene" => req.scenes.push(v.clone()),
+                "set" => req.sets.push(assignment(v)?),
+                "at" => req.ats.push(assignment(v)?),
+                "trim" if v == "states" => req.trim = Some(Trim::States),
+                "trim" if v == "inputs" => req.trim = Some(Trim::Inputs),
+                "states" if v == "independent" => req.states = States::Independent,
+                "states" if v.starts_with("keep:") => {
+                    let names = v["keep:".len()..].split(',').map(str::to_string).collect();
+                    req.states = States::Only(names);
+                }
+                "format" => req.format = v.clone(),
+                other => return Err(format!("linearize request: unknown record {other}")),
+            }
+        }
+        Ok(req)
+    }
+
+    /// The answer of `M` (what its cdylib would send).
+    pub fn answer<M: System>(&self) -> Result<LinearizeAnswer, String> {
+        let model = M::NAME;
+        let mut overrides: Vec<(String, f64)> = Vec::new();
+        for name in &self.scenes {
+            let scene = M::scenes()
+                .into_iter()
+                .find(|s| s.name == name.as_str())
+                .ok_or_else(|| format!("{model} has no scene {name}"))?;
+            overrides.extend(scene.start_values.iter().map(|(n, v)| (n.to_string(), *v)));
+        }
+        let params: Vec<String> = M::parameters()
+            .into_iter()
+            .map(|v| v.name.into_owned())
+            .collect();
+        for (name, _) in &self.sets {
+            if !params.contains(name) {
+                return Err(format!(
+                    "--set {name}: not a parameter of {model} (parameters: {})",
+                    params.join(", ")
+                ));
+            }
+        }
+        for (name, _) in &self.ats {
+            if params.contains(name) {
+                return Err(format!("--at {name}: a parameter; use --set"));
+            }
+        }
+        overrides.extend(self.sets.iter().cloned());
+        overrides.extend(self.ats.iter().cloned());
+        let lin = linearize_at::<M>(&overrides, self.trim, &self.states)?;
+        let text = match self.format.as_str() {
+            "json" => to_json(&lin),
+            "py" => to_py(&lin),
+            "csv" => to_csv(&lin),
+            other => return Err(format!("unknown format {other} (json, py, csv)")),
+        };
+        Ok(LinearizeAnswer {
+            text,
+            warnings: lin.warnings,
+        })
+    }
+
+    /// Reads an answer from response records.
+    pub fn parse_answer(records: &Records) -> Result<LinearizeAnswer, String> {
+        Ok(LinearizeAnswer {
+            text: protocol::value(records, "text")
+                .ok_or("linearize answer without text")?
+                .to_string(),
+            warnings: records
+                .iter()
+                .filter(|(k, _)| k == "warning")
+                .map(|(_, v)| v.clone())
+                .collect(),
+        })
+    }
+}
+
+/// What goes into `M`'s FMU beside the binary (the `package` request).
+fn package<M: System>() -> Result<Records, String> {
+    // The linearisation at the default operating point (the start values).
+    let lin = linearize_at::<M>(&[], None, &States::All)?;
+    Ok(vec![
+        ("model_identifier".into(), M::NAME.into()),
+        (
+            "model_description".into(),
+            crate::xml::model_description::<M>(),
+        ),
+        ("documentation".into(), crate::package::index_html::<M>()),
+        ("resource:linearization.json".into(), to_json(&lin)),
+        ("resource:linearized_model.py".into(), to_py(&lin)),
+    ])
+}
+
+fn answer<M: System>(request: &Records) -> Result<Records, String> {
+    match protocol::value(request, "request") {
+        Some("package") => package::<M>(),
+        Some("linearize") => {
+            let a = LinearizeRequest::decode(request)?.answer::<M>()?;
+            let mut r: Records = a
+                .warnings
+                .into_iter()
+                .map(|w| ("warning".to_string(), w))
+                .collect();
+            r.push(("text".into(), a.text));
+            Ok(r)
+        }
+        other => Err(format!("unknown describe request {other:?}")),
+    }
+}
+
+/// The response of `M` to one request: what `mbfmu_describe` returns.
+pub fn respond<M: System>(request: &str) -> String {
+    let mut records = vec![("abi".to_string(), ABI.to_string())];
+    match protocol::decode(request).and_then(|r| answer::<M>(&r)) {
+        Ok(r) => records.extend(r),
+        Err(e) => records.push(("error".into(), e)),
+    }
+    protocol::encode(&records)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::systems::CompoundPendulum;
+
+    #[test]
+    fn a_linearize_request_round_trips() {
+        let req = LinearizeRequest {
+            scenes: vec!["large".into()],
+            sets: vec![("m".into(), 0.1 + 0.2)],
+            ats: vec![("theta".into(), -1e-300)],
+            trim: Some(Trim::Inputs),
+            states: States::Only(vec!["theta".into(), "theta_dot".into()]),
+            format: "py".into(),
+        };
+        let records = protocol::decode(&req.encode()).unwrap();
+        assert_eq!(LinearizeRequest::decode(&records).unwrap(), req);
+    }
+
+    #[test]
+    fn the_package_answer_is_what_the_catalogue_generates() {
+        let request = protocol::encode(&[("request", "package")]);
+        let records = protocol::parse_response(&respond::<CompoundPendulum>(&request)).unwrap();
+        let get = |k| protocol::value(&records, k).unwrap();
+        assert_eq!(get("model_identifier"), "CompoundPendulum");
+        assert_eq!(
+            get("model_description"),
+            crate::xml::model_description::<CompoundPendulum>()
+        );
+        assert!(get("resource:linearization.json").contains("\"A\""));
+        let bad = respond::<CompoundPendulum>(&protocol::encode(&[("request", "fly")]));
+        assert!(protocol::parse_response(&bad)
+            .unwrap_err()
+            .contains("unknown describe request"));
+    }
+}

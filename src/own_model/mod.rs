@@ -1,0 +1,213 @@
+//! A user's model in its own crate: the template `mbfmu new` writes, and building such a
+//! crate's cdylib with cargo so that `package` can load it.
+
+use crate::package::is_model_identifier;
+use std::path::{Path, PathBuf};
+
+const LIB_RS: &str = include_str!("template/lib.rs.template");
+const CARGO_TOML: &str = include_str!("template/Cargo.toml.template");
+const README: &str = include_str!("template/README.md.template");
+
+/// `MyPendulum` → `my_pendulum` (the crate name cargo recommends).
+fn snake_case(name: &str) -> String {
+    let mut s = String::new();
+    let mut prev_lower = false;
+    for c in name.chars() {
+        if c.is_ascii_uppercase() && prev_lower {
+            s.push('_');
+        }
+        prev_lower = c.is_ascii_lowercase() || c.is_ascii_digit();
+        s.push(c.to_ascii_lowercase());
+    }
+    s
+}
+
+/// `my_pendulum` → `MyPendulum` (the Rust type name).
+fn camel_case(name: &str) -> String {
+    name.split('_')
+        .filter(|w| !w.is_empty())
+        .map(|w| {
+            let mut c = w.chars();
+            let first = c.next().expect("non-empty").to_ascii_uppercase();
+            std::iter::once(first).chain(c).collect::<String>()
+        })
+        .collect()
+}
+
+/// A TOML basic string's content.
+fn toml_escape(s: &str) -> String {
+    s.replace('\\', "\\\\").replace('"', "\\\"")
+}
+
+/// Writes a new crate for model `name` into `dir` (which must not exist or be empty),
+/// depending on the mbfmu library at `mbfmu_source` by path. Its `Cargo.lock` is a copy of
+/// mbfmu's, so it builds with the versions mbfmu was tested with, offline when they are
+/// in cargo's cache. Returns the files written.
+pub fn write_template(name: &str, dir: &Path, mbfmu_source: &Path) -> Result<Vec<PathBuf>, String> {
+    if !is_model_identifier(name) {
+        return Err(format!(
+            "{name:?} cannot name a model: use letters, digits and _, starting with a letter (it becomes the FMU's modelIdentifier)"
+        ));
+    }
+    let crate_name = snake_case(name);
+    let type_name = camel_case(name);
+    if crate_name == "mbfmu" || type_name.is_empty() {
+        return Err(format!("{name:?} cannot name a model: choose another name"));
+    }
+    if dir.exists()
+        && std::fs::read_dir(dir)
+            .map_err(|e| format!("{}: {e}", dir.display()))?
+            .next()
+            .is_some()
+    {
+        return Err(format!(
+            "{} exists and is not empty: choose another --dir",
+            dir.display()
+        ));
+    }
+    let fill = |t: &str| {
+        t.replace("{{NAME}}", name)
+            .replace("{{TYPE}}", &type_name)
+            .replace("{{CRATE}}", &crate_name)
+            .replace(
+                "{{MBFMU_PATH}}",
+                &toml_escape(&mbfmu_source.to_string_lossy()),
+            )
+    };
+    let mut files = vec![
+        (dir.join("Cargo.toml"), fill(CARGO_TOML)),
+        (dir.join("src/lib.rs"), fill(LIB_RS)),
+        (dir.join("README.md"), fill(README)),
+        (dir.join(".gitignore"), "/target\n".to_string()),
+    ];
+    if let Ok(lock) = std::fs::read_to_string(mbfmu_source.join("Cargo.lock")) {
+        files.push((dir.join("Cargo.lock"), lock));
+    }
+    let mut written = Vec::new();
+    for (path, text) in files {
+        if let Some(parent) = path.parent() {
+            std::fs::create_dir_all(parent).map_err(|e| format!("{}: {e}", parent.display()))?;
+        }
+        std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+        written.push(path);
+    }
+    Ok(written)
+}
+
+/// The manifest a `--manifest-path` names: the file, or `Cargo.toml` in a folder.
+pub fn manifest(path: &Path) -> Result<PathBuf, String> {
+    let manifest = if path.is_dir() {
+        path.join("Cargo.toml")
+    } else {
+        path.to_path_buf()
+    };
+    if !manifest.is_file() {
+        return Err(format!(
+            "no crate at {}: no such manifest (make one with `mbfmu new NAME`)",
+            manifest.display()
+        ));
+    }
+    std::path::absolute(&manifest).map_err(|e| format!("{}: {e}", manifest.display()))
+}
+
+#[cfg(feature = "cli")]
+/// The shared libraries among the `filenames` of one line of cargo's JSON messages, when
+/// it is the artifact of a cdylib of the package at `manifest`.
+fn cdylib_of(line: &str, manifest: &Path) -> Vec<PathBuf> {
+    let Ok(msg) = serde_json::from_str::<serde_json::Value>(line) else {
+        return Vec::new();
+    };
+    let is_cdylib = msg["target"]["kind"]
+        .as_array()
+        .is_some_and(|k| k.iter().any(|k| k == "cdylib"));
+    if msg["reason"] != "compiler-artifact" || !is_cdylib {
+        return Vec::new();
+    }
+    // Compared as real paths: cargo may print a path through other links than ours.
+    let real = |p: &Path| p.canonicalize().unwrap_or_else(|_| p.to_path_buf());
+    let same_manifest = msg["manifest_path"]
+        .as_str()
+        .is_some_and(|m| real(Path::new(m)) == real(manifest));
+    if !same_manifest {
+        return Vec::new();
+    }
+    msg["filenames"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter_map(|f| f.as_str())
+        .map(PathBuf::from)
+        .filter(|p| {
+            matches!(
+                p.extension().and_then(|e| e.to_str()),
+                Some("so" | "dylib" | "dll")
+            )
+        })
+        .collect()
+}
+
+#[cfg(feature = "cli")]
+/// `cargo build --release --lib` of the crate at `manifest` (absolute, from [`manifest`]);
+/// returns its cdylib, wherever the crate's target folder is. Cargo's progress and
+/// diagnostics go to stderr (`quiet`: only errors).
+pub fn build_cdylib(manifest: &Path, quiet: bool) -> Result<PathBuf, String> {
+    use std::process::{Command, Stdio};
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let mut cmd = Command::new(&cargo);
+    cmd.args(["build", "--release", "--lib", "--manifest-path"])
+        .arg(manifest)
+        .arg("--message-format=json-render-diagnostics")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit());
+    if quiet {
+        cmd.arg("--quiet");
+    }
+    let out = cmd
+        .output()
+        .map_err(|e| format!("cannot run {cargo}: {e}"))?;
+    if !out.status.success() {
+        return Err(format!(
+            "cargo build of {} failed ({})",
+            manifest.display(),
+            out.status
+        ));
+    }
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    stdout
+        .lines()
+        .flat_map(|l| cdylib_of(l, manifest))
+        .last()
+        .ok_or_else(|| {
+            format!(
+                "{} builds no shared library: its [lib] needs crate-type = [\"cdylib\"]",
+                manifest.display()
+            )
+        })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names() {
+        assert_eq!(snake_case("MyPendulum"), "my_pendulum");
+        assert_eq!(snake_case("my_pendulum"), "my_pendulum");
+        assert_eq!(snake_case("Pendulum2D"), "pendulum2_d");
+        assert_eq!(camel_case("my_pendulum"), "MyPendulum");
+        assert_eq!(camel_case("MyPendulum"), "MyPendulum");
+    }
+
+    #[cfg(feature = "cli")]
+    #[test]
+    fn a_cdylib_artifact_is_found_only_for_its_manifest() {
+        let line = r#"{"reason":"compiler-artifact","manifest_path":"/x/Cargo.toml","target":{"kind":["cdylib"]},"filenames":["/x/target/release/libp.so"]}"#;
+        let here = Path::new("/x/Cargo.toml");
+        assert_eq!(
+            cdylib_of(line, here),
+            vec![PathBuf::from("/x/target/release/libp.so")]
+        );
+        assert!(cdylib_of(line, Path::new("/y/Cargo.toml")).is_empty());
+        assert!(cdylib_of("not json", here).is_empty());
+    }
+}
