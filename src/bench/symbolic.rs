@@ -240,7 +240,7 @@ pub fn generate(module: &str, trace: Trace) -> Result<Generated, TraceError> {
          it is current). M = ∂²T/∂q̇², rhs = Q + ∂L/∂q − (∂²L/∂q̇∂q) q̇, G = ∂Φ/∂q, γ = q̇ᵀ∇²Φq̇.",
         eq.name
     );
-    let emitted = emit::emit(&eq, &type_name, &doc);
+    let emitted = emit::emit(&eq, &type_name, &doc, "crate");
     Ok(Generated {
         system: eq.name,
         module: module.to_string(),
@@ -315,7 +315,10 @@ mod tests {
             Some(floor_rhs::<floors::DoublePendulum, 4>),
         );
         assert_eq!((row.system, row.coordinates), ("DoublePendulum", 2));
-        assert_eq!(row.nodes, DoublePendulumEom::NODES);
+        assert_eq!(
+            row.nodes,
+            <DoublePendulumEom as crate::model::symbolic::Generated>::NODES
+        );
         let times = [
             row.generated_rhs_ns,
             row.ad_rhs_ns,

@@ -140,6 +140,7 @@ pub struct SliderCrank;
 
 impl Lagrangian for SliderCrank {
     const NAME: &'static str = "SliderCrank";
+    crate::generated_eom!(crate::model::symbolic::generated::SliderCrankEom);
     const DESCRIPTION: &'static str =
         "Slider-crank (piston) mechanism in its one reduced coordinate, the crank angle";
     const EQUATIONS: &'static [&'static str] = &[
@@ -230,6 +231,7 @@ pub struct SliderCrankSurplus;
 
 impl Lagrangian for SliderCrankSurplus {
     const NAME: &'static str = "SliderCrankSurplus";
+    crate::generated_eom!(crate::model::symbolic::generated::SliderCrankSurplusEom);
     const DESCRIPTION: &'static str =
         "Slider-crank (piston) mechanism in surplus coordinates with the loop closure kept by multipliers, which give the joint forces";
     const EQUATIONS: &'static [&'static str] = &[
@@ -351,7 +353,16 @@ impl Lagrangian for SliderCrankSurplus {
     }
 
     fn extra_outputs<S: Scalar>(t: f64, q: &[S], qd: &[S], u: &[S], p: &[S], y: &mut [S]) {
-        let (_, lambda) = lagrangian::accelerations_and_multipliers::<Self, S>(t, q, qd, u, p);
+        let (mut qdd, mut lambda) = ([S::from(0.0); 3], [S::from(0.0); 2]);
+        lagrangian::accelerations_and_multipliers_into::<Self, S>(
+            t,
+            q,
+            qd,
+            u,
+            p,
+            &mut qdd,
+            &mut lambda,
+        );
         let (n, pf) = (-lambda[0], -lambda[1]);
         y[0] = n;
         y[1] = pf;

@@ -14,7 +14,8 @@
 use crate::model::Scalar;
 
 /// The terms of the equations of motion at a point: `M` (full), `rhs = Q + ∂L/∂q −
-/// (∂²L/∂q̇∂q) q̇`, `G = ∂Φ/∂q` and `γ = q̇ᵀ ∇²Φ q̇`.
+/// (∂²L/∂q̇∂q) q̇`, the constraint rows `G` and `γ`, holonomic rows first (`∂Φ/∂q`,
+/// `q̇ᵀ ∇²Φ q̇`), then the velocity constraints' (`A(q)`, `Ȧ q̇`).
 pub struct Terms<S, const N: usize, const K: usize> {
     pub m: [[S; N]; N],
     pub rhs: [S; N],
@@ -34,15 +35,19 @@ impl<S: Scalar, const N: usize, const K: usize> Terms<S, N, K> {
     }
 }
 
-/// Equations of motion generated from a Lagrangian with N coordinates and K holonomic
-/// constraints ([`emit`](super::emit)). Only [`eom`](Eom::eom) is generated; the solves
-/// are the provided methods.
-pub trait Eom<const N: usize, const K: usize> {
+/// What a generated type declares whatever its size: a trait without N and K, so a
+/// constant can name it (the const generics of [`Eom`] cannot be inferred there).
+pub trait Generated {
     /// The Lagrangian's name.
     const NAME: &'static str;
     /// Nodes of the graph the generated code evaluates (each shared subexpression once).
     const NODES: usize;
+}
 
+/// Equations of motion generated from a Lagrangian with N coordinates and K constraint
+/// rows: the holonomic ones, then the velocity constraints ([`emit`](super::emit)). Only
+/// [`eom`](Eom::eom) is generated; the solves are the provided methods.
+pub trait Eom<const N: usize, const K: usize>: Generated {
     /// Fills `out` at `(t, q, q̇, u, p)`: straight-line code, every shared subexpression
     /// computed once.
     fn eom<S: Scalar>(t: f64, q: &[S], qd: &[S], u: &[S], p: &[S], out: &mut Terms<S, N, K>);
@@ -73,6 +78,87 @@ pub trait Eom<const N: usize, const K: usize> {
         dx[..N].copy_from_slice(qd);
         dx[N..2 * N].copy_from_slice(&a);
     }
+}
+
+/// `(q̈, λ)` of `E` into slices: what a [`Lagrangian`](crate::model::lagrangian::Lagrangian)'s
+/// `generated_eom` hook (written by [`generated_eom!`](crate::generated_eom)) calls. `qdd`
+/// takes the N accelerations; `lambda` the first `lambda.len()` multipliers (empty when
+/// they are not wanted). No heap: the terms live on the stack.
+pub fn accelerations_into<E, S, const N: usize, const K: usize>(
+    t: f64,
+    q: &[S],
+    qd: &[S],
+    u: &[S],
+    p: &[S],
+    qdd: &mut [S],
+    lambda: &mut [S],
+) where
+    E: Eom<N, K>,
+    S: Scalar,
+{
+    debug_assert_eq!((q.len(), qdd.len()), (N, N), "{}: coordinates", E::NAME);
+    let (a, l) = E::accelerations_and_multipliers(t, q, qd, u, p);
+    qdd.copy_from_slice(&a);
+    for (o, v) in lambda.iter_mut().zip(&l) {
+        *o = *v;
+    }
+}
+
+/// `a == b`, usable in constants: [`generated_eom!`](crate::generated_eom) checks at
+/// compile time that the generated equations are those of the system naming them.
+pub const fn same_name(a: &str, b: &str) -> bool {
+    let (a, b) = (a.as_bytes(), b.as_bytes());
+    if a.len() != b.len() {
+        return false;
+    }
+    let mut i = 0;
+    while i < a.len() {
+        if a[i] != b[i] {
+            return false;
+        }
+        i += 1;
+    }
+    true
+}
+
+/// Puts a system on its generated equations of motion: one line inside its
+/// `impl Lagrangian`, `crate::generated_eom!(DoublePendulumEom);`, which defines the
+/// trait's `generated_eom` hook to run the committed straight-line code instead of nested
+/// dual numbers (FMU, linearisation, Jacobians, bench alike: every user of the type).
+///
+/// Why a line in the impl rather than in the catalogue or `export_fmu!`: the fast path
+/// then belongs to the type itself, so `systems::DoublePendulum` means the same equations
+/// everywhere (a wrapper type named in the catalogue would leave the bare type, which the
+/// tests and tools name, on the slow path), and the system's file says which code it runs.
+/// The generated code cannot attach itself: `model/` does not know the systems. It fails
+/// to compile when the equations are another system's (their names are compared).
+#[macro_export]
+macro_rules! generated_eom {
+    ($eom:ty) => {
+        fn generated_eom<S: $crate::model::Scalar>(
+            t: f64,
+            q: &[S],
+            qd: &[S],
+            u: &[S],
+            p: &[S],
+            qdd: &mut [S],
+            lambda: &mut [S],
+        ) -> bool {
+            const {
+                assert!(
+                    $crate::model::symbolic::runtime::same_name(
+                        <$eom as $crate::model::symbolic::runtime::Generated>::NAME,
+                        <Self as $crate::model::lagrangian::Lagrangian>::NAME,
+                    ),
+                    "generated equations of another system"
+                )
+            };
+            $crate::model::symbolic::runtime::accelerations_into::<$eom, S, _, _>(
+                t, q, qd, u, p, qdd, lambda,
+            );
+            true
+        }
+    };
 }
 
 /// `(q̈, λ)` from the terms (see the module notes).
