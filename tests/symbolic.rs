@@ -406,6 +406,7 @@ impl Lagrangian for TwoDisks {
     const EQUATIONS: &'static [&'static str] = &[];
     const CONSTRAINTS: usize = 1;
     const VELOCITY_CONSTRAINTS: usize = 4;
+    mbfmu::generated_eom!(TwoDisksEom);
     fn parameters() -> Vec<Var> {
         [("m", 2.0), ("a", 0.3), ("d", 1.0), ("k", 0.5)]
             .map(|(n, v)| Var::new(n, None, v, ""))
@@ -598,3 +599,39 @@ fn the_fmus_reproduce_the_automatic_differentiation_results() {
 /// formulas differ by a few ulps per RHS; 2 s of these scenes (none chaotic) amplify that
 /// little. 1e-12 leaves a margin of 50 and still fails on any real change of the equations.
 const FMU_TOL: f64 = 1e-12;
+
+/// The projection after each step on the generated terms equals the AD one to rounding,
+/// from states pushed off the constraints (positions by up to 1e-3, velocities by 0.1):
+/// SliderCrankSurplus (holonomic) and TwoDisks (holonomic and velocity constraints).
+fn projection_matches_ad<L: Lagrangian>() {
+    let mut rng = Rng(0x0123_4567_89AB_CDEF);
+    let p: Vec<f64> = L::parameters().iter().map(|v| v.start).collect();
+    let n = L::coordinates().len();
+    let mut worst = 0.0f64;
+    for _ in 0..50 {
+        // A consistent point: the AD projection of a random one, then pushed off.
+        let mut x: Vec<f64> = (0..2 * n).map(|_| rng.uniform(-1.0, 1.0)).collect();
+        for _ in 0..3 {
+            <lagrangian::AutoDiff<L> as System>::project(0.0, &p, &mut x);
+        }
+        for (i, v) in x.iter_mut().enumerate() {
+            *v += if i < n { 1e-3 } else { 0.1 } * rng.uniform(-1.0, 1.0);
+        }
+        let (mut generated, mut ad) = (x.clone(), x.clone());
+        <L as System>::project(0.0, &p, &mut generated);
+        <lagrangian::AutoDiff<L> as System>::project(0.0, &p, &mut ad);
+        worst = worst.max(relative(&generated, &ad));
+        let mut residual = vec![0.0; <L as System>::STATE_CONSTRAINTS];
+        <L as System>::state_constraints(0.0, &generated, &p, &mut residual);
+        let r = residual.iter().fold(0.0f64, |s, v| s.max(v.abs()));
+        assert!(r < 1e-12, "{}: residual {r:e} after projection", L::NAME);
+    }
+    println!("{}: projection, generated vs AD {worst:.1e}", L::NAME);
+    assert!(worst <= TOL, "{}: projections differ by {worst:e}", L::NAME);
+}
+
+#[test]
+fn the_generated_projection_matches_automatic_differentiation() {
+    projection_matches_ad::<mbfmu::systems::SliderCrankSurplus>();
+    projection_matches_ad::<TwoDisks>();
+}

@@ -121,6 +121,13 @@ pub trait Lagrangian: 'static {
     ) -> bool {
         false
     }
+
+    /// The projection after each step ([`project_onto_constraints`]) on the generated M
+    /// and constraint rows, without heap; `false` (the default): none, automatic
+    /// differentiation instead. Written by the same `generated_eom!` line.
+    fn generated_projection(_p: &[f64], _x: &mut [f64]) -> bool {
+        false
+    }
 }
 
 /// `q̈` into `qdd`: the generated equations when the system has them, else automatic
@@ -498,7 +505,7 @@ fn augmented<S: Scalar>(m: &[Vec<S>], g: &[Vec<S>]) -> Vec<Vec<S>> {
 
 /// Most Newton iterations of the position projection (it converges quadratically from
 /// the O(tolerance) violation one step leaves; more means the constraints are singular).
-const PROJECTION_ITERATIONS: usize = 8;
+pub const PROJECTION_ITERATIONS: usize = 8;
 
 /// Coordinate projection (Hairer, Lubich, Wanner, *Geometric Numerical Integration*,
 /// IV.4; Eich 1993): moves `q` onto `Φ(q) = 0` by Newton steps of the smallest kinetic
@@ -639,7 +646,7 @@ impl<L: Lagrangian> System for L {
     }
 
     fn project(_t: f64, p: &[f64], x: &mut [f64]) {
-        if L::CONSTRAINTS + L::VELOCITY_CONSTRAINTS > 0 {
+        if L::CONSTRAINTS + L::VELOCITY_CONSTRAINTS > 0 && !L::generated_projection(p, x) {
             project_onto_constraints::<L>(x, p);
         }
     }

@@ -12,6 +12,7 @@ pub struct TwoDisksEom;
 impl Generated for TwoDisksEom {
     const NAME: &'static str = "TwoDisks";
     const NODES: usize = 775;
+    const INPUTS: usize = 2;
 }
 
 impl Eom<8, 5> for TwoDisksEom {

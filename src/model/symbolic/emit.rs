@@ -295,6 +295,7 @@ pub struct {type_name};
 impl Generated for {type_name} {{
     const NAME: &'static str = \"{name}\";
     const NODES: usize = {nodes};
+    const INPUTS: usize = {inputs};
 }}
 
 impl Eom<{n}, {k}> for {type_name} {{
@@ -312,6 +313,7 @@ impl Eom<{n}, {k}> for {type_name} {{
 ",
         name = eq.name,
         constraints = constraints,
+        inputs = eq.inputs,
         q = param(Arg::Q),
         qd = param(Arg::Qd),
         u = param(Arg::U),

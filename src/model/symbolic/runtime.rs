@@ -42,6 +42,8 @@ pub trait Generated {
     const NAME: &'static str;
     /// Nodes of the graph the generated code evaluates (each shared subexpression once).
     const NODES: usize;
+    /// How many inputs u the code reads (M and G never depend on them).
+    const INPUTS: usize;
 }
 
 /// Equations of motion generated from a Lagrangian with N coordinates and K constraint
@@ -123,8 +125,9 @@ pub const fn same_name(a: &str, b: &str) -> bool {
 
 /// Puts a system on its generated equations of motion: one line inside its
 /// `impl Lagrangian`, `crate::generated_eom!(DoublePendulumEom);`, which defines the
-/// trait's `generated_eom` hook to run the committed straight-line code instead of nested
-/// dual numbers (FMU, linearisation, Jacobians, bench alike: every user of the type).
+/// trait's hooks `generated_eom` and `generated_projection` to run the committed
+/// straight-line code instead of nested dual numbers (FMU, linearisation, Jacobians,
+/// projection, bench alike: every user of the type).
 ///
 /// Why a line in the impl rather than in the catalogue or `export_fmu!`: the fast path
 /// then belongs to the type itself, so `systems::DoublePendulum` means the same equations
@@ -157,6 +160,17 @@ macro_rules! generated_eom {
                 t, q, qd, u, p, qdd, lambda,
             );
             true
+        }
+
+        fn generated_projection(p: &[f64], x: &mut [f64]) -> bool {
+            use $crate::model::lagrangian::{Lagrangian, PROJECTION_ITERATIONS};
+            $crate::model::symbolic::runtime::project::<$eom, _, _>(
+                x,
+                p,
+                <Self as Lagrangian>::CONSTRAINTS,
+                PROJECTION_ITERATIONS,
+                |q, phi| <Self as Lagrangian>::constraints(q, p, phi),
+            )
         }
     };
 }
@@ -192,6 +206,92 @@ pub fn solve<S: Scalar, const N: usize, const K: usize>(t: Terms<S, N, K>) -> ([
         }
     }
     (y, lambda)
+}
+
+/// The smallest change `Δ` in the metric M with `G_r Δ = −d_r` for the first `active`
+/// rows of G (the others ignored): `[M Gᵀ; G 0] [Δ; μ] = [0; −d]`, as [`solve`] does it.
+/// `None` if the result is not finite (singular constraints).
+fn correction<const N: usize, const K: usize>(
+    m: &Ldlt<f64, N>,
+    g: &[[f64; N]; K],
+    d: &[f64; K],
+    active: usize,
+) -> Option<[f64; N]> {
+    let dot = |a: &[f64; N], b: &[f64; N]| (0..N).fold(0.0, |s, i| s + a[i] * b[i]);
+    let mut x = *g;
+    for column in &mut x[..active] {
+        m.solve(column);
+    }
+    // (G X) μ = d on the active rows; the identity on the others (μ = 0 there).
+    let mut schur = [[0.0; K]; K];
+    let mut mu = [0.0; K];
+    for r in 0..K {
+        if r >= active {
+            schur[r][r] = 1.0;
+            continue;
+        }
+        for c in 0..=r {
+            schur[r][c] = dot(&g[r], &x[c]);
+            schur[c][r] = schur[r][c];
+        }
+        mu[r] = d[r];
+    }
+    Ldlt::new(schur).solve(&mut mu);
+    let mut delta = [0.0; N];
+    for (r, l) in mu[..active].iter().enumerate() {
+        for i in 0..N {
+            delta[i] -= x[r][i] * l;
+        }
+    }
+    delta.iter().all(|v| v.is_finite()).then_some(delta)
+}
+
+/// Zero inputs for [`project`]: M and G do not depend on u, but `eom` reads it.
+const ZERO_INPUTS: [f64; 32] = [0.0; 32];
+
+/// Coordinate projection of `x = (q, q̇)` on the generated M and constraint rows, the
+/// same steps as `lagrangian::project_onto_constraints` (up to `iterations` Newton steps
+/// onto the `holonomic` constraints Φ, evaluated by `phi`, in the kinetic metric, then q̇
+/// onto all K rows), without heap. `false`: not done here (more than 32 inputs).
+pub fn project<E: Eom<N, K>, const N: usize, const K: usize>(
+    x: &mut [f64],
+    p: &[f64],
+    holonomic: usize,
+    iterations: usize,
+    mut phi: impl FnMut(&[f64], &mut [f64]),
+) -> bool {
+    let Some(u) = ZERO_INPUTS.get(..E::INPUTS) else {
+        return false;
+    };
+    let (q, qd) = x.split_at_mut(N);
+    let mut terms = Terms::<f64, N, K>::zero();
+    for _ in 0..iterations {
+        if holonomic == 0 {
+            break;
+        }
+        let mut defect = [0.0; K];
+        phi(q, &mut defect[..holonomic]);
+        let scale = q.iter().fold(1.0f64, |s, v| s.max(v.abs()));
+        if defect[..holonomic]
+            .iter()
+            .all(|v| v.abs() <= 4.0 * f64::EPSILON * scale)
+        {
+            break;
+        }
+        E::eom(0.0, q, qd, u, p, &mut terms);
+        let Some(dq) = correction(&Ldlt::new(terms.m), &terms.g, &defect, holonomic) else {
+            return true;
+        };
+        q.iter_mut().zip(&dq).for_each(|(qi, d)| *qi += d);
+    }
+    E::eom(0.0, q, qd, u, p, &mut terms);
+    let defect = terms
+        .g
+        .map(|row| row.iter().zip(qd.iter()).map(|(a, b)| a * b).sum());
+    if let Some(dv) = correction(&Ldlt::new(terms.m), &terms.g, &defect, K) {
+        qd.iter_mut().zip(&dv).for_each(|(v, d)| *v += d);
+    }
+    true
 }
 
 /// `A = L D Lᵀ` of a symmetric positive definite matrix: unit lower L below the diagonal,

@@ -12,6 +12,7 @@ pub struct Chain1Eom;
 impl Generated for Chain1Eom {
     const NAME: &'static str = "Chain";
     const NODES: usize = 43;
+    const INPUTS: usize = 0;
 }
 
 impl Eom<1, 0> for Chain1Eom {

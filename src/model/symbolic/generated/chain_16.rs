@@ -12,6 +12,7 @@ pub struct Chain16Eom;
 impl Generated for Chain16Eom {
     const NAME: &'static str = "Chain";
     const NODES: usize = 1279;
+    const INPUTS: usize = 0;
 }
 
 impl Eom<16, 0> for Chain16Eom {

@@ -12,6 +12,7 @@ pub struct Chain2Eom;
 impl Generated for Chain2Eom {
     const NAME: &'static str = "Chain";
     const NODES: usize = 97;
+    const INPUTS: usize = 0;
 }
 
 impl Eom<2, 0> for Chain2Eom {

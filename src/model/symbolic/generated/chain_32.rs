@@ -12,6 +12,7 @@ pub struct Chain32Eom;
 impl Generated for Chain32Eom {
     const NAME: &'static str = "Chain";
     const NODES: usize = 3448;
+    const INPUTS: usize = 0;
 }
 
 impl Eom<32, 0> for Chain32Eom {

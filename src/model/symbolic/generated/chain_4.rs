@@ -12,6 +12,7 @@ pub struct Chain4Eom;
 impl Generated for Chain4Eom {
     const NAME: &'static str = "Chain";
     const NODES: usize = 219;
+    const INPUTS: usize = 0;
 }
 
 impl Eom<4, 0> for Chain4Eom {

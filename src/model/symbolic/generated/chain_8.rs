@@ -12,6 +12,7 @@ pub struct Chain8Eom;
 impl Generated for Chain8Eom {
     const NAME: &'static str = "Chain";
     const NODES: usize = 514;
+    const INPUTS: usize = 0;
 }
 
 impl Eom<8, 0> for Chain8Eom {

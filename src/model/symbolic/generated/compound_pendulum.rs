@@ -12,6 +12,7 @@ pub struct CompoundPendulumEom;
 impl Generated for CompoundPendulumEom {
     const NAME: &'static str = "CompoundPendulum";
     const NODES: usize = 11;
+    const INPUTS: usize = 1;
 }
 
 impl Eom<1, 0> for CompoundPendulumEom {

@@ -12,6 +12,7 @@ pub struct DoublePendulumEom;
 impl Generated for DoublePendulumEom {
     const NAME: &'static str = "DoublePendulum";
     const NODES: usize = 106;
+    const INPUTS: usize = 2;
 }
 
 impl Eom<2, 0> for DoublePendulumEom {

@@ -12,6 +12,7 @@ pub struct SliderCrankEom;
 impl Generated for SliderCrankEom {
     const NAME: &'static str = "SliderCrank";
     const NODES: usize = 269;
+    const INPUTS: usize = 2;
 }
 
 impl Eom<1, 0> for SliderCrankEom {

@@ -12,6 +12,7 @@ pub struct SliderCrankSurplusEom;
 impl Generated for SliderCrankSurplusEom {
     const NAME: &'static str = "SliderCrankSurplus";
     const NODES: usize = 135;
+    const INPUTS: usize = 2;
 }
 
 impl Eom<3, 2> for SliderCrankSurplusEom {

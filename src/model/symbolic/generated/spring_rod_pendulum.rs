@@ -12,6 +12,7 @@ pub struct SpringRodPendulumEom;
 impl Generated for SpringRodPendulumEom {
     const NAME: &'static str = "SpringRodPendulum";
     const NODES: usize = 203;
+    const INPUTS: usize = 0;
 }
 
 impl Eom<3, 0> for SpringRodPendulumEom {
