@@ -132,6 +132,7 @@ pub trait Lagrangian: 'static {
 
 /// `q̈` into `qdd`: the generated equations when the system has them, else automatic
 /// differentiation ([`accelerations`]). No heap on the generated path.
+#[inline]
 pub fn accelerations_into<L: Lagrangian, S: Scalar>(
     t: f64,
     q: &[S],

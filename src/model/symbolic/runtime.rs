@@ -86,6 +86,7 @@ pub trait Eom<const N: usize, const K: usize>: Generated {
 /// `generated_eom` hook (written by [`generated_eom!`](crate::generated_eom)) calls. `qdd`
 /// takes the N accelerations; `lambda` the first `lambda.len()` multipliers (empty when
 /// they are not wanted). No heap: the terms live on the stack.
+#[inline]
 pub fn accelerations_into<E, S, const N: usize, const K: usize>(
     t: f64,
     q: &[S],
@@ -98,9 +99,10 @@ pub fn accelerations_into<E, S, const N: usize, const K: usize>(
     E: Eom<N, K>,
     S: Scalar,
 {
-    debug_assert_eq!((q.len(), qdd.len()), (N, N), "{}: coordinates", E::NAME);
     let (a, l) = E::accelerations_and_multipliers(t, q, qd, u, p);
-    qdd.copy_from_slice(&a);
+    // A fixed-size copy (no memcpy call for a handful of numbers).
+    let qdd: &mut [S; N] = qdd.try_into().expect("N accelerations");
+    *qdd = a;
     for (o, v) in lambda.iter_mut().zip(&l) {
         *o = *v;
     }
