@@ -1,7 +1,10 @@
-//! PROTOTYPE: equations of motion traced once into an expression graph, differentiated
-//! symbolically and emitted as straight-line Rust, the route CasADi and OpenModelica take
-//! to hand-written speed. Not wired into the FMUs: it exists to measure whether the route
-//! reaches ≤ 2× the hand-derived equations (`mbfmu speed --symbolic`).
+//! Equations of motion traced once into an expression graph, differentiated symbolically
+//! and emitted as straight-line Rust, the route CasADi and OpenModelica take to
+//! hand-written speed. A Lagrangian system runs its committed generated code when its
+//! `impl Lagrangian` says so in one line, [`generated_eom!`](crate::generated_eom) (the
+//! FMU, linearisation, Jacobians and the projection then use it); the others, and
+//! [`AutoDiff`](crate::model::lagrangian::AutoDiff) (the test oracle), stay on automatic
+//! differentiation. `mbfmu speed --symbolic` times both against the hand-written floors.
 //!
 //! # Why
 //!
@@ -19,9 +22,11 @@
 //!    `constraints` run on it (and so do `Dual<Expr>` and `HyperDual<Expr>` inside them).
 //!    Looking at a symbolic value (comparison, `re()`) is recorded, and refused later.
 //! 2. [`diff`]: forward and reverse sweeps building derivative nodes in the same graph.
-//! 3. [`equations`](mod@equations): M, rhs, G, γ of a [`Lagrangian`](crate::model::lagrangian::Lagrangian).
+//! 3. [`equations`](mod@equations): M, rhs, G, γ of a [`Lagrangian`](crate::model::lagrangian::Lagrangian),
+//!    velocity constraints' rows `A(q)` and drift `Ȧ q̇` after the holonomic ones.
 //! 4. [`emit`]: Rust source of `impl Eom<N, K>`, generic over the scalar so dual numbers
-//!    still give exact Jacobians through it; [`runtime`] holds the trait and the solve.
+//!    still give exact Jacobians through it; [`runtime`] holds the trait, the solve, the
+//!    projection and the `generated_eom!` macro, all on fixed-size arrays (no heap).
 //! 5. [`generated`]: the committed output for some systems, kept current by a test like
 //!    modelDescription/ (`cargo run --bin mbfmu -- symbolic` rewrites it). Which systems,
 //!    and the driver that writes them, sit above the systems, in
@@ -37,4 +42,4 @@ pub mod runtime;
 
 pub use equations::{equations, Equations, TraceError};
 pub use expr::{record, Arg, Expr, Fun, Graph, Id, Node};
-pub use runtime::{Eom, Terms};
+pub use runtime::{Eom, Generated, Terms};
