@@ -1,7 +1,8 @@
 //! No heap allocation per doStep in steady state, for every method on hand-written
-//! systems: a counting global allocator (a count, never a time) around the C-API calls an
-//! importer makes once the run is going: fmi2DoStep, fmi2GetReal of every output and
-//! state derivative, fmi2GetDirectionalDerivative.
+//! systems and on the Lagrangian ones that run generated code: a counting global
+//! allocator (a count, never a time) around the C-API calls an importer makes once the
+//! run is going: fmi2DoStep, fmi2GetReal of every output and state derivative,
+//! fmi2GetDirectionalDerivative.
 //!
 //! Each case instantiates, initialises, takes doSteps until the integrator's buffers have
 //! their sizes (and, for the adaptive methods, several steps ahead of the grid), then
@@ -11,9 +12,11 @@
 //! inside one step. A test binary of its own: its `#[global_allocator]` counts per thread,
 //! so the tests running beside each other do not see each other's allocations.
 //!
-//! RATTLE runs only on systems written as a `Lagrangian`, whose right-hand side allocates
-//! by itself (src/model/lagrangian.rs; and the FMU boxes their `Mechanics` once per
-//! doStep), so the FMU cases leave it out; the last test counts the integrator's own
+//! The Lagrangian systems with generated equations of motion (`generated_eom!`) are
+//! counted too (projection included). RATTLE runs only on
+//! systems written as a `Lagrangian`, whose `Mechanics` is still automatic
+//! differentiation (src/model/lagrangian.rs; and the FMU boxes it once per doStep), so
+//! the FMU cases leave it out; the last test counts the integrator's own
 //! allocations, through `rattle::advance_in` on hand-written `Mechanics` that allocate
 //! nothing.
 
@@ -85,6 +88,11 @@ exported!(RigidBody, mbfmu::systems::RigidBody);
 exported!(RollingDisk, mbfmu::systems::RollingDisk);
 exported!(WhippleBicycle, mbfmu::systems::WhippleBicycle);
 exported!(SphereSlide, mbfmu::systems::SphereSlide);
+exported!(CompoundPendulum, mbfmu::systems::CompoundPendulum);
+exported!(DoublePendulum, mbfmu::systems::DoublePendulum);
+exported!(SliderCrank, mbfmu::systems::SliderCrank);
+exported!(SliderCrankSurplus, mbfmu::systems::SliderCrankSurplus);
+exported!(SpringRodPendulum, mbfmu::systems::SpringRodPendulum);
 
 /// How one case is run.
 #[derive(Clone, Copy, Debug)]
@@ -303,6 +311,38 @@ fn sphere_slide() {
     // copies the start of each doStep. Not second order, not linear.
     let methods = [1, 2, 3, 6, 7, 8, 9, 10];
     check::<SphereSlide>(("slide", &[]), &methods, (5e-4, 2.0), true);
+}
+
+/// Every method but RATTLE and ExactLinear (the Lagrangians are not linear).
+const LAGRANGIAN_METHODS: [i32; 10] = [1, 2, 3, 4, 5, 6, 7, 8, 9, 10];
+
+// The Lagrangian systems on their generated equations of motion (`generated_eom!`).
+
+#[test]
+fn compound_pendulum() {
+    let torque: &[(&str, f64)] = &[("tau", 0.3)];
+    check::<CompoundPendulum>(("large", torque), &LAGRANGIAN_METHODS, (1e-3, 4.0), false);
+}
+
+#[test]
+fn double_pendulum() {
+    check::<DoublePendulum>(("chaotic", &[]), &LAGRANGIAN_METHODS, (1e-3, 4.0), false);
+}
+
+#[test]
+fn slider_crank() {
+    check::<SliderCrank>(("driven", &[]), &LAGRANGIAN_METHODS, (1e-3, 4.0), false);
+}
+
+#[test]
+fn spring_rod_pendulum() {
+    check::<SpringRodPendulum>(("wobble", &[]), &LAGRANGIAN_METHODS, (1e-3, 4.0), false);
+}
+
+#[test]
+fn slider_crank_surplus() {
+    // Surplus coordinates: projected after every doStep (on the generated terms too).
+    check::<SliderCrankSurplus>(("driven", &[]), &LAGRANGIAN_METHODS, (1e-3, 4.0), false);
 }
 
 /// A pendulum in Cartesian coordinates (mass 2 kg at (x, z), z down, on a 1.5 m rod):

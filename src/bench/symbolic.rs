@@ -4,8 +4,8 @@
 //!
 //! - RHS: one `ẋ = f(t, x, u, p)` in `f64` at a generic state (`xᵢ = 0.3 + 0.1 i`, zero
 //!   inputs, default parameters): the generated `Eom::derivatives` (and its `eom` alone,
-//!   to separate forming M and rhs from the solve), `System::derivatives` (nested dual
-//!   numbers today) and the floor's `rhs`.
+//!   to separate forming M and rhs from the solve), the automatic-differentiation path
+//!   (`AutoDiff<L>`: nested dual numbers, what the FMUs ran before) and the floor's `rhs`.
 //! - Jacobian: the 2n columns of ∂f/∂x, each one `Dual64` evaluation with the seeds set in
 //!   preallocated vectors, through the generated code and through today's path alike.
 //!
@@ -14,7 +14,7 @@
 use super::chain::Chain;
 use super::floors::{self, Floor};
 use super::speed::best_ns;
-use crate::model::lagrangian::Lagrangian;
+use crate::model::lagrangian::{AutoDiff, Lagrangian};
 use crate::model::symbolic::{emit, equations, generated::*, Eom, Equations, Terms, TraceError};
 use crate::model::System;
 use crate::systems;
@@ -88,7 +88,7 @@ pub fn measure<L: Lagrangian, E: Eom<N, K>, const N: usize, const K: usize>(
         black_box(&terms);
     });
     let ad_rhs_ns = best_ns(reps, || {
-        <L as System>::derivatives(0.0, black_box(&x), &u, &p, &mut dx);
+        <AutoDiff<L> as System>::derivatives(0.0, black_box(&x), &u, &p, &mut dx);
         black_box(&dx);
     });
     SymbolicRow {
@@ -103,7 +103,7 @@ pub fn measure<L: Lagrangian, E: Eom<N, K>, const N: usize, const K: usize>(
             E::derivatives(0.0, x, u, p, dx)
         }),
         ad_jacobian_ns: jacobian_ns(&x, &u, &p, reps, |x, u, p, dx| {
-            <L as System>::derivatives(0.0, x, u, p, dx)
+            <AutoDiff<L> as System>::derivatives(0.0, x, u, p, dx)
         }),
     }
 }
@@ -207,6 +207,7 @@ fn targets() -> Vec<(&'static str, Trace)> {
             "spring_rod_pendulum",
             equations::<systems::SpringRodPendulum>,
         ),
+        ("nonlinear_bicycle", equations::<systems::NonlinearBicycle>),
         ("chain_1", equations::<Chain<1>>),
         ("chain_2", equations::<Chain<2>>),
         ("chain_4", equations::<Chain<4>>),
@@ -240,7 +241,7 @@ pub fn generate(module: &str, trace: Trace) -> Result<Generated, TraceError> {
          it is current). M = ∂²T/∂q̇², rhs = Q + ∂L/∂q − (∂²L/∂q̇∂q) q̇, G = ∂Φ/∂q, γ = q̇ᵀ∇²Φq̇.",
         eq.name
     );
-    let emitted = emit::emit(&eq, &type_name, &doc);
+    let emitted = emit::emit(&eq, &type_name, &doc, "crate");
     Ok(Generated {
         system: eq.name,
         module: module.to_string(),
@@ -315,7 +316,10 @@ mod tests {
             Some(floor_rhs::<floors::DoublePendulum, 4>),
         );
         assert_eq!((row.system, row.coordinates), ("DoublePendulum", 2));
-        assert_eq!(row.nodes, DoublePendulumEom::NODES);
+        assert_eq!(
+            row.nodes,
+            <DoublePendulumEom as crate::model::symbolic::Generated>::NODES
+        );
         let times = [
             row.generated_rhs_ns,
             row.ad_rhs_ns,

@@ -114,6 +114,121 @@ pub trait Lagrangian: 'static {
     fn on_event(_t: f64, _q: &mut [f64], _qd: &mut [f64], _p: &[f64]) -> Result<(), String> {
         Ok(())
     }
+
+    /// `(q̈, λ)` by the equations generated from this Lagrangian (`mbfmu symbolic`, under
+    /// `model/symbolic/generated/`) into `qdd` and the first `lambda.len()` multipliers,
+    /// returning `true`; `false` (the default): none, automatic differentiation instead.
+    /// Never written by hand: `crate::generated_eom!(DoublePendulumEom);` in the impl
+    /// (see [`generated_eom!`](crate::generated_eom) for why there).
+    fn generated_eom<S: Scalar>(
+        _t: f64,
+        _q: &[S],
+        _qd: &[S],
+        _u: &[S],
+        _p: &[S],
+        _qdd: &mut [S],
+        _lambda: &mut [S],
+    ) -> bool {
+        false
+    }
+
+    /// The projection after each step ([`project_onto_constraints`]) on the generated M
+    /// and constraint rows, without heap; `false` (the default): none, automatic
+    /// differentiation instead. Written by the same `generated_eom!` line.
+    fn generated_projection(_p: &[f64], _x: &mut [f64]) -> bool {
+        false
+    }
+}
+
+/// `q̈` into `qdd`: the generated equations when the system has them, else automatic
+/// differentiation ([`accelerations`]). No heap on the generated path.
+pub fn accelerations_into<L: Lagrangian, S: Scalar>(
+    t: f64,
+    q: &[S],
+    qd: &[S],
+    u: &[S],
+    p: &[S],
+    qdd: &mut [S],
+) {
+    if !L::generated_eom(t, q, qd, u, p, qdd, &mut []) {
+        qdd.copy_from_slice(&accelerations::<L, S>(t, q, qd, u, p));
+    }
+}
+
+/// `(q̈, λ)` into `qdd` and `lambda` (all the multipliers, holonomic then velocity
+/// constraints'): generated when the system has it, else [`accelerations_and_multipliers`].
+pub fn accelerations_and_multipliers_into<L: Lagrangian, S: Scalar>(
+    t: f64,
+    q: &[S],
+    qd: &[S],
+    u: &[S],
+    p: &[S],
+    qdd: &mut [S],
+    lambda: &mut [S],
+) {
+    if !L::generated_eom(t, q, qd, u, p, qdd, lambda) {
+        let (a, l) = accelerations_and_multipliers::<L, S>(t, q, qd, u, p);
+        qdd.copy_from_slice(&a);
+        lambda.copy_from_slice(&l);
+    }
+}
+
+/// A Lagrangian on automatic differentiation only, whatever generated code it has: the
+/// oracle the generated path is tested against (same name, variables and everything else).
+pub struct AutoDiff<L>(std::marker::PhantomData<L>);
+
+impl<L: Lagrangian> Lagrangian for AutoDiff<L> {
+    const NAME: &'static str = L::NAME;
+    const DESCRIPTION: &'static str = L::DESCRIPTION;
+    const EQUATIONS: &'static [&'static str] = L::EQUATIONS;
+    const CONSTRAINTS: usize = L::CONSTRAINTS;
+    const VELOCITY_CONSTRAINTS: usize = L::VELOCITY_CONSTRAINTS;
+    fn parameters() -> Vec<Var> {
+        L::parameters()
+    }
+    fn inputs() -> Vec<Var> {
+        L::inputs()
+    }
+    fn coordinates() -> Vec<Var> {
+        L::coordinates()
+    }
+    fn velocities() -> Vec<Var> {
+        L::velocities()
+    }
+    fn outputs() -> Vec<Var> {
+        <L as Lagrangian>::outputs()
+    }
+    fn kinetic<S: Scalar>(q: &[S], qd: &[S], p: &[S]) -> S {
+        L::kinetic(q, qd, p)
+    }
+    fn potential<S: Scalar>(q: &[S], p: &[S]) -> S {
+        L::potential(q, p)
+    }
+    fn forces<S: Scalar>(t: f64, q: &[S], qd: &[S], u: &[S], p: &[S], out: &mut [S]) {
+        L::forces(t, q, qd, u, p, out)
+    }
+    /// The system's own outputs (they may use its generated accelerations).
+    fn extra_outputs<S: Scalar>(t: f64, q: &[S], qd: &[S], u: &[S], p: &[S], y: &mut [S]) {
+        <L as Lagrangian>::extra_outputs(t, q, qd, u, p, y)
+    }
+    fn scenes() -> Vec<Scene> {
+        <L as Lagrangian>::scenes()
+    }
+    fn constraints<S: Scalar>(q: &[S], p: &[S], phi: &mut [S]) {
+        L::constraints(q, p, phi)
+    }
+    fn velocity_constraints<S: Scalar>(q: &[S], qd: &[S], p: &[S], out: &mut [S]) {
+        L::velocity_constraints(q, qd, p, out)
+    }
+    fn default_experiment() -> (f64, f64, f64) {
+        <L as Lagrangian>::default_experiment()
+    }
+    fn event_indicator(t: f64, q: &[f64], qd: &[f64], u: &[f64], p: &[f64]) -> Option<f64> {
+        <L as Lagrangian>::event_indicator(t, q, qd, u, p)
+    }
+    fn on_event(t: f64, q: &mut [f64], qd: &mut [f64], p: &[f64]) -> Result<(), String> {
+        <L as Lagrangian>::on_event(t, q, qd, p)
+    }
 }
 
 /// `L = T − V` at a point of any scalar type.
@@ -185,7 +300,9 @@ pub fn generalized_rhs<L: Lagrangian, S: Scalar>(
 }
 
 /// The accelerations q̈ of the Euler–Lagrange equations: `M q̈ = Q + ∂L/∂q − (∂²L/∂q̇∂q) q̇`
-/// (with constraints, of the λ-method: see [`accelerations_and_multipliers`]).
+/// (with constraints, of the λ-method: see [`accelerations_and_multipliers`]), by automatic
+/// differentiation always (the oracle of the generated code; [`accelerations_into`] takes
+/// the generated path where there is one).
 pub fn accelerations<L: Lagrangian, S: Scalar>(
     t: f64,
     q: &[S],
@@ -404,7 +521,7 @@ fn augmented<S: Scalar>(m: &[Vec<S>], g: &[Vec<S>]) -> Vec<Vec<S>> {
 
 /// Most Newton iterations of the position projection (it converges quadratically from
 /// the O(tolerance) violation one step leaves; more means the constraints are singular).
-const PROJECTION_ITERATIONS: usize = 8;
+pub const PROJECTION_ITERATIONS: usize = 8;
 
 /// Coordinate projection (Hairer, Lubich, Wanner, *Geometric Numerical Integration*,
 /// IV.4; Eich 1993): moves `q` onto `Φ(q) = 0` by Newton steps of the smallest kinetic
@@ -520,8 +637,9 @@ impl<L: Lagrangian> System for L {
     fn derivatives<S: Scalar>(t: f64, x: &[S], u: &[S], p: &[S], dx: &mut [S]) {
         let n = x.len() / 2;
         let (q, qd) = x.split_at(n);
-        dx[..n].copy_from_slice(qd);
-        dx[n..].copy_from_slice(&accelerations::<L, S>(t, q, qd, u, p));
+        let (velocities, qdd) = dx.split_at_mut(n);
+        velocities.copy_from_slice(qd);
+        accelerations_into::<L, S>(t, q, qd, u, p, qdd);
     }
 
     fn extra_outputs<S: Scalar>(t: f64, x: &[S], u: &[S], p: &[S], y: &mut [S]) {
@@ -555,7 +673,7 @@ impl<L: Lagrangian> System for L {
     }
 
     fn project(_t: f64, p: &[f64], x: &mut [f64]) {
-        if L::CONSTRAINTS + L::VELOCITY_CONSTRAINTS > 0 {
+        if L::CONSTRAINTS + L::VELOCITY_CONSTRAINTS > 0 && !L::generated_projection(p, x) {
             project_onto_constraints::<L>(x, p);
         }
     }

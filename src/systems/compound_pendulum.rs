@@ -18,6 +18,7 @@ const G: usize = 3;
 
 impl Lagrangian for CompoundPendulum {
     const NAME: &'static str = "CompoundPendulum";
+    crate::generated_eom!(crate::model::symbolic::generated::CompoundPendulumEom);
     const DESCRIPTION: &'static str =
         "A rigid body swinging about a fixed horizontal axis, equations derived from its Lagrangian";
     const EQUATIONS: &'static [&'static str] = &[

@@ -74,6 +74,7 @@ pub fn rod_tensions<S: Scalar>(q: &[S], qd: &[S], qdd: &[S], p: &[S]) -> (S, S) 
 
 impl Lagrangian for DoublePendulum {
     const NAME: &'static str = "DoublePendulum";
+    crate::generated_eom!(crate::model::symbolic::generated::DoublePendulumEom);
     const DESCRIPTION: &'static str =
         "Two point masses on massless rods in a vertical plane, equations derived from the Lagrangian";
     const EQUATIONS: &'static [&'static str] = &[
@@ -173,7 +174,8 @@ impl Lagrangian for DoublePendulum {
     }
 
     fn extra_outputs<S: Scalar>(t: f64, q: &[S], qd: &[S], u: &[S], p: &[S], y: &mut [S]) {
-        let qdd = lagrangian::accelerations::<Self, S>(t, q, qd, u, p);
+        let mut qdd = [S::from(0.0); 2];
+        lagrangian::accelerations_into::<Self, S>(t, q, qd, u, p, &mut qdd);
         let (f1, f2) = rod_tensions(q, qd, &qdd, p);
         y[0] = f1;
         y[1] = f2;

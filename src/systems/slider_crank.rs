@@ -97,7 +97,8 @@ pub fn closure<S: Scalar>(theta: S, p: &[S]) -> (S, S) {
 
 /// `(β̇, ẋ)` for the crank rate θ̇, from differentiating [`closure`] along θ̇.
 pub fn closure_rates<S: Scalar>(theta: S, theta_dot: S, p: &[S]) -> (S, S) {
-    let pd: Vec<Dual<S>> = p.iter().map(|&v| Dual::from_re(v)).collect();
+    // On the stack: the FMU's doStep evaluates this (the outputs) and allocates nothing.
+    let pd: [Dual<S>; 6] = std::array::from_fn(|i| Dual::from_re(p[i]));
     let (beta, x) = closure(Dual::new(theta, theta_dot), &pd);
     (beta.eps, x.eps)
 }
@@ -140,6 +141,7 @@ pub struct SliderCrank;
 
 impl Lagrangian for SliderCrank {
     const NAME: &'static str = "SliderCrank";
+    crate::generated_eom!(crate::model::symbolic::generated::SliderCrankEom);
     const DESCRIPTION: &'static str =
         "Slider-crank (piston) mechanism in its one reduced coordinate, the crank angle";
     const EQUATIONS: &'static [&'static str] = &[
@@ -230,6 +232,7 @@ pub struct SliderCrankSurplus;
 
 impl Lagrangian for SliderCrankSurplus {
     const NAME: &'static str = "SliderCrankSurplus";
+    crate::generated_eom!(crate::model::symbolic::generated::SliderCrankSurplusEom);
     const DESCRIPTION: &'static str =
         "Slider-crank (piston) mechanism in surplus coordinates with the loop closure kept by multipliers, which give the joint forces";
     const EQUATIONS: &'static [&'static str] = &[
@@ -351,20 +354,28 @@ impl Lagrangian for SliderCrankSurplus {
     }
 
     fn extra_outputs<S: Scalar>(t: f64, q: &[S], qd: &[S], u: &[S], p: &[S], y: &mut [S]) {
-        let (_, lambda) = lagrangian::accelerations_and_multipliers::<Self, S>(t, q, qd, u, p);
+        let (mut qdd, mut lambda) = ([S::from(0.0); 3], [S::from(0.0); 2]);
+        lagrangian::accelerations_and_multipliers_into::<Self, S>(
+            t,
+            q,
+            qd,
+            u,
+            p,
+            &mut qdd,
+            &mut lambda,
+        );
         let (n, pf) = (-lambda[0], -lambda[1]);
         y[0] = n;
         y[1] = pf;
         y[2] = n + p[M3] * p[G];
-        let phi = lagrangian::constraint_values::<Self, S>(q, p);
-        y[3..5].copy_from_slice(&phi);
-        let g = lagrangian::constraint_jacobian::<Self, S>(q, p);
-        for (out, row) in y[5..7].iter_mut().zip(&g) {
-            *out = row
-                .iter()
-                .zip(qd)
-                .fold(S::from(0.0), |s, (&a, &b)| s + a * b);
-        }
+        Self::constraints(q, p, &mut y[3..5]);
+        // G q̇ = d/dε Φ(q + ε q̇), one dual evaluation on the stack.
+        let q_along: [Dual<S>; 3] = std::array::from_fn(|i| Dual::new(q[i], qd[i]));
+        let pd: [Dual<S>; 6] = std::array::from_fn(|i| Dual::from_re(p[i]));
+        let mut rate = [Dual::from_re(S::from(0.0)); 2];
+        Self::constraints(&q_along, &pd, &mut rate);
+        y[5] = rate[0].eps;
+        y[6] = rate[1].eps;
         y[7] = lagrangian::energy::<Self, S>(q, qd, p);
     }
 

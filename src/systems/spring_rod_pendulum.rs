@@ -90,6 +90,7 @@ fn spring_length<S: Scalar>(q: &[S], p: &[S]) -> S {
 
 impl Lagrangian for SpringRodPendulum {
     const NAME: &'static str = "SpringRodPendulum";
+    crate::generated_eom!(crate::model::symbolic::generated::SpringRodPendulumEom);
     const DESCRIPTION: &'static str =
         "A mass on a spring from a fixed point with a second mass on a rigid rod below it, equations derived from the Lagrangian";
     const EQUATIONS: &'static [&'static str] = &[

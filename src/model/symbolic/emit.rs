@@ -115,8 +115,9 @@ fn binary(a: &Text, op: &str, b: &Text, prec: Prec) -> Text {
 }
 
 /// The Rust source of `eq` as `impl Eom<n, k> for {type_name}`, with `doc` as the file's
-/// first doc lines.
-pub fn emit(eq: &Equations, type_name: &str, doc: &str) -> Emitted {
+/// first doc lines. `krate` is how the code names this library: `crate` inside it,
+/// `mbfmu` from a test or another crate.
+pub fn emit(eq: &Equations, type_name: &str, doc: &str, krate: &str) -> Emitted {
     let graph = &eq.graph;
     let roots = eq.roots();
     let seen = graph.reachable(&roots);
@@ -267,6 +268,15 @@ pub fn emit(eq: &Equations, type_name: &str, doc: &str) -> Emitted {
         })
         .collect();
     let (n, k) = (eq.n, eq.k);
+    let velocity = eq.k - eq.holonomic;
+    let constraints = if velocity == 0 {
+        format!("{k} constraints")
+    } else {
+        format!(
+            "{} holonomic and {velocity} velocity constraints",
+            eq.holonomic
+        )
+    };
     let mut source = String::new();
     for line in doc.lines() {
         writeln!(source, "//! {line}").unwrap();
@@ -276,16 +286,19 @@ pub fn emit(eq: &Equations, type_name: &str, doc: &str) -> Emitted {
         "//!
 //! {nodes} nodes ({operations} operations) in {lets} `let`s.
 
-use crate::model::symbolic::{{Eom, Terms}};
-use crate::model::Scalar;
+use {krate}::model::symbolic::{{Eom, Generated, Terms}};
+use {krate}::model::Scalar;
 
-/// The equations of motion of `{name}` ({n} coordinates, {k} constraints).
+/// The equations of motion of `{name}` ({n} coordinates, {constraints}).
 pub struct {type_name};
 
-impl Eom<{n}, {k}> for {type_name} {{
+impl Generated for {type_name} {{
     const NAME: &'static str = \"{name}\";
     const NODES: usize = {nodes};
+    const INPUTS: usize = {inputs};
+}}
 
+impl Eom<{n}, {k}> for {type_name} {{
     /// The slices' lengths are checked once, up front.
     fn eom<S: Scalar>(
         _t: f64,
@@ -299,6 +312,8 @@ impl Eom<{n}, {k}> for {type_name} {{
 }}
 ",
         name = eq.name,
+        constraints = constraints,
+        inputs = eq.inputs,
         q = param(Arg::Q),
         qd = param(Arg::Qd),
         u = param(Arg::U),

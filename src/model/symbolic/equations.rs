@@ -12,7 +12,13 @@
 //! rhs = Q + ∂L/∂q − (∂²L/∂q̇∂q) q̇
 //! G[k] = ∂Φₖ/∂q     one reverse sweep per constraint
 //! γ = q̇ᵀ ∇²Φ q̇      two forward sweeps of Φ along q̇
+//! A[k] = ∂(A q̇)ₖ/∂q̇  one reverse sweep per velocity constraint (A q̇ is linear in q̇)
+//! Ȧ q̇               one forward sweep of A q̇ along q with the tangent q̇
 //! ```
+//!
+//! The velocity constraints' rows follow the holonomic ones in G and γ, as
+//! [`accelerations_and_multipliers`](crate::model::lagrangian::accelerations_and_multipliers)
+//! orders them.
 //!
 //! What cannot be traced is refused ([`TraceError`]) rather than traced wrong.
 
@@ -25,15 +31,17 @@ use std::fmt;
 pub struct Equations {
     pub name: &'static str,
     pub graph: Graph,
-    /// Coordinates n, constraints k, inputs, parameters.
+    /// Coordinates n, constraint rows k (holonomic and velocity), inputs, parameters.
     pub n: usize,
     pub k: usize,
+    /// Of the k rows, the holonomic ones (the first).
+    pub holonomic: usize,
     pub inputs: usize,
     pub parameters: usize,
     /// `m[i][j]` for j ≥ i (the upper triangle; `m[j][i]` is the same node).
     pub m: Vec<Vec<Id>>,
     pub rhs: Vec<Id>,
-    /// `g[k][j] = ∂Φₖ/∂qⱼ`.
+    /// `g[k][j] = ∂Φₖ/∂qⱼ`, then `A[k][j]`.
     pub g: Vec<Vec<Id>>,
     pub gamma: Vec<Id>,
 }
@@ -103,8 +111,6 @@ pub enum TraceError {
     /// `forces` gave different graphs for different t: time is an `f64` in the trait, so
     /// its value would be baked in.
     TimeDependent { system: &'static str },
-    /// Velocity (non-holonomic) constraints: not handled by the prototype.
-    VelocityConstraints { system: &'static str },
 }
 
 impl fmt::Display for TraceError {
@@ -119,10 +125,6 @@ impl fmt::Display for TraceError {
                 f,
                 "{system}: the generalised forces depend on t, which the Lagrangian trait passes as f64; no code generated"
             ),
-            TraceError::VelocityConstraints { system } => write!(
-                f,
-                "{system}: velocity constraints are not handled by the symbolic prototype"
-            ),
         }
     }
 }
@@ -136,11 +138,9 @@ fn ids(v: &[Expr]) -> Vec<Id> {
 /// Traces `L` and assembles its equations of motion (see the module notes).
 pub fn equations<L: Lagrangian>() -> Result<Equations, TraceError> {
     let system = L::NAME;
-    if L::VELOCITY_CONSTRAINTS > 0 {
-        return Err(TraceError::VelocityConstraints { system });
-    }
     let n = L::coordinates().len();
-    let k = L::CONSTRAINTS;
+    let holonomic = L::CONSTRAINTS;
+    let k = holonomic + L::VELOCITY_CONSTRAINTS;
     let (inputs, parameters) = (L::inputs().len(), L::parameters().len());
     let (result, graph) = record(|| {
         let q = Expr::inputs(Arg::Q, n);
@@ -183,10 +183,14 @@ pub fn equations<L: Lagrangian>() -> Result<Equations, TraceError> {
             .map(|i| (Expr::from_id(forces[i]) + dl_dq[i] - mixed[i]).id())
             .collect();
 
-        let mut phi = vec![Expr::constant(0.0); k];
+        let mut phi = vec![Expr::constant(0.0); holonomic];
         L::constraints(&q, &p, &mut phi);
-        let g: Vec<Vec<Id>> = phi.iter().map(|&c| ids(&gradient(c, &q))).collect();
-        let gamma = ids(&forward(&forward(&phi, along_qd), along_qd));
+        let mut g: Vec<Vec<Id>> = phi.iter().map(|&c| ids(&gradient(c, &q))).collect();
+        let mut gamma = ids(&forward(&forward(&phi, along_qd), along_qd));
+        let mut aqd = vec![Expr::constant(0.0); k - holonomic];
+        L::velocity_constraints(&q, &qd, &p, &mut aqd);
+        g.extend(aqd.iter().map(|&c| ids(&gradient(c, &qd))));
+        gamma.extend(ids(&forward(&aqd, along_qd)));
         (time_independent, m, rhs, g, gamma)
     });
     let (time_independent, m, rhs, g, gamma) = result;
@@ -204,6 +208,7 @@ pub fn equations<L: Lagrangian>() -> Result<Equations, TraceError> {
         graph,
         n,
         k,
+        holonomic,
         inputs,
         parameters,
         m,

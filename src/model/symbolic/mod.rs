@@ -37,4 +37,4 @@ pub mod runtime;
 
 pub use equations::{equations, Equations, TraceError};
 pub use expr::{record, Arg, Expr, Fun, Graph, Id, Node};
-pub use runtime::{Eom, Terms};
+pub use runtime::{Eom, Generated, Terms};

@@ -14,7 +14,8 @@
 use crate::model::Scalar;
 
 /// The terms of the equations of motion at a point: `M` (full), `rhs = Q + ∂L/∂q −
-/// (∂²L/∂q̇∂q) q̇`, `G = ∂Φ/∂q` and `γ = q̇ᵀ ∇²Φ q̇`.
+/// (∂²L/∂q̇∂q) q̇`, the constraint rows `G` and `γ`, holonomic rows first (`∂Φ/∂q`,
+/// `q̇ᵀ ∇²Φ q̇`), then the velocity constraints' (`A(q)`, `Ȧ q̇`).
 pub struct Terms<S, const N: usize, const K: usize> {
     pub m: [[S; N]; N],
     pub rhs: [S; N],
@@ -34,15 +35,21 @@ impl<S: Scalar, const N: usize, const K: usize> Terms<S, N, K> {
     }
 }
 
-/// Equations of motion generated from a Lagrangian with N coordinates and K holonomic
-/// constraints ([`emit`](super::emit)). Only [`eom`](Eom::eom) is generated; the solves
-/// are the provided methods.
-pub trait Eom<const N: usize, const K: usize> {
+/// What a generated type declares whatever its size: a trait without N and K, so a
+/// constant can name it (the const generics of [`Eom`] cannot be inferred there).
+pub trait Generated {
     /// The Lagrangian's name.
     const NAME: &'static str;
     /// Nodes of the graph the generated code evaluates (each shared subexpression once).
     const NODES: usize;
+    /// How many inputs u the code reads (M and G never depend on them).
+    const INPUTS: usize;
+}
 
+/// Equations of motion generated from a Lagrangian with N coordinates and K constraint
+/// rows: the holonomic ones, then the velocity constraints ([`emit`](super::emit)). Only
+/// [`eom`](Eom::eom) is generated; the solves are the provided methods.
+pub trait Eom<const N: usize, const K: usize>: Generated {
     /// Fills `out` at `(t, q, q̇, u, p)`: straight-line code, every shared subexpression
     /// computed once.
     fn eom<S: Scalar>(t: f64, q: &[S], qd: &[S], u: &[S], p: &[S], out: &mut Terms<S, N, K>);
@@ -73,6 +80,99 @@ pub trait Eom<const N: usize, const K: usize> {
         dx[..N].copy_from_slice(qd);
         dx[N..2 * N].copy_from_slice(&a);
     }
+}
+
+/// `(q̈, λ)` of `E` into slices: what a [`Lagrangian`](crate::model::lagrangian::Lagrangian)'s
+/// `generated_eom` hook (written by [`generated_eom!`](crate::generated_eom)) calls. `qdd`
+/// takes the N accelerations; `lambda` the first `lambda.len()` multipliers (empty when
+/// they are not wanted). No heap: the terms live on the stack.
+pub fn accelerations_into<E, S, const N: usize, const K: usize>(
+    t: f64,
+    q: &[S],
+    qd: &[S],
+    u: &[S],
+    p: &[S],
+    qdd: &mut [S],
+    lambda: &mut [S],
+) where
+    E: Eom<N, K>,
+    S: Scalar,
+{
+    debug_assert_eq!((q.len(), qdd.len()), (N, N), "{}: coordinates", E::NAME);
+    let (a, l) = E::accelerations_and_multipliers(t, q, qd, u, p);
+    qdd.copy_from_slice(&a);
+    for (o, v) in lambda.iter_mut().zip(&l) {
+        *o = *v;
+    }
+}
+
+/// `a == b`, usable in constants: [`generated_eom!`](crate::generated_eom) checks at
+/// compile time that the generated equations are those of the system naming them.
+pub const fn same_name(a: &str, b: &str) -> bool {
+    let (a, b) = (a.as_bytes(), b.as_bytes());
+    if a.len() != b.len() {
+        return false;
+    }
+    let mut i = 0;
+    while i < a.len() {
+        if a[i] != b[i] {
+            return false;
+        }
+        i += 1;
+    }
+    true
+}
+
+/// Puts a system on its generated equations of motion: one line inside its
+/// `impl Lagrangian`, `crate::generated_eom!(DoublePendulumEom);`, which defines the
+/// trait's hooks `generated_eom` and `generated_projection` to run the committed
+/// straight-line code instead of nested dual numbers (FMU, linearisation, Jacobians,
+/// projection, bench alike: every user of the type).
+///
+/// Why a line in the impl rather than in the catalogue or `export_fmu!`: the fast path
+/// then belongs to the type itself, so `systems::DoublePendulum` means the same equations
+/// everywhere (a wrapper type named in the catalogue would leave the bare type, which the
+/// tests and tools name, on the slow path), and the system's file says which code it runs.
+/// The generated code cannot attach itself: `model/` does not know the systems. It fails
+/// to compile when the equations are another system's (their names are compared).
+#[macro_export]
+macro_rules! generated_eom {
+    ($eom:ty) => {
+        fn generated_eom<S: $crate::model::Scalar>(
+            t: f64,
+            q: &[S],
+            qd: &[S],
+            u: &[S],
+            p: &[S],
+            qdd: &mut [S],
+            lambda: &mut [S],
+        ) -> bool {
+            const {
+                assert!(
+                    $crate::model::symbolic::runtime::same_name(
+                        <$eom as $crate::model::symbolic::runtime::Generated>::NAME,
+                        <Self as $crate::model::lagrangian::Lagrangian>::NAME,
+                    ),
+                    "generated equations of another system"
+                )
+            };
+            $crate::model::symbolic::runtime::accelerations_into::<$eom, S, _, _>(
+                t, q, qd, u, p, qdd, lambda,
+            );
+            true
+        }
+
+        fn generated_projection(p: &[f64], x: &mut [f64]) -> bool {
+            use $crate::model::lagrangian::{Lagrangian, PROJECTION_ITERATIONS};
+            $crate::model::symbolic::runtime::project::<$eom, _, _>(
+                x,
+                p,
+                <Self as Lagrangian>::CONSTRAINTS,
+                PROJECTION_ITERATIONS,
+                |q, phi| <Self as Lagrangian>::constraints(q, p, phi),
+            )
+        }
+    };
 }
 
 /// `(q̈, λ)` from the terms (see the module notes).
@@ -106,6 +206,92 @@ pub fn solve<S: Scalar, const N: usize, const K: usize>(t: Terms<S, N, K>) -> ([
         }
     }
     (y, lambda)
+}
+
+/// The smallest change `Δ` in the metric M with `G_r Δ = −d_r` for the first `active`
+/// rows of G (the others ignored): `[M Gᵀ; G 0] [Δ; μ] = [0; −d]`, as [`solve`] does it.
+/// `None` if the result is not finite (singular constraints).
+fn correction<const N: usize, const K: usize>(
+    m: &Ldlt<f64, N>,
+    g: &[[f64; N]; K],
+    d: &[f64; K],
+    active: usize,
+) -> Option<[f64; N]> {
+    let dot = |a: &[f64; N], b: &[f64; N]| (0..N).fold(0.0, |s, i| s + a[i] * b[i]);
+    let mut x = *g;
+    for column in &mut x[..active] {
+        m.solve(column);
+    }
+    // (G X) μ = d on the active rows; the identity on the others (μ = 0 there).
+    let mut schur = [[0.0; K]; K];
+    let mut mu = [0.0; K];
+    for r in 0..K {
+        if r >= active {
+            schur[r][r] = 1.0;
+            continue;
+        }
+        for c in 0..=r {
+            schur[r][c] = dot(&g[r], &x[c]);
+            schur[c][r] = schur[r][c];
+        }
+        mu[r] = d[r];
+    }
+    Ldlt::new(schur).solve(&mut mu);
+    let mut delta = [0.0; N];
+    for (r, l) in mu[..active].iter().enumerate() {
+        for i in 0..N {
+            delta[i] -= x[r][i] * l;
+        }
+    }
+    delta.iter().all(|v| v.is_finite()).then_some(delta)
+}
+
+/// Zero inputs for [`project`]: M and G do not depend on u, but `eom` reads it.
+const ZERO_INPUTS: [f64; 32] = [0.0; 32];
+
+/// Coordinate projection of `x = (q, q̇)` on the generated M and constraint rows, the
+/// same steps as `lagrangian::project_onto_constraints` (up to `iterations` Newton steps
+/// onto the `holonomic` constraints Φ, evaluated by `phi`, in the kinetic metric, then q̇
+/// onto all K rows), without heap. `false`: not done here (more than 32 inputs).
+pub fn project<E: Eom<N, K>, const N: usize, const K: usize>(
+    x: &mut [f64],
+    p: &[f64],
+    holonomic: usize,
+    iterations: usize,
+    mut phi: impl FnMut(&[f64], &mut [f64]),
+) -> bool {
+    let Some(u) = ZERO_INPUTS.get(..E::INPUTS) else {
+        return false;
+    };
+    let (q, qd) = x.split_at_mut(N);
+    let mut terms = Terms::<f64, N, K>::zero();
+    for _ in 0..iterations {
+        if holonomic == 0 {
+            break;
+        }
+        let mut defect = [0.0; K];
+        phi(q, &mut defect[..holonomic]);
+        let scale = q.iter().fold(1.0f64, |s, v| s.max(v.abs()));
+        if defect[..holonomic]
+            .iter()
+            .all(|v| v.abs() <= 4.0 * f64::EPSILON * scale)
+        {
+            break;
+        }
+        E::eom(0.0, q, qd, u, p, &mut terms);
+        let Some(dq) = correction(&Ldlt::new(terms.m), &terms.g, &defect, holonomic) else {
+            return true;
+        };
+        q.iter_mut().zip(&dq).for_each(|(qi, d)| *qi += d);
+    }
+    E::eom(0.0, q, qd, u, p, &mut terms);
+    let defect = terms
+        .g
+        .map(|row| row.iter().zip(qd.iter()).map(|(a, b)| a * b).sum());
+    if let Some(dv) = correction(&Ldlt::new(terms.m), &terms.g, &defect, K) {
+        qd.iter_mut().zip(&dv).for_each(|(v, d)| *v += d);
+    }
+    true
 }
 
 /// `A = L D Lᵀ` of a symmetric positive definite matrix: unit lower L below the diagonal,

@@ -3,16 +3,19 @@
 //!
 //! 43 nodes (38 operations) in 9 `let`s.
 
-use crate::model::symbolic::{Eom, Terms};
+use crate::model::symbolic::{Eom, Generated, Terms};
 use crate::model::Scalar;
 
 /// The equations of motion of `Chain` (1 coordinates, 0 constraints).
 pub struct Chain1Eom;
 
-impl Eom<1, 0> for Chain1Eom {
+impl Generated for Chain1Eom {
     const NAME: &'static str = "Chain";
     const NODES: usize = 43;
+    const INPUTS: usize = 0;
+}
 
+impl Eom<1, 0> for Chain1Eom {
     /// The slices' lengths are checked once, up front.
     fn eom<S: Scalar>(
         _t: f64,

@@ -3,16 +3,19 @@
 //!
 //! 1279 nodes (1240 operations) in 288 `let`s.
 
-use crate::model::symbolic::{Eom, Terms};
+use crate::model::symbolic::{Eom, Generated, Terms};
 use crate::model::Scalar;
 
 /// The equations of motion of `Chain` (16 coordinates, 0 constraints).
 pub struct Chain16Eom;
 
-impl Eom<16, 0> for Chain16Eom {
+impl Generated for Chain16Eom {
     const NAME: &'static str = "Chain";
     const NODES: usize = 1279;
+    const INPUTS: usize = 0;
+}
 
+impl Eom<16, 0> for Chain16Eom {
     /// The slices' lengths are checked once, up front.
     fn eom<S: Scalar>(
         _t: f64,

@@ -3,16 +3,19 @@
 //!
 //! 97 nodes (89 operations) in 26 `let`s.
 
-use crate::model::symbolic::{Eom, Terms};
+use crate::model::symbolic::{Eom, Generated, Terms};
 use crate::model::Scalar;
 
 /// The equations of motion of `Chain` (2 coordinates, 0 constraints).
 pub struct Chain2Eom;
 
-impl Eom<2, 0> for Chain2Eom {
+impl Generated for Chain2Eom {
     const NAME: &'static str = "Chain";
     const NODES: usize = 97;
+    const INPUTS: usize = 0;
+}
 
+impl Eom<2, 0> for Chain2Eom {
     /// The slices' lengths are checked once, up front.
     fn eom<S: Scalar>(
         _t: f64,

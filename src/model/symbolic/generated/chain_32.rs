@@ -3,16 +3,19 @@
 //!
 //! 3448 nodes (3376 operations) in 603 `let`s.
 
-use crate::model::symbolic::{Eom, Terms};
+use crate::model::symbolic::{Eom, Generated, Terms};
 use crate::model::Scalar;
 
 /// The equations of motion of `Chain` (32 coordinates, 0 constraints).
 pub struct Chain32Eom;
 
-impl Eom<32, 0> for Chain32Eom {
+impl Generated for Chain32Eom {
     const NAME: &'static str = "Chain";
     const NODES: usize = 3448;
+    const INPUTS: usize = 0;
+}
 
+impl Eom<32, 0> for Chain32Eom {
     /// The slices' lengths are checked once, up front.
     fn eom<S: Scalar>(
         _t: f64,

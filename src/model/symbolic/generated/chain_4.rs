@@ -3,16 +3,19 @@
 //!
 //! 219 nodes (206 operations) in 61 `let`s.
 
-use crate::model::symbolic::{Eom, Terms};
+use crate::model::symbolic::{Eom, Generated, Terms};
 use crate::model::Scalar;
 
 /// The equations of motion of `Chain` (4 coordinates, 0 constraints).
 pub struct Chain4Eom;
 
-impl Eom<4, 0> for Chain4Eom {
+impl Generated for Chain4Eom {
     const NAME: &'static str = "Chain";
     const NODES: usize = 219;
+    const INPUTS: usize = 0;
+}
 
+impl Eom<4, 0> for Chain4Eom {
     /// The slices' lengths are checked once, up front.
     fn eom<S: Scalar>(
         _t: f64,

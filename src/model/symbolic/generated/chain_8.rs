@@ -3,16 +3,19 @@
 //!
 //! 514 nodes (492 operations) in 133 `let`s.
 
-use crate::model::symbolic::{Eom, Terms};
+use crate::model::symbolic::{Eom, Generated, Terms};
 use crate::model::Scalar;
 
 /// The equations of motion of `Chain` (8 coordinates, 0 constraints).
 pub struct Chain8Eom;
 
-impl Eom<8, 0> for Chain8Eom {
+impl Generated for Chain8Eom {
     const NAME: &'static str = "Chain";
     const NODES: usize = 514;
+    const INPUTS: usize = 0;
+}
 
+impl Eom<8, 0> for Chain8Eom {
     /// The slices' lengths are checked once, up front.
     fn eom<S: Scalar>(
         _t: f64,

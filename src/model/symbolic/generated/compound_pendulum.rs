@@ -3,16 +3,19 @@
 //!
 //! 11 nodes (5 operations) in 1 `let`s.
 
-use crate::model::symbolic::{Eom, Terms};
+use crate::model::symbolic::{Eom, Generated, Terms};
 use crate::model::Scalar;
 
 /// The equations of motion of `CompoundPendulum` (1 coordinates, 0 constraints).
 pub struct CompoundPendulumEom;
 
-impl Eom<1, 0> for CompoundPendulumEom {
+impl Generated for CompoundPendulumEom {
     const NAME: &'static str = "CompoundPendulum";
     const NODES: usize = 11;
+    const INPUTS: usize = 1;
+}
 
+impl Eom<1, 0> for CompoundPendulumEom {
     /// The slices' lengths are checked once, up front.
     fn eom<S: Scalar>(
         _t: f64,

@@ -3,16 +3,19 @@
 //!
 //! 106 nodes (95 operations) in 26 `let`s.
 
-use crate::model::symbolic::{Eom, Terms};
+use crate::model::symbolic::{Eom, Generated, Terms};
 use crate::model::Scalar;
 
 /// The equations of motion of `DoublePendulum` (2 coordinates, 0 constraints).
 pub struct DoublePendulumEom;
 
-impl Eom<2, 0> for DoublePendulumEom {
+impl Generated for DoublePendulumEom {
     const NAME: &'static str = "DoublePendulum";
     const NODES: usize = 106;
+    const INPUTS: usize = 2;
+}
 
+impl Eom<2, 0> for DoublePendulumEom {
     /// The slices' lengths are checked once, up front.
     fn eom<S: Scalar>(
         _t: f64,

@@ -3,16 +3,19 @@
 //!
 //! 269 nodes (254 operations) in 68 `let`s.
 
-use crate::model::symbolic::{Eom, Terms};
+use crate::model::symbolic::{Eom, Generated, Terms};
 use crate::model::Scalar;
 
 /// The equations of motion of `SliderCrank` (1 coordinates, 0 constraints).
 pub struct SliderCrankEom;
 
-impl Eom<1, 0> for SliderCrankEom {
+impl Generated for SliderCrankEom {
     const NAME: &'static str = "SliderCrank";
     const NODES: usize = 269;
+    const INPUTS: usize = 2;
+}
 
+impl Eom<1, 0> for SliderCrankEom {
     /// The slices' lengths are checked once, up front.
     fn eom<S: Scalar>(
         _t: f64,

@@ -3,16 +3,19 @@
 //!
 //! 135 nodes (117 operations) in 26 `let`s.
 
-use crate::model::symbolic::{Eom, Terms};
+use crate::model::symbolic::{Eom, Generated, Terms};
 use crate::model::Scalar;
 
 /// The equations of motion of `SliderCrankSurplus` (3 coordinates, 2 constraints).
 pub struct SliderCrankSurplusEom;
 
-impl Eom<3, 2> for SliderCrankSurplusEom {
+impl Generated for SliderCrankSurplusEom {
     const NAME: &'static str = "SliderCrankSurplus";
     const NODES: usize = 135;
+    const INPUTS: usize = 2;
+}
 
+impl Eom<3, 2> for SliderCrankSurplusEom {
     /// The slices' lengths are checked once, up front.
     fn eom<S: Scalar>(
         _t: f64,

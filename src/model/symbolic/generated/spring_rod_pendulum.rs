@@ -3,16 +3,19 @@
 //!
 //! 203 nodes (190 operations) in 59 `let`s.
 
-use crate::model::symbolic::{Eom, Terms};
+use crate::model::symbolic::{Eom, Generated, Terms};
 use crate::model::Scalar;
 
 /// The equations of motion of `SpringRodPendulum` (3 coordinates, 0 constraints).
 pub struct SpringRodPendulumEom;
 
-impl Eom<3, 0> for SpringRodPendulumEom {
+impl Generated for SpringRodPendulumEom {
     const NAME: &'static str = "SpringRodPendulum";
     const NODES: usize = 203;
+    const INPUTS: usize = 0;
+}
 
+impl Eom<3, 0> for SpringRodPendulumEom {
     /// The slices' lengths are checked once, up front.
     fn eom<S: Scalar>(
         _t: f64,
