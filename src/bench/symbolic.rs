@@ -207,6 +207,7 @@ fn targets() -> Vec<(&'static str, Trace)> {
             "spring_rod_pendulum",
             equations::<systems::SpringRodPendulum>,
         ),
+        ("nonlinear_bicycle", equations::<systems::NonlinearBicycle>),
         ("chain_1", equations::<Chain<1>>),
         ("chain_2", equations::<Chain<2>>),
         ("chain_4", equations::<Chain<4>>),

@@ -162,6 +162,7 @@ impl NonlinearBicycle {
 
 impl Lagrangian for NonlinearBicycle {
     const NAME: &'static str = "NonlinearBicycle";
+    crate::generated_eom!(crate::model::symbolic::generated::NonlinearBicycleEom);
     const DESCRIPTION: &'static str =
         "The nonlinear Whipple bicycle of the benchmark (Meijaard et al. 2007): four rigid bodies, knife-edge wheels rolling without slip, equations from its energies and constraints";
     const EQUATIONS: &'static [&'static str] = &[
