@@ -104,8 +104,13 @@ def test_linearize_a_users_crate(crate):
 def test_a_copied_system_agrees_with_the_in_tree_fmu(crate):
     """CompoundPendulum's file copied into the crate as a user would (renamed, its imports
     from mbfmu): the same trajectory as the in-tree FMU, to rounding (measured: bit for bit,
-    as it is the same code; also under RADAU5 and RATTLE)."""
+    as it is the same code; also under RADAU5 and RATTLE). The in-tree system runs its
+    generated equations (`generated_eom!`), which a user's crate does not have: the copy
+    drops that line and runs on automatic differentiation: two evaluation orders, whose
+    last-bit differences the swing from θ = 3 rad (near inverted) amplifies over 10 s to
+    1.0e-12 in θ̇ (measured); the bound leaves 100× for that."""
     source = (fs.REPO / "src" / "systems" / "compound_pendulum.rs").read_text()
+    source = "\n".join(line for line in source.splitlines() if "generated_eom!" not in line)
     source = source.replace("crate::", "mbfmu::").replace("CompoundPendulum", NAME)
     (crate / "src" / "lib.rs").write_text(source + f"\nmbfmu::export_fmu!({NAME});\n")
     mine = build(crate)
@@ -116,7 +121,7 @@ def test_a_copied_system_agrees_with_the_in_tree_fmu(crate):
     a = simulate(mine, start, 10.0, outputs)
     b = simulate(theirs, start, 10.0, outputs)
     for name in outputs:
-        assert np.max(np.abs(a[name] - b[name])) <= 1e-12, name
+        assert np.max(np.abs(a[name] - b[name])) <= 1e-10, name
 
 
 def test_help_version_and_errors():
