@@ -109,6 +109,7 @@ fn main() {
         "SliderCrank" => on::<SliderCrank>(path, what, count),
         "SliderCrankSurplus" => on::<SliderCrankSurplus>(path, what, count),
         "SpringRodPendulum" => on::<SpringRodPendulum>(path, what, count),
+        "NonlinearBicycle" => on::<NonlinearBicycle>(path, what, count),
         other => panic!("not a Lagrangian system with generated code: {other}"),
     }
 }
