@@ -10,7 +10,6 @@
 //! failure `*t` and `x` hold the last accepted (finite) step; `Stats` counts every evaluation of
 //! `f` (not of the Jacobian: wrap the closure to count those).
 
-use super::rk4::SLIVER;
 use super::workspace::sized;
 use super::{Failure, Stats};
 use std::fmt;
@@ -158,6 +157,11 @@ pub(crate) fn start(method: &str, t: f64, x: &[f64], t_end: f64) -> Result<bool,
     }
     Ok(true)
 }
+
+/// A final remainder shorter than this fraction of a step is merged into the previous step:
+/// a sliver step (often pure rounding of `t_end - t`) would cost a whole step's RHS
+/// evaluations and change nothing but the step count.
+pub const SLIVER: f64 = 1e-10;
 
 /// Number of steps covering `span` with steps of `step`, as RK4 counts them: the last one
 /// shortened, or lengthened by at most a [`SLIVER`] of a step; one step if `step` is not

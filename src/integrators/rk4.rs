@@ -7,11 +7,6 @@ use super::problem::step_count;
 use super::workspace::{sized, Workspace};
 use super::{Failure, Stats};
 
-/// A final remainder shorter than this fraction of a step is merged into the previous step:
-/// a sliver step (often pure rounding of `t_end - t`) would cost four RHS evaluations and
-/// change nothing but the step count.
-pub const SLIVER: f64 = 1e-10;
-
 /// Advance with RK4 from `*t` to `t_end` (> `*t`, `x` finite; see [`super::advance`]).
 ///
 /// Step `i` runs from `t0 + i·step` to `t0 + (i+1)·step` (the last one to `t_end`): times
