@@ -9,7 +9,8 @@
 //!   symbolic prototype, `src/model/symbolic/generated/`, with their sizes.
 //! - `mbfmu linearize MODEL [--scene S] [--set p=v]... [--at x=v]... [--trim|--trim-inputs]
 //!   [--independent | --keep NAME,...] [--format json|py|csv] [--out FILE]`: exact A, B, C, D at an
-//!   operating point, in all the states or (constrained systems) the independent ones.
+//!   operating point, in all the states or (constrained systems) the independent ones;
+//!   `--at time=T` at time T (time-varying systems; default 0, the start time).
 //! - `mbfmu bench [--quick] [--out DIR]`: work–precision of every method on every scene
 //!   (`results.csv`, default DIR docs/bench); see `benches/` for the peers and the charts.
 
@@ -22,7 +23,7 @@ const USAGE: &str = "usage:
   mbfmu build (--all | MODEL...) [--out DIR]
   mbfmu xml [--check]
   mbfmu symbolic [--check]
-  mbfmu linearize MODEL [--scene S] [--set PARAM=VALUE]... [--at STATE_OR_INPUT=VALUE]...
+  mbfmu linearize MODEL [--scene S] [--set PARAM=VALUE]... [--at STATE_OR_INPUT=VALUE]... [--at time=T]
                   [--trim | --trim-inputs] [--independent | --keep STATE,...]
                   [--format json|py|csv] [--out FILE]
   mbfmu speed [--system MODEL]... [--reps N] [--out DIR] [--chain | --symbolic]

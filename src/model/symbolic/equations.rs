@@ -108,8 +108,9 @@ pub enum TraceError {
         system: &'static str,
         what: Vec<&'static str>,
     },
-    /// `forces` gave different graphs for different t: time is an `f64` in the trait, so
-    /// its value would be baked in.
+    /// t enters the forces, T, V or the constraints (or the system says it is
+    /// `RHEONOMIC`): the generated code has no time argument, so its value would be baked
+    /// in. Such a system stays on automatic differentiation.
     TimeDependent { system: &'static str },
 }
 
@@ -123,7 +124,7 @@ impl fmt::Display for TraceError {
             ),
             TraceError::TimeDependent { system } => write!(
                 f,
-                "{system}: the generalised forces depend on t, which the Lagrangian trait passes as f64; no code generated"
+                "{system}: time enters its forces, energies or constraints (rheonomic), and the generated code has no time argument; no code generated (automatic differentiation is used)"
             ),
         }
     }
@@ -154,9 +155,22 @@ pub fn equations<L: Lagrangian>() -> Result<Equations, TraceError> {
             ids(&f)
         };
         let forces = forces_at(0.0);
-        let time_independent = [1.0, f64::NAN].iter().all(|&t| forces_at(t) == forces);
+        // T, V and the constraints take t as a scalar: traced at two constant times, a
+        // graph that changes means t is in them.
+        let energies_at = |t: f64| {
+            let t = Expr::constant(t);
+            let mut phi = vec![Expr::constant(0.0); holonomic];
+            L::constraints(t, &q, &p, &mut phi);
+            let mut aqd = vec![Expr::constant(0.0); k - holonomic];
+            L::velocity_constraints(t, &q, &qd, &p, &mut aqd);
+            let mut all = vec![L::kinetic(t, &q, &qd, &p), L::potential(t, &q, &p)];
+            all.extend(phi);
+            all.extend(aqd);
+            ids(&all)
+        };
+        let t0 = Expr::constant(0.0);
 
-        let lagrangian = L::kinetic(&q, &qd, &p) - L::potential(&q, &p);
+        let lagrangian = L::kinetic(t0, &q, &qd, &p) - L::potential(t0, &q, &p);
         let leaves: Vec<Expr> = q.iter().chain(&qd).copied().collect();
         let dl = gradient(lagrangian, &leaves);
         let (dl_dq, momenta) = dl.split_at(n);
@@ -184,13 +198,18 @@ pub fn equations<L: Lagrangian>() -> Result<Equations, TraceError> {
             .collect();
 
         let mut phi = vec![Expr::constant(0.0); holonomic];
-        L::constraints(&q, &p, &mut phi);
+        L::constraints(t0, &q, &p, &mut phi);
         let mut g: Vec<Vec<Id>> = phi.iter().map(|&c| ids(&gradient(c, &q))).collect();
         let mut gamma = ids(&forward(&forward(&phi, along_qd), along_qd));
         let mut aqd = vec![Expr::constant(0.0); k - holonomic];
-        L::velocity_constraints(&q, &qd, &p, &mut aqd);
+        L::velocity_constraints(t0, &q, &qd, &p, &mut aqd);
         g.extend(aqd.iter().map(|&c| ids(&gradient(c, &qd))));
         gamma.extend(ids(&forward(&aqd, along_qd)));
+        // Last, so that the nodes of the equations keep the ids (and the emitted order)
+        // they have without these checks.
+        let time_independent = !L::RHEONOMIC
+            && [1.0, f64::NAN].iter().all(|&t| forces_at(t) == forces)
+            && energies_at(0.0) == energies_at(1.0);
         (time_independent, m, rhs, g, gamma)
     });
     let (time_independent, m, rhs, g, gamma) = result;
