@@ -62,9 +62,9 @@ pub trait Lagrangian: 'static {
     fn outputs() -> Vec<Var>;
 
     /// Whether time enters T, V or the constraints (rheonomic: a prescribed motion). Then
-    /// RATTLE, whose mechanics are time-free, refuses the system, and the symbolic tracer
-    /// leaves it on automatic differentiation. The time derivatives themselves need no
-    /// declaration: `t` is a scalar like q, and the dual numbers differentiate through it.
+    /// RATTLE, whose mechanics are time-free, refuses the system, and the projection runs
+    /// on automatic differentiation (the generated one has no ∂Φ/∂t). The time derivatives
+    /// themselves need no declaration: `t` is a scalar (dual numbers) or a leaf (tracer).
     const RHEONOMIC: bool = false;
 
     /// Kinetic energy `T(t, q, q̇, p)`. `t` is a scalar (not `f64`) so that the dual

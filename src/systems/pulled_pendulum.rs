@@ -27,6 +27,7 @@ fn length<S: Scalar>(t: S, p: &[S]) -> S {
 
 impl Lagrangian for PulledPendulum {
     const NAME: &'static str = "PulledPendulum";
+    crate::generated_eom!(crate::model::symbolic::generated::PulledPendulumEom);
     const DESCRIPTION: &'static str =
         "A pendulum whose string length is prescribed, l(t) = l0 + l_rate t (rheonomic)";
     const EQUATIONS: &'static [&'static str] = &[

@@ -6,6 +6,12 @@
 //! equation is derived by hand: `T = ½ m R² (θ̇² + sin²θ φ̇²)`, `V = −m g R cos θ` (z down).
 //! The energy E is not conserved (the drive does work, `dE/dt = torque · Ω`); the Jacobi
 //! integral `h = E − φ̇ ∂T/∂φ̇` is.
+//!
+//! No generated equations (`generated_eom!`): M = diag(m R², m R² sin²θ) is singular at
+//! the bottom θ = 0 (the bead on the axis gives the hoop no inertia), where only the
+//! constraint makes `[M Gᵀ; G 0]` regular. The generated solve goes through M⁻¹ (Schur
+//! complement), so it fails there and loses digits near it (9e-13 measured); the
+//! automatic-differentiation path solves the augmented system and is exact.
 
 use crate::model::lagrangian::{self, Lagrangian};
 use crate::model::{Scalar, Scene, Var};
