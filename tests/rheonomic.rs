@@ -31,13 +31,13 @@ fn outputs<M: System>(t: f64, x: &[f64], p: &[f64]) -> Vec<f64> {
 /// more state: ∫ `power(t, x, y)` dt. Calls `each(t, x, work)` after every step.
 fn run<M: System>(
     p: &[f64],
-    x: &mut Vec<f64>,
+    x: &mut [f64],
     (t0, t_end): (f64, f64),
     power: impl Fn(f64, &[f64], &[f64]) -> f64,
     mut each: impl FnMut(f64, &[f64], f64),
 ) {
     let n = x.len();
-    let mut xa = x.clone();
+    let mut xa = x.to_vec();
     xa.push(0.0);
     let settings = Settings {
         method: Method::Dopri5,
@@ -55,7 +55,15 @@ fn run<M: System>(
     let steps = ((t_end - t0) / h).round() as usize;
     let mut t = t0;
     for i in 1..=steps {
-        advance(&mut rhs, &mut t, &mut xa, t0 + i as f64 * h, &settings, &mut memory).unwrap();
+        advance(
+            &mut rhs,
+            &mut t,
+            &mut xa,
+            t0 + i as f64 * h,
+            &settings,
+            &mut memory,
+        )
+        .unwrap();
         M::project(t, p, &mut xa[..n]);
         each(t, &xa[..n], xa[n]);
     }
@@ -92,7 +100,8 @@ fn bead_matches_the_hand_derived_equation_and_torque() {
         assert!(dx[3].abs() < 1e-12 * scale, "φ̈ = {}", dx[3]);
         let y = outputs::<RotatingHoopBead>(t, &x, &p);
         let torque = 2.0 * m * r * r * w * th.sin() * th.cos() * thd;
-        let h = 0.5 * m * r * r * thd * thd - 0.5 * m * r * r * w * w * th.sin().powi(2)
+        let h = 0.5 * m * r * r * thd * thd
+            - 0.5 * m * r * r * w * w * th.sin().powi(2)
             - m * g * r * th.cos();
         let e = 0.5 * m * r * r * (thd * thd + w * w * th.sin().powi(2)) - m * g * r * th.cos();
         let es = m * r * r * scale;
@@ -161,7 +170,9 @@ fn bead_keeps_its_jacobi_integral_while_the_drive_does_work() {
                 h_drift = h_drift.max(((y[1] - y0[1]) / y0[1]).abs());
                 e_range = e_range.max((y[0] - y0[0]).abs());
                 balance = balance.max((y[0] - y0[0] - work).abs());
-                phi_err = phi_err.max((x[1] - omega * t).abs()).max((x[3] - omega).abs());
+                phi_err = phi_err
+                    .max((x[1] - omega * t).abs())
+                    .max((x[3] - omega).abs());
             },
         );
         println!(
@@ -169,7 +180,10 @@ fn bead_keeps_its_jacobi_integral_while_the_drive_does_work() {
         );
         assert!(h_drift < 1e-9, "{scene}: h drifts {h_drift:e}");
         assert!(e_range > 1e-2, "{scene}: E should change, by {e_range:e}");
-        assert!(balance < 1e-9 * e_range.max(1.0), "{scene}: power balance {balance:e}");
+        assert!(
+            balance < 1e-9 * e_range.max(1.0),
+            "{scene}: power balance {balance:e}"
+        );
         assert!(phi_err < 1e-12, "{scene}: φ off Ω t by {phi_err:e}");
     }
 }
@@ -207,7 +221,15 @@ fn pulled_pendulum_balances_the_work_of_the_pull_and_follows_the_reduced_equatio
         dz[1] = -(2.0 * rate * z[1] + g * z[0].sin()) / l;
     };
     let mut t = 0.0;
-    advance(&mut rhs, &mut t, &mut z, 10.0, &settings, &mut Memory::default()).unwrap();
+    advance(
+        &mut rhs,
+        &mut t,
+        &mut z,
+        10.0,
+        &settings,
+        &mut Memory::default(),
+    )
+    .unwrap();
     let theta_err = (x[0] - z[0]).abs().max((x[2] - z[1]).abs());
     println!(
         "METRIC pulled pendulum over 10 s: |ΔE + ∫tension·l̇ dt| {balance:.1e} J (E varies by {e_range:.3e} J), theta vs the reduced equation {theta_err:.1e}"
@@ -245,8 +267,12 @@ fn eigenvalues(a: [f64; 4]) -> (f64, f64) {
 fn bead_equilibria_and_their_linearisation() {
     let (r, g) = (0.5, 9.81);
     // Below the critical rate the bottom is a centre: ±i√(g/R − Ω²).
-    let (names, x, t, a) =
-        linearize_bead(&[("Omega", 3.0), ("theta", 0.0), ("theta_dot", 0.0), ("time", 0.7)]);
+    let (names, x, t, a) = linearize_bead(&[
+        ("Omega", 3.0),
+        ("theta", 0.0),
+        ("theta_dot", 0.0),
+        ("time", 0.7),
+    ]);
     assert_eq!(names, ["theta", "theta_dot"]);
     assert_eq!(t, 0.7);
     assert!((x[1] - 3.0 * 0.7).abs() < 1e-14, "φ at t = 0.7: {}", x[1]);
@@ -272,9 +298,15 @@ fn bead_equilibria_and_their_linearisation() {
     let p = [0.1, r, 6.0, g];
     let mut x = bead_state(0.0, theta_star, 0.0, &p).to_vec();
     let mut worst = 0.0f64;
-    run::<RotatingHoopBead>(&p, &mut x, (0.0, 20.0), |_, _, _| 0.0, |_, x, _| {
-        worst = worst.max((x[0] - theta_star).abs());
-    });
+    run::<RotatingHoopBead>(
+        &p,
+        &mut x,
+        (0.0, 20.0),
+        |_, _, _| 0.0,
+        |_, x, _| {
+            worst = worst.max((x[0] - theta_star).abs());
+        },
+    );
     println!("METRIC rotating hoop bead at rest at θ*: |θ − θ*| ≤ {worst:.1e} over 20 s");
     assert!(worst < 1e-10, "left θ* by {worst:e}");
 }
@@ -286,7 +318,10 @@ fn consistent_initialisation_holds_at_the_start_time() {
     let mut x = vec![0.4, 0.0, 1.0, 0.0];
     consistent::solve::<RotatingHoopBead>(t0, &p, &mut x).unwrap();
     assert_eq!((x[0], x[2]), (0.4, 1.0));
-    assert!((x[1] - p[2] * t0).abs() < 1e-13 && (x[3] - p[2]).abs() < 1e-13, "{x:?}");
+    assert!(
+        (x[1] - p[2] * t0).abs() < 1e-13 && (x[3] - p[2]).abs() < 1e-13,
+        "{x:?}"
+    );
     let p = start::<PulledPendulum>(<PulledPendulum as System>::parameters());
     let mut x = vec![0.2, 7.0, 0.0, 3.0];
     consistent::solve::<PulledPendulum>(t0, &p, &mut x).unwrap();
@@ -329,7 +364,12 @@ fn generated_matches_ad<L: Lagrangian>(state: impl Fn(&mut Rng, f64, &[f64]) -> 
 #[test]
 fn generated_equations_match_automatic_differentiation() {
     let pulled = generated_matches_ad::<PulledPendulum>(|rng, t, p| {
-        vec![rng.uniform(-3.0, 3.0), p[1] + p[2] * t, rng.uniform(-5.0, 5.0), p[2]]
+        vec![
+            rng.uniform(-3.0, 3.0),
+            p[1] + p[2] * t,
+            rng.uniform(-5.0, 5.0),
+            p[2],
+        ]
     });
     // t in T and in b(t): the graph (the tracer's equations) at time t against AD.
     let eq = equations::<MovingFrame>().unwrap();
@@ -379,7 +419,10 @@ impl Lagrangian for MovingFrame {
         Vec::new()
     }
     fn coordinates() -> Vec<Var> {
-        vec![Var::new("q", None, 0.0, "test"), Var::new("y", None, 0.0, "test")]
+        vec![
+            Var::new("q", None, 0.0, "test"),
+            Var::new("y", None, 0.0, "test"),
+        ]
     }
     fn velocities() -> Vec<Var> {
         vec![
@@ -413,17 +456,27 @@ fn time_in_the_kinetic_energy_and_in_a_velocity_constraint() {
     let mut worst = 0.0f64;
     for _ in 0..100 {
         let t = rng.uniform(-5.0, 5.0);
-        let (q, qd) = ([rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0)], rng.uniform(-2.0, 2.0));
+        let (q, qd) = (
+            [rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0)],
+            rng.uniform(-2.0, 2.0),
+        );
         let x = [q[0], q[1], qd, t.sin()];
-        let (qdd, lambda) =
-            lagrangian::accelerations_and_multipliers::<MovingFrame, f64>(t, &x[..2], &x[2..], &[], &p);
+        let (qdd, lambda) = lagrangian::accelerations_and_multipliers::<MovingFrame, f64>(
+            t,
+            &x[..2],
+            &x[2..],
+            &[],
+            &p,
+        );
         let expected = -p[1] / p[0] * q[0] + p[2] * p[3] * p[3] * (p[3] * t).sin();
         worst = worst
             .max((qdd[0] - expected).abs())
             .max((qdd[1] - t.cos()).abs())
             .max((lambda[0] + p[0] * t.cos()).abs());
         let mut r = [0.0];
-        assert!(<MovingFrame as System>::state_constraints(t, &x, &p, &mut r));
+        assert!(<MovingFrame as System>::state_constraints(
+            t, &x, &p, &mut r
+        ));
         assert!(r[0].abs() < 1e-15);
     }
     println!("METRIC moving frame (t in T and in b(t)) vs hand-derived: {worst:.1e}");

@@ -71,7 +71,13 @@ fn curvature<L: Lagrangian>(q: &[f64], qd: &[f64], p: &[f64]) -> Vec<f64> {
     };
     let zero = vec![0.0; q.len().max(p.len())];
     let mut aqd = vec![Dual64::from(0.0); L::VELOCITY_CONSTRAINTS];
-    L::velocity_constraints(Dual64::from(0.0), &dual(q, qd), &dual(qd, &zero), &dual(p, &zero), &mut aqd);
+    L::velocity_constraints(
+        Dual64::from(0.0),
+        &dual(q, qd),
+        &dual(qd, &zero),
+        &dual(p, &zero),
+        &mut aqd,
+    );
     gamma.extend(aqd.iter().map(|v| v.eps));
     gamma
 }

@@ -1016,8 +1016,7 @@ fn advance_locating_events<M: System>(
         let (t0, x0, m0) = (*t, copied(x0, x), memory.clone());
         // A failure (not a step limit) may be the singularity the event guards against (a
         // string pulled to zero length): look for a crossing before it, failing as past it.
-        let failed = match integrators::advance_in(problem, t, x, t_end, settings, memory, work)
-        {
+        let failed = match integrators::advance_in(problem, t, x, t_end, settings, memory, work) {
             Ok(()) if !crossed(g0, indicator(*t, x)) => return Ok(()),
             Ok(()) => None,
             Err(e) => {

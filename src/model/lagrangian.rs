@@ -107,8 +107,7 @@ pub trait Lagrangian: 'static {
 
     /// `A(t, q) q̇ + b(t, q)`, which must be affine in q̇ (length
     /// [`VELOCITY_CONSTRAINTS`](Lagrangian::VELOCITY_CONSTRAINTS)); b = 0 unless rheonomic.
-    fn velocity_constraints<S: Scalar>(_t: S, _q: &[S], _qd: &[S], _p: &[S], _out: &mut [S]) {
-    }
+    fn velocity_constraints<S: Scalar>(_t: S, _q: &[S], _qd: &[S], _p: &[S], _out: &mut [S]) {}
 
     /// DefaultExperiment: stop time, relative tolerance, communication step size.
     fn default_experiment() -> (f64, f64, f64) {
@@ -451,7 +450,10 @@ impl<L: Lagrangian> Mechanics for LagrangianMechanics<'_, L> {
     fn constraints(&mut self, q: &[f64], g: &mut [f64], jac: &mut [f64]) {
         let n = q.len();
         g.copy_from_slice(&constraint_values::<L, f64>(0.0, q, self.p));
-        for (i, row) in constraint_jacobian::<L, f64>(0.0, q, self.p).iter().enumerate() {
+        for (i, row) in constraint_jacobian::<L, f64>(0.0, q, self.p)
+            .iter()
+            .enumerate()
+        {
             jac[i * n..(i + 1) * n].copy_from_slice(row);
         }
     }
@@ -513,16 +515,16 @@ pub fn all_constraint_rows<L: Lagrangian, S: Scalar>(t: f64, q: &[S], p: &[S]) -
 
 /// The velocity-level residuals: `G q̇ + ∂Φ/∂t` (one dual evaluation of Φ at
 /// `(q + ε q̇, t + ε)`), then `A q̇ + b`. Zero on the constraint manifold.
-pub fn velocity_residuals<L: Lagrangian, S: Scalar>(
-    t: f64,
-    q: &[S],
-    qd: &[S],
-    p: &[S],
-) -> Vec<S> {
+pub fn velocity_residuals<L: Lagrangian, S: Scalar>(t: f64, q: &[S], qd: &[S], p: &[S]) -> Vec<S> {
     let (m, k) = (L::CONSTRAINTS, L::VELOCITY_CONSTRAINTS);
     let qdual: Vec<Dual<S>> = q.iter().zip(qd).map(|(&a, &b)| Dual::new(a, b)).collect();
     let mut phi = vec![Dual::from_re(S::from(0.0)); m];
-    L::constraints(Dual::new(S::from(t), S::from(1.0)), &qdual, &lift_dual(p), &mut phi);
+    L::constraints(
+        Dual::new(S::from(t), S::from(1.0)),
+        &qdual,
+        &lift_dual(p),
+        &mut phi,
+    );
     let mut r: Vec<S> = phi.into_iter().map(|v| v.eps).collect();
     let mut aqd = vec![S::from(0.0); k];
     L::velocity_constraints(S::from(t), q, qd, p, &mut aqd);

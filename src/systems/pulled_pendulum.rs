@@ -85,7 +85,12 @@ impl Lagrangian for PulledPendulum {
 
     fn outputs() -> Vec<Var> {
         vec![
-            Var::new("l", Some("m"), 1.0, "Length of the string now, l0 + l_rate t"),
+            Var::new(
+                "l",
+                Some("m"),
+                1.0,
+                "Length of the string now, l0 + l_rate t",
+            ),
             Var::new("E", Some("J"), 0.0, "Kinetic plus potential energy"),
             Var::new(
                 "tension",

@@ -83,14 +83,9 @@ impl Lagrangian for RotatingHoopBead {
     fn velocities() -> Vec<Var> {
         vec![
             Var::new("theta_dot", Some("rad/s"), 0.0, "Rate of theta").nominal(1.0),
-            Var::new(
-                "phi_dot",
-                Some("rad/s"),
-                6.0,
-                "Hoop's rate (dependent: Ω)",
-            )
-            .nominal(1.0)
-            .dependent(),
+            Var::new("phi_dot", Some("rad/s"), 6.0, "Hoop's rate (dependent: Ω)")
+                .nominal(1.0)
+                .dependent(),
         ]
     }
 
