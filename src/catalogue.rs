@@ -56,5 +56,7 @@ pub fn all() -> Vec<Entry> {
         entry::<SliderCrank>("slider_crank"),
         entry::<SliderCrankSurplus>("slider_crank_surplus"),
         entry::<NonlinearBicycle>("nonlinear_bicycle"),
+        entry::<RotatingHoopBead>("rotating_hoop_bead"),
+        entry::<PulledPendulum>("pulled_pendulum"),
     ]
 }

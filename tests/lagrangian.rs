@@ -104,7 +104,7 @@ fn ad_equations_equal_the_hand_derived_ones() {
 fn mass_matrix_and_energy_helpers() {
     let (q, qd) = ([0.3, -1.1], [0.7, 2.0]);
     let p = [1.5, 0.5, 1.2, 0.8, 9.81];
-    let m = lagrangian::mass_matrix::<DoublePendulum, f64>(&q, &qd, &p);
+    let m = lagrangian::mass_matrix::<DoublePendulum, f64>(0.0, &q, &qd, &p);
     let c = (q[1] - q[0]).cos();
     let expected = [
         [(p[0] + p[1]) * p[2] * p[2], p[1] * p[2] * p[3] * c],
@@ -121,7 +121,7 @@ fn mass_matrix_and_energy_helpers() {
         .map(|(i, j)| 0.5 * qd[i] * expected[i][j] * qd[j])
         .sum();
     let v = -p[4] * ((p[0] + p[1]) * p[2] * q[0].cos() + p[1] * p[3] * q[1].cos());
-    let e = lagrangian::energy::<DoublePendulum, f64>(&q, &qd, &p);
+    let e = lagrangian::energy::<DoublePendulum, f64>(0.0, &q, &qd, &p);
     assert!((e - (t + v)).abs() < 1e-13, "{e} {}", t + v);
 }
 

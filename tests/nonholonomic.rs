@@ -47,12 +47,12 @@ impl Lagrangian for DiskLagrangian {
         Vec::new()
     }
     /// T = ½ m (ẋ² + ẏ²) + ½ I_t θ̇² + ½ I_s φ̇², I_s = ½ m a², I_t = ¼ m a².
-    fn kinetic<S: Scalar>(_q: &[S], qd: &[S], p: &[S]) -> S {
+    fn kinetic<S: Scalar>(_t: S, _q: &[S], qd: &[S], p: &[S]) -> S {
         let (m, a) = (p[0], p[1]);
         let (i_s, i_t) = (m * a * a * 0.5, m * a * a * 0.25);
         (m * (qd[0] * qd[0] + qd[1] * qd[1]) + i_t * qd[2] * qd[2] + i_s * qd[3] * qd[3]) * 0.5
     }
-    fn potential<S: Scalar>(_q: &[S], _p: &[S]) -> S {
+    fn potential<S: Scalar>(_t: S, _q: &[S], _p: &[S]) -> S {
         S::from(0.0)
     }
     fn forces<S: Scalar>(_t: f64, _q: &[S], _qd: &[S], u: &[S], _p: &[S], out: &mut [S]) {
@@ -61,7 +61,7 @@ impl Lagrangian for DiskLagrangian {
         out[2] = u[1];
         out[3] = u[0];
     }
-    fn velocity_constraints<S: Scalar>(q: &[S], qd: &[S], p: &[S], out: &mut [S]) {
+    fn velocity_constraints<S: Scalar>(_t: S, q: &[S], qd: &[S], p: &[S], out: &mut [S]) {
         let a = p[1];
         out[0] = qd[0] - a * qd[3] * q[2].cos();
         out[1] = qd[1] - a * qd[3] * q[2].sin();

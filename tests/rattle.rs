@@ -19,8 +19,8 @@ fn defaults<M: System>() -> Vec<f64> {
 
 /// |Φ(q)| and |G(q) q̇| of the slider-crank (max norms).
 fn residuals(x: &[f64], p: &[f64]) -> (f64, f64) {
-    let phi = lagrangian::constraint_values::<SliderCrankSurplus, f64>(&x[..3], p);
-    let g = lagrangian::constraint_jacobian::<SliderCrankSurplus, f64>(&x[..3], p);
+    let phi = lagrangian::constraint_values::<SliderCrankSurplus, f64>(0.0, &x[..3], p);
+    let g = lagrangian::constraint_jacobian::<SliderCrankSurplus, f64>(0.0, &x[..3], p);
     let gv = g
         .iter()
         .map(|row| {
@@ -36,7 +36,7 @@ fn residuals(x: &[f64], p: &[f64]) -> (f64, f64) {
 
 fn energy<M: lagrangian::Lagrangian>(x: &[f64], p: &[f64]) -> f64 {
     let n = x.len() / 2;
-    lagrangian::energy::<M, f64>(&x[..n], &x[n..], p)
+    lagrangian::energy::<M, f64>(0.0, &x[..n], &x[n..], p)
 }
 
 #[test]

@@ -144,7 +144,7 @@ fn drift(tol: f64, project: bool, t_end: f64) -> Vec<(f64, f64)> {
             SliderCrankSurplus::project(t, &p, &mut x);
         }
         if t >= next_report - 1e-9 {
-            let phi = lagrangian::constraint_values::<SliderCrankSurplus, f64>(&x[..3], &p);
+            let phi = lagrangian::constraint_values::<SliderCrankSurplus, f64>(0.0, &x[..3], &p);
             out.push((t, phi.iter().map(|v| v * v).sum::<f64>().sqrt()));
             next_report *= 2.0;
         }

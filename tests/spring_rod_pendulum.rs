@@ -112,7 +112,7 @@ fn mass_matrix_is_diagonal_in_centre_of_mass_coordinates() {
     for _ in 0..20 {
         let p = random_parameters(&mut rng);
         let x = random_state(&mut rng, &p);
-        let mm = lagrangian::mass_matrix::<SpringRodPendulum, f64>(&x[..3], &x[3..], &p);
+        let mm = lagrangian::mass_matrix::<SpringRodPendulum, f64>(0.0, &x[..3], &x[3..], &p);
         let (m, _, _, inertia, _) = geometry(&x, &p);
         let expected = [
             [m, 0.0, 0.0],

@@ -89,6 +89,8 @@ fn every_state_get_makes_restores_on_every_system() {
     every_state_restores::<systems::WhippleBicycle>();
     every_state_restores::<systems::SliderCrank>();
     every_state_restores::<systems::SliderCrankSurplus>();
+    every_state_restores::<systems::RotatingHoopBead>();
+    every_state_restores::<systems::PulledPendulum>();
 }
 
 /// MassSpringDamper under `solver` after 10 doSteps of 1e-2 s (DOPRI5: with its point ahead).

@@ -63,7 +63,7 @@ fn curvature<L: Lagrangian>(q: &[f64], qd: &[f64], p: &[f64]) -> Vec<f64> {
         .collect();
     let ph: Vec<HyperDual<f64>> = p.iter().map(|&v| HyperDual::from(v)).collect();
     let mut phi = vec![HyperDual::from(0.0); L::CONSTRAINTS];
-    L::constraints(&qh, &ph, &mut phi);
+    L::constraints(HyperDual::from(0.0), &qh, &ph, &mut phi);
     let mut gamma: Vec<f64> = phi.iter().map(|v| v.eps1eps2).collect();
     // Then Ȧ q̇ = (∂(A(q) v)/∂q) q̇ at v = q̇: one dual evaluation at q + ε q̇.
     let dual = |v: &[f64], d: &[f64]| -> Vec<Dual64> {
@@ -71,7 +71,13 @@ fn curvature<L: Lagrangian>(q: &[f64], qd: &[f64], p: &[f64]) -> Vec<f64> {
     };
     let zero = vec![0.0; q.len().max(p.len())];
     let mut aqd = vec![Dual64::from(0.0); L::VELOCITY_CONSTRAINTS];
-    L::velocity_constraints(&dual(q, qd), &dual(qd, &zero), &dual(p, &zero), &mut aqd);
+    L::velocity_constraints(
+        Dual64::from(0.0),
+        &dual(q, qd),
+        &dual(qd, &zero),
+        &dual(p, &zero),
+        &mut aqd,
+    );
     gamma.extend(aqd.iter().map(|v| v.eps));
     gamma
 }
@@ -83,9 +89,9 @@ fn graph_matches_ad<L: Lagrangian>() {
     for _ in 0..20 {
         let [q, qd, u, p] = point::<L>(&mut rng);
         let (m, rhs, g, gamma) = eq.eval(&q, &qd, &u, &p);
-        let m_ad = lagrangian::mass_matrix::<L, f64>(&q, &qd, &p);
+        let m_ad = lagrangian::mass_matrix::<L, f64>(0.0, &q, &qd, &p);
         let rhs_ad = lagrangian::generalized_rhs::<L, f64>(0.0, &q, &qd, &u, &p);
-        let g_ad = lagrangian::all_constraint_rows::<L, f64>(&q, &p);
+        let g_ad = lagrangian::all_constraint_rows::<L, f64>(0.0, &q, &p);
         let flat = |v: &[Vec<f64>]| v.concat();
         let err = [
             relative(&flat(&m), &flat(&m_ad)),
@@ -134,9 +140,9 @@ fn generated_matches_ad<L: Lagrangian, E: Eom<N, K>, const N: usize, const K: us
         let [q, qd, u, p] = point::<L>(&mut rng);
         let mut terms = Terms::<f64, N, K>::zero();
         E::eom(0.0, &q, &qd, &u, &p, &mut terms);
-        let m_ad = lagrangian::mass_matrix::<L, f64>(&q, &qd, &p).concat();
+        let m_ad = lagrangian::mass_matrix::<L, f64>(0.0, &q, &qd, &p).concat();
         let rhs_ad = lagrangian::generalized_rhs::<L, f64>(0.0, &q, &qd, &u, &p);
-        let g_ad = lagrangian::all_constraint_rows::<L, f64>(&q, &p).concat();
+        let g_ad = lagrangian::all_constraint_rows::<L, f64>(0.0, &q, &p).concat();
         let terms_err = (
             relative(terms.m.as_flattened(), &m_ad),
             relative(&terms.rhs, &rhs_ad),
@@ -267,7 +273,7 @@ macro_rules! pendulum_boilerplate {
         fn outputs() -> Vec<Var> {
             Vec::new()
         }
-        fn kinetic<S: Scalar>(_q: &[S], qd: &[S], _p: &[S]) -> S {
+        fn kinetic<S: Scalar>(_t: S, _q: &[S], qd: &[S], _p: &[S]) -> S {
             qd[0] * qd[0] * 0.5
         }
         fn extra_outputs<S: Scalar>(_: f64, _: &[S], _: &[S], _: &[S], _: &[S], _: &mut [S]) {}
@@ -280,7 +286,7 @@ macro_rules! pendulum_boilerplate {
 impl Lagrangian for Branching {
     const NAME: &'static str = "Branching";
     pendulum_boilerplate!();
-    fn potential<S: Scalar>(q: &[S], p: &[S]) -> S {
+    fn potential<S: Scalar>(_t: S, q: &[S], p: &[S]) -> S {
         if q[0] > S::from(0.0) {
             -(p[0] * q[0].cos())
         } else {
@@ -292,7 +298,7 @@ impl Lagrangian for Branching {
 impl Lagrangian for Driven {
     const NAME: &'static str = "Driven";
     pendulum_boilerplate!();
-    fn potential<S: Scalar>(q: &[S], p: &[S]) -> S {
+    fn potential<S: Scalar>(_t: S, q: &[S], p: &[S]) -> S {
         -(p[0] * q[0].cos())
     }
     fn forces<S: Scalar>(t: f64, _q: &[S], _qd: &[S], _u: &[S], _p: &[S], out: &mut [S]) {
@@ -434,7 +440,7 @@ impl Lagrangian for TwoDisks {
     }
     /// Per disk: centre velocity and body angular velocity `ω = vee(Rᵀ Ṙ)`, both by one
     /// `Dual<S>` evaluation along q̇; `T = ½ m v·v + ½ ωᵀ diag(I_t, I_s, I_t) ω`.
-    fn kinetic<S: Scalar>(q: &[S], qd: &[S], p: &[S]) -> S {
+    fn kinetic<S: Scalar>(_t: S, q: &[S], qd: &[S], p: &[S]) -> S {
         let (m, a) = (p[0], p[1]);
         let (i_s, i_t) = (m * a * a * 0.5, m * a * a * 0.25);
         let mut t = S::from(0.0);
@@ -453,7 +459,7 @@ impl Lagrangian for TwoDisks {
         }
         t
     }
-    fn potential<S: Scalar>(q: &[S], p: &[S]) -> S {
+    fn potential<S: Scalar>(_t: S, q: &[S], p: &[S]) -> S {
         let twist = q[2] - q[6];
         p[3] * twist * twist * 0.5
     }
@@ -462,11 +468,11 @@ impl Lagrangian for TwoDisks {
         out[3] = u[0];
         out[7] = u[1];
     }
-    fn constraints<S: Scalar>(q: &[S], p: &[S], phi: &mut [S]) {
+    fn constraints<S: Scalar>(_t: S, q: &[S], p: &[S], phi: &mut [S]) {
         let (dx, dy) = (q[0] - q[4], q[1] - q[5]);
         phi[0] = (dx * dx + dy * dy).sqrt() - p[2];
     }
-    fn velocity_constraints<S: Scalar>(q: &[S], qd: &[S], p: &[S], out: &mut [S]) {
+    fn velocity_constraints<S: Scalar>(_t: S, q: &[S], qd: &[S], p: &[S], out: &mut [S]) {
         for (k, d) in [0, 4].into_iter().enumerate() {
             let (s, c) = q[d + 2].sin_cos();
             out[2 * k] = qd[d] - p[1] * qd[d + 3] * c;

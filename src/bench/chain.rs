@@ -51,7 +51,7 @@ impl<const N: usize> Lagrangian for Chain<N> {
         Vec::new()
     }
 
-    fn kinetic<S: Scalar>(q: &[S], qd: &[S], p: &[S]) -> S {
+    fn kinetic<S: Scalar>(_t: S, q: &[S], qd: &[S], p: &[S]) -> S {
         let (m, l) = (p[0], p[1]);
         let (mut vx, mut vz, mut t) = (S::from(0.0), S::from(0.0), S::from(0.0));
         for (th, thd) in q.iter().zip(qd) {
@@ -63,7 +63,7 @@ impl<const N: usize> Lagrangian for Chain<N> {
         m * t * 0.5
     }
 
-    fn potential<S: Scalar>(q: &[S], p: &[S]) -> S {
+    fn potential<S: Scalar>(_t: S, q: &[S], p: &[S]) -> S {
         let (m, l, g) = (p[0], p[1], p[2]);
         let (mut z, mut v) = (S::from(0.0), S::from(0.0));
         for th in q {

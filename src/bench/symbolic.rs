@@ -208,6 +208,7 @@ fn targets() -> Vec<(&'static str, Trace)> {
             equations::<systems::SpringRodPendulum>,
         ),
         ("nonlinear_bicycle", equations::<systems::NonlinearBicycle>),
+        ("pulled_pendulum", equations::<systems::PulledPendulum>),
         ("chain_1", equations::<Chain<1>>),
         ("chain_2", equations::<Chain<2>>),
         ("chain_4", equations::<Chain<4>>),

@@ -101,7 +101,7 @@ struct LinearizeArgs {
     /// A parameter value
     #[arg(long, value_name = "PARAM=VALUE", value_parser = parse_assignment)]
     set: Vec<(String, f64)>,
-    /// A state or input value
+    /// A state or input value; `time=T` linearises at time T (default 0)
     #[arg(long, value_name = "STATE_OR_INPUT=VALUE", value_parser = parse_assignment)]
     at: Vec<(String, f64)>,
     /// First solve for the states with zero derivatives (Newton)

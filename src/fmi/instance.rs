@@ -964,7 +964,7 @@ fn check_method<M: System>(method: Method, u: &[f64], p: &[f64], lti: bool) -> R
     }
     if method.needs_mechanics() && M::mechanics(u, p).is_none() {
         return Err(format!(
-            "solver {name} needs a system written as a Lagrangian with holonomic constraints only; {} is not",
+            "solver {name} needs a system written as a Lagrangian with time-independent holonomic constraints only; {} is not",
             M::NAME
         ));
     }
@@ -1014,10 +1014,19 @@ fn advance_locating_events<M: System>(
         }
         // (No point ahead is kept here: the memory's clone is its counters and step.)
         let (t0, x0, m0) = (*t, copied(x0, x), memory.clone());
-        integrators::advance_in(problem, t, x, t_end, settings, memory, work)?;
-        if !crossed(g0, indicator(*t, x)) {
-            return Ok(());
-        }
+        // A failure (not a step limit) may be the singularity the event guards against (a
+        // string pulled to zero length): look for a crossing before it, failing as past it.
+        let failed = match integrators::advance_in(problem, t, x, t_end, settings, memory, work) {
+            Ok(()) if !crossed(g0, indicator(*t, x)) => return Ok(()),
+            Ok(()) => None,
+            Err(e) => {
+                let stop = Stop::from(e);
+                if stop.step_limit {
+                    return Err(stop);
+                }
+                Some(stop)
+            }
+        };
         // Work already spent past the event; the bisection adds to it.
         let mut extra_evals = memory.stats.rhs_evals - m0.stats.rhs_evals;
         let mut rerun = |to: f64, extra: &mut u64| -> Result<(Vec<f64>, Memory), Stop> {
@@ -1028,21 +1037,30 @@ fn advance_locating_events<M: System>(
             result.map(|()| (xx, mm)).map_err(Stop::from)
         };
         // The event lies in (lo, hi]: bisect on re-integrations from (t0, x0).
-        let (mut lo, mut hi) = (t0, *t);
+        let (mut lo, mut hi) = (t0, if failed.is_some() { t_end } else { *t });
         for _ in 0..MAX_BISECTIONS {
             let mid = 0.5 * (lo + hi);
             if mid <= lo || mid >= hi {
                 break;
             }
-            let (xm, _) = rerun(mid, &mut extra_evals)?;
-            if crossed(g0, indicator(mid, &xm)) {
+            let past = match rerun(mid, &mut extra_evals) {
+                Ok((xm, _)) => crossed(g0, indicator(mid, &xm)),
+                Err(stop) if failed.is_some() && !stop.step_limit => true,
+                Err(stop) => return Err(stop),
+            };
+            if past {
                 hi = mid;
             } else {
                 lo = mid;
             }
         }
         let mut counted = 0;
-        let (mut xx, mut mm) = rerun(hi, &mut counted)?;
+        let (mut xx, mut mm) = match (rerun(hi, &mut counted), failed) {
+            (Ok((xx, mm)), _) if crossed(g0, indicator(hi, &xx)) => (xx, mm),
+            // No crossing before the failure: report the failure as it was.
+            (_, Some(stop)) => return Err(stop),
+            (result, None) => result?,
+        };
         mm.stats.rhs_evals += extra_evals;
         *memory = mm;
         let applied = M::on_event(hi, &mut xx, p);

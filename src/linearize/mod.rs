@@ -27,7 +27,8 @@ pub struct OperatingPoint {
 
 impl OperatingPoint {
     /// The start values of the model, then the given `name = value` overrides (any
-    /// parameter, state or input).
+    /// parameter, state or input, or `time`: a time-varying system linearised at that t,
+    /// its dependent states solved there; default 0, the start time).
     pub fn from_start_values<M: System>(overrides: &[(String, f64)]) -> Result<Self, String> {
         let layout = Layout::of::<M>();
         let mut op = OperatingPoint {
@@ -37,6 +38,13 @@ impl OperatingPoint {
             p: M::parameters().iter().map(|v| v.start).collect(),
         };
         for (name, value) in overrides {
+            if name == "time" {
+                if !value.is_finite() {
+                    return Err(format!("time = {value}: not a finite time"));
+                }
+                op.t = *value;
+                continue;
+            }
             let vr = layout
                 .vr_of(name)
                 .ok_or_else(|| format!("{} has no variable named {name}", M::NAME))?;

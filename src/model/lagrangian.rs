@@ -66,11 +66,18 @@ pub trait Lagrangian: 'static {
     /// Extra outputs (energy, constraint forces, …), beyond the states.
     fn outputs() -> Vec<Var>;
 
-    /// Kinetic energy `T(q, q̇, p)`.
-    fn kinetic<S: Scalar>(q: &[S], qd: &[S], p: &[S]) -> S;
+    /// Whether time enters T, V or the constraints (rheonomic: a prescribed motion). Then
+    /// RATTLE, whose mechanics are time-free, refuses the system, and the projection runs
+    /// on automatic differentiation (the generated one has no ∂Φ/∂t). The time derivatives
+    /// themselves need no declaration: `t` is a scalar (dual numbers) or a leaf (tracer).
+    const RHEONOMIC: bool = false;
 
-    /// Potential energy `V(q, p)`.
-    fn potential<S: Scalar>(q: &[S], p: &[S]) -> S;
+    /// Kinetic energy `T(t, q, q̇, p)`. `t` is a scalar (not `f64`) so that the dual
+    /// numbers carry ∂/∂t through it (rheonomic systems); most systems ignore it.
+    fn kinetic<S: Scalar>(t: S, q: &[S], qd: &[S], p: &[S]) -> S;
+
+    /// Potential energy `V(t, q, p)`.
+    fn potential<S: Scalar>(t: S, q: &[S], p: &[S]) -> S;
 
     /// Generalised forces `Q(t, q, q̇, u, p)` (non-conservative: inputs, damping).
     /// Default: none.
@@ -92,8 +99,10 @@ pub trait Lagrangian: 'static {
     /// `G q̇ = 0` after every step (see [`project`]).
     const CONSTRAINTS: usize = 0;
 
-    /// The constraint functions `Φ(q, p)` (length [`CONSTRAINTS`](Lagrangian::CONSTRAINTS)).
-    fn constraints<S: Scalar>(_q: &[S], _p: &[S], _phi: &mut [S]) {}
+    /// The constraint functions `Φ(t, q, p)` (length [`CONSTRAINTS`](Lagrangian::CONSTRAINTS)).
+    /// With t in them (rheonomic) the velocity level is `G q̇ + ∂Φ/∂t = 0` and γ gains
+    /// `2 (∂G/∂t) q̇ + ∂²Φ/∂t²`, both by the same dual numbers.
+    fn constraints<S: Scalar>(_t: S, _q: &[S], _p: &[S], _phi: &mut [S]) {}
 
     /// How many velocity constraints `A(q) q̇ = 0` (need not be integrable: rolling
     /// without slip) [`velocity_constraints`](Lagrangian::velocity_constraints) returns;
@@ -101,9 +110,9 @@ pub trait Lagrangian: 'static {
     /// force. Velocities are projected onto `A q̇ = 0` after every step.
     const VELOCITY_CONSTRAINTS: usize = 0;
 
-    /// `A(q) q̇`, which must be linear in q̇ (length
-    /// [`VELOCITY_CONSTRAINTS`](Lagrangian::VELOCITY_CONSTRAINTS)).
-    fn velocity_constraints<S: Scalar>(_q: &[S], _qd: &[S], _p: &[S], _out: &mut [S]) {}
+    /// `A(t, q) q̇ + b(t, q)`, which must be affine in q̇ (length
+    /// [`VELOCITY_CONSTRAINTS`](Lagrangian::VELOCITY_CONSTRAINTS)); b = 0 unless rheonomic.
+    fn velocity_constraints<S: Scalar>(_t: S, _q: &[S], _qd: &[S], _p: &[S], _out: &mut [S]) {}
 
     /// DefaultExperiment: stop time, relative tolerance, communication step size.
     fn default_experiment() -> (f64, f64, f64) {
@@ -189,6 +198,7 @@ impl<L: Lagrangian> Lagrangian for AutoDiff<L> {
     const EQUATIONS: &'static [&'static str] = L::EQUATIONS;
     const CONSTRAINTS: usize = L::CONSTRAINTS;
     const VELOCITY_CONSTRAINTS: usize = L::VELOCITY_CONSTRAINTS;
+    const RHEONOMIC: bool = L::RHEONOMIC;
     fn parameters() -> Vec<Var> {
         L::parameters()
     }
@@ -204,11 +214,11 @@ impl<L: Lagrangian> Lagrangian for AutoDiff<L> {
     fn outputs() -> Vec<Var> {
         <L as Lagrangian>::outputs()
     }
-    fn kinetic<S: Scalar>(q: &[S], qd: &[S], p: &[S]) -> S {
-        L::kinetic(q, qd, p)
+    fn kinetic<S: Scalar>(t: S, q: &[S], qd: &[S], p: &[S]) -> S {
+        L::kinetic(t, q, qd, p)
     }
-    fn potential<S: Scalar>(q: &[S], p: &[S]) -> S {
-        L::potential(q, p)
+    fn potential<S: Scalar>(t: S, q: &[S], p: &[S]) -> S {
+        L::potential(t, q, p)
     }
     fn forces<S: Scalar>(t: f64, q: &[S], qd: &[S], u: &[S], p: &[S], out: &mut [S]) {
         L::forces(t, q, qd, u, p, out)
@@ -220,11 +230,11 @@ impl<L: Lagrangian> Lagrangian for AutoDiff<L> {
     fn scenes() -> Vec<Scene> {
         <L as Lagrangian>::scenes()
     }
-    fn constraints<S: Scalar>(q: &[S], p: &[S], phi: &mut [S]) {
-        L::constraints(q, p, phi)
+    fn constraints<S: Scalar>(t: S, q: &[S], p: &[S], phi: &mut [S]) {
+        L::constraints(t, q, p, phi)
     }
-    fn velocity_constraints<S: Scalar>(q: &[S], qd: &[S], p: &[S], out: &mut [S]) {
-        L::velocity_constraints(q, qd, p, out)
+    fn velocity_constraints<S: Scalar>(t: S, q: &[S], qd: &[S], p: &[S], out: &mut [S]) {
+        L::velocity_constraints(t, q, qd, p, out)
     }
     fn default_experiment() -> (f64, f64, f64) {
         <L as Lagrangian>::default_experiment()
@@ -238,8 +248,8 @@ impl<L: Lagrangian> Lagrangian for AutoDiff<L> {
 }
 
 /// `L = T − V` at a point of any scalar type.
-fn lagrangian<L: Lagrangian, S: Scalar>(q: &[S], qd: &[S], p: &[S]) -> S {
-    L::kinetic(q, qd, p) - L::potential(q, p)
+fn lagrangian<L: Lagrangian, S: Scalar>(t: S, q: &[S], qd: &[S], p: &[S]) -> S {
+    L::kinetic(t, q, qd, p) - L::potential(t, q, p)
 }
 
 fn lift_hyper<S: Scalar>(v: &[S]) -> Vec<HyperDual<S>> {
@@ -253,16 +263,17 @@ fn lift_dual<S: Scalar>(v: &[S]) -> Vec<Dual<S>> {
 /// The mass matrix `M = ∂²T/∂q̇²` (n × n, symmetric), one hyper-dual evaluation of T
 /// per entry of the upper triangle. It may depend on q̇ for a general T; for the usual
 /// T quadratic in q̇ it does not.
-pub fn mass_matrix<L: Lagrangian, S: Scalar>(q: &[S], qd: &[S], p: &[S]) -> Vec<Vec<S>> {
+pub fn mass_matrix<L: Lagrangian, S: Scalar>(t: f64, q: &[S], qd: &[S], p: &[S]) -> Vec<Vec<S>> {
     let n = q.len();
     let (qh, ph) = (lift_hyper(q), lift_hyper(p));
+    let th = HyperDual::from_re(S::from(t));
     let mut m = vec![vec![S::from(0.0); n]; n];
     for i in 0..n {
         for j in i..n {
             let mut qdh = lift_hyper(qd);
             qdh[i].eps1 = S::from(1.0);
             qdh[j].eps2 = S::from(1.0);
-            let mij = L::kinetic(&qh, &qdh, &ph).eps1eps2;
+            let mij = L::kinetic(th, &qh, &qdh, &ph).eps1eps2;
             m[i][j] = mij;
             m[j][i] = mij;
         }
@@ -274,7 +285,8 @@ pub fn mass_matrix<L: Lagrangian, S: Scalar>(q: &[S], qd: &[S], p: &[S]) -> Vec<
 ///
 /// `∂L/∂qᵢ`: one dual evaluation with `qᵢ + ε`. The mixed term, contracted with q̇ so it
 /// costs n evaluations rather than n²: one hyper-dual evaluation with `q̇ᵢ + ε₁` and
-/// `q + ε₂ q̇` gives `Σⱼ ∂²L/∂q̇ᵢ∂qⱼ q̇ⱼ` in its ε₁ε₂ part.
+/// `q + ε₂ q̇`, `t + ε₂` gives `Σⱼ ∂²L/∂q̇ᵢ∂qⱼ q̇ⱼ + ∂²L/∂q̇ᵢ∂t` (the rest of
+/// `d/dt ∂L/∂q̇ᵢ`) in its ε₁ε₂ part.
 pub fn generalized_rhs<L: Lagrangian, S: Scalar>(
     t: f64,
     q: &[S],
@@ -287,11 +299,13 @@ pub fn generalized_rhs<L: Lagrangian, S: Scalar>(
     L::forces(t, q, qd, u, p, &mut rhs);
     let (qdd, pd) = (lift_dual(qd), lift_dual(p));
     let ph = lift_hyper(p);
+    let td = Dual::from_re(S::from(t));
+    let th = HyperDual::new(S::from(t), S::from(0.0), S::from(1.0), S::from(0.0));
     for i in 0..n {
         // ∂L/∂qᵢ
         let mut qdual = lift_dual(q);
         qdual[i].eps = S::from(1.0);
-        rhs[i] += lagrangian::<L, _>(&qdual, &qdd, &pd).eps;
+        rhs[i] += lagrangian::<L, _>(td, &qdual, &qdd, &pd).eps;
         // Σⱼ ∂²L/∂q̇ᵢ∂qⱼ q̇ⱼ
         let qh: Vec<HyperDual<S>> = q
             .iter()
@@ -300,7 +314,7 @@ pub fn generalized_rhs<L: Lagrangian, S: Scalar>(
             .collect();
         let mut qdh = lift_hyper(qd);
         qdh[i].eps1 = S::from(1.0);
-        rhs[i] -= lagrangian::<L, _>(&qh, &qdh, &ph).eps1eps2;
+        rhs[i] -= lagrangian::<L, _>(th, &qh, &qdh, &ph).eps1eps2;
     }
     rhs
 }
@@ -325,7 +339,12 @@ pub fn accelerations<L: Lagrangian, S: Scalar>(
 ///
 /// ```text
 /// [ M  Gᵀ ] [ q̈ ]   [ Q + ∂L/∂q − (∂²L/∂q̇∂q) q̇ ]
-/// [ G  0  ] [ λ  ] = [ −q̇ᵀ ∇²Φ q̇               ]
+/// [ G  0  ] [ λ  ] = [ −γ                         ]
+/// ```
+///
+/// with `γ = q̇ᵀ ∇²Φ q̇ + 2 (∂G/∂t) q̇ + ∂²Φ/∂t²` (and `Ȧ q̇ + ḃ` for velocity constraints)
+///
+/// ```text
 /// ```
 ///
 /// (the constraints differentiated twice: index 1). λ is empty without constraints.
@@ -337,21 +356,21 @@ pub fn accelerations_and_multipliers<L: Lagrangian, S: Scalar>(
     p: &[S],
 ) -> (Vec<S>, Vec<S>) {
     let n = q.len();
-    let mut m = mass_matrix::<L, S>(q, qd, p);
+    let mut m = mass_matrix::<L, S>(t, q, qd, p);
     let mut rhs = generalized_rhs::<L, S>(t, q, qd, u, p);
     if L::CONSTRAINTS + L::VELOCITY_CONSTRAINTS == 0 {
         solve(&mut m, &mut rhs);
         return (rhs, Vec::new());
     }
-    let g = all_constraint_rows::<L, S>(q, p);
+    let g = all_constraint_rows::<L, S>(t, q, p);
     let mut a = augmented(&m, &g);
     rhs.extend(
-        constraint_curvature::<L, S>(q, qd, p)
+        constraint_curvature::<L, S>(t, q, qd, p)
             .into_iter()
             .map(|c| -c),
     );
     rhs.extend(
-        velocity_constraint_drift::<L, S>(q, qd, p)
+        velocity_constraint_drift::<L, S>(t, q, qd, p)
             .into_iter()
             .map(|c| -c),
     );
@@ -375,19 +394,20 @@ pub fn generalized_force<L: Lagrangian>(
     for (i, fi) in f.iter_mut().enumerate() {
         let mut qdual = lift_dual(q);
         qdual[i].eps = 1.0;
-        *fi += lagrangian::<L, _>(&qdual, &qdd, &pd).eps;
+        *fi += lagrangian::<L, _>(Dual::from_re(t), &qdual, &qdd, &pd).eps;
     }
     f
 }
 
-/// `b(q) = ∂T/∂q̇` at `q̇ = 0`, so that `p = ∂L/∂q̇ = M q̇ + b` for T quadratic in q̇.
+/// `b(q) = ∂T/∂q̇` at `q̇ = 0`, so that `p = ∂L/∂q̇ = M q̇ + b` for T quadratic in q̇
+/// (at t = 0: RATTLE's mechanics are time-free, and rheonomic systems refuse RATTLE).
 pub fn momentum_offset<L: Lagrangian>(q: &[f64], p: &[f64]) -> Vec<f64> {
     let (qd, pd) = (lift_dual(q), lift_dual(p));
     (0..q.len())
         .map(|i| {
             let mut v = vec![Dual::from_re(0.0); q.len()];
             v[i].eps = 1.0;
-            L::kinetic(&qd, &v, &pd).eps
+            L::kinetic(Dual::from_re(0.0), &qd, &v, &pd).eps
         })
         .collect()
 }
@@ -417,7 +437,7 @@ impl<L: Lagrangian> Mechanics for LagrangianMechanics<'_, L> {
     fn mass_matrix(&mut self, q: &[f64], m: &mut [f64]) {
         let n = q.len();
         // T quadratic in q̇: M does not depend on q̇.
-        for (i, row) in mass_matrix::<L, f64>(q, &vec![0.0; n], self.p)
+        for (i, row) in mass_matrix::<L, f64>(0.0, q, &vec![0.0; n], self.p)
             .iter()
             .enumerate()
         {
@@ -435,30 +455,34 @@ impl<L: Lagrangian> Mechanics for LagrangianMechanics<'_, L> {
 
     fn constraints(&mut self, q: &[f64], g: &mut [f64], jac: &mut [f64]) {
         let n = q.len();
-        g.copy_from_slice(&constraint_values::<L, f64>(q, self.p));
-        for (i, row) in constraint_jacobian::<L, f64>(q, self.p).iter().enumerate() {
+        g.copy_from_slice(&constraint_values::<L, f64>(0.0, q, self.p));
+        for (i, row) in constraint_jacobian::<L, f64>(0.0, q, self.p)
+            .iter()
+            .enumerate()
+        {
             jac[i * n..(i + 1) * n].copy_from_slice(row);
         }
     }
 }
 
-/// The constraint values `Φ(q)`.
-pub fn constraint_values<L: Lagrangian, S: Scalar>(q: &[S], p: &[S]) -> Vec<S> {
+/// The constraint values `Φ(t, q)`.
+pub fn constraint_values<L: Lagrangian, S: Scalar>(t: f64, q: &[S], p: &[S]) -> Vec<S> {
     let mut phi = vec![S::from(0.0); L::CONSTRAINTS];
-    L::constraints(q, p, &mut phi);
+    L::constraints(S::from(t), q, p, &mut phi);
     phi
 }
 
 /// `G = ∂Φ/∂q` (m × n), one dual evaluation of Φ per column.
-pub fn constraint_jacobian<L: Lagrangian, S: Scalar>(q: &[S], p: &[S]) -> Vec<Vec<S>> {
+pub fn constraint_jacobian<L: Lagrangian, S: Scalar>(t: f64, q: &[S], p: &[S]) -> Vec<Vec<S>> {
     let (n, m) = (q.len(), L::CONSTRAINTS);
     let pd = lift_dual(p);
+    let td = Dual::from_re(S::from(t));
     let mut g = vec![vec![S::from(0.0); n]; m];
     for j in 0..n {
         let mut qd = lift_dual(q);
         qd[j].eps = S::from(1.0);
         let mut phi = vec![Dual::from_re(S::from(0.0)); m];
-        L::constraints(&qd, &pd, &mut phi);
+        L::constraints(td, &qd, &pd, &mut phi);
         for (row, v) in g.iter_mut().zip(&phi) {
             row[j] = v.eps;
         }
@@ -466,47 +490,81 @@ pub fn constraint_jacobian<L: Lagrangian, S: Scalar>(q: &[S], p: &[S]) -> Vec<Ve
     g
 }
 
-/// `A(q)` (k × n) of the velocity constraints: column j is `A(q) e_j` (A q̇ is linear).
-pub fn velocity_constraint_matrix<L: Lagrangian, S: Scalar>(q: &[S], p: &[S]) -> Vec<Vec<S>> {
+/// `A(t, q)` (k × n) of the velocity constraints: column j is `(A e_j + b) − b` (affine).
+pub fn velocity_constraint_matrix<L: Lagrangian, S: Scalar>(
+    t: f64,
+    q: &[S],
+    p: &[S],
+) -> Vec<Vec<S>> {
     let (n, k) = (q.len(), L::VELOCITY_CONSTRAINTS);
     let mut a = vec![vec![S::from(0.0); n]; k];
     let mut column = vec![S::from(0.0); k];
+    let mut offset = vec![S::from(0.0); k];
+    L::velocity_constraints(S::from(t), q, &vec![S::from(0.0); n], p, &mut offset);
     for j in 0..n {
         let mut e = vec![S::from(0.0); n];
         e[j] = S::from(1.0);
-        L::velocity_constraints(q, &e, p, &mut column);
-        for (row, v) in a.iter_mut().zip(&column) {
-            row[j] = *v;
+        L::velocity_constraints(S::from(t), q, &e, p, &mut column);
+        for ((row, v), b) in a.iter_mut().zip(&column).zip(&offset) {
+            row[j] = *v - *b;
         }
     }
     a
 }
 
 /// The rows of every constraint on the velocities: `G = ∂Φ/∂q` then `A(q)`.
-pub fn all_constraint_rows<L: Lagrangian, S: Scalar>(q: &[S], p: &[S]) -> Vec<Vec<S>> {
-    let mut rows = constraint_jacobian::<L, S>(q, p);
-    rows.extend(velocity_constraint_matrix::<L, S>(q, p));
+pub fn all_constraint_rows<L: Lagrangian, S: Scalar>(t: f64, q: &[S], p: &[S]) -> Vec<Vec<S>> {
+    let mut rows = constraint_jacobian::<L, S>(t, q, p);
+    rows.extend(velocity_constraint_matrix::<L, S>(t, q, p));
     rows
 }
 
-/// `Ȧ q̇ = (∂(A(q) v)/∂q) q̇` at `v = q̇`: one dual evaluation with `q + ε q̇`.
-fn velocity_constraint_drift<L: Lagrangian, S: Scalar>(q: &[S], qd: &[S], p: &[S]) -> Vec<S> {
+/// The velocity-level residuals: `G q̇ + ∂Φ/∂t` (one dual evaluation of Φ at
+/// `(q + ε q̇, t + ε)`), then `A q̇ + b`. Zero on the constraint manifold.
+pub fn velocity_residuals<L: Lagrangian, S: Scalar>(t: f64, q: &[S], qd: &[S], p: &[S]) -> Vec<S> {
+    let (m, k) = (L::CONSTRAINTS, L::VELOCITY_CONSTRAINTS);
     let qdual: Vec<Dual<S>> = q.iter().zip(qd).map(|(&a, &b)| Dual::new(a, b)).collect();
+    let mut phi = vec![Dual::from_re(S::from(0.0)); m];
+    L::constraints(
+        Dual::new(S::from(t), S::from(1.0)),
+        &qdual,
+        &lift_dual(p),
+        &mut phi,
+    );
+    let mut r: Vec<S> = phi.into_iter().map(|v| v.eps).collect();
+    let mut aqd = vec![S::from(0.0); k];
+    L::velocity_constraints(S::from(t), q, qd, p, &mut aqd);
+    r.extend(aqd);
+    r
+}
+
+/// `Ȧ q̇ + ḃ = d/dt (A v + b)` at `v = q̇`: one dual evaluation with `q + ε q̇`, `t + ε`.
+fn velocity_constraint_drift<L: Lagrangian, S: Scalar>(
+    t: f64,
+    q: &[S],
+    qd: &[S],
+    p: &[S],
+) -> Vec<S> {
+    let qdual: Vec<Dual<S>> = q.iter().zip(qd).map(|(&a, &b)| Dual::new(a, b)).collect();
+    let td = Dual::new(S::from(t), S::from(1.0));
     let mut out = vec![Dual::from_re(S::from(0.0)); L::VELOCITY_CONSTRAINTS];
-    L::velocity_constraints(&qdual, &lift_dual(qd), &lift_dual(p), &mut out);
+    L::velocity_constraints(td, &qdual, &lift_dual(qd), &lift_dual(p), &mut out);
     out.into_iter().map(|v| v.eps).collect()
 }
 
-/// `q̇ᵀ ∇²Φᵢ q̇` for each constraint (= Ġ q̇): one hyper-dual evaluation of Φ at
-/// `q + (ε₁ + ε₂) q̇`.
-fn constraint_curvature<L: Lagrangian, S: Scalar>(q: &[S], qd: &[S], p: &[S]) -> Vec<S> {
+/// `γ = q̇ᵀ ∇²Φᵢ q̇ + 2 (∂Gᵢ/∂t) q̇ + ∂²Φᵢ/∂t²` for each constraint (the second derivative
+/// of Φ along the motion, less G q̈): one hyper-dual evaluation of Φ at
+/// `(q + (ε₁ + ε₂) q̇, t + ε₁ + ε₂)`.
+fn constraint_curvature<L: Lagrangian, S: Scalar>(t: f64, q: &[S], qd: &[S], p: &[S]) -> Vec<S> {
     let qh: Vec<HyperDual<S>> = q
         .iter()
         .zip(qd)
         .map(|(&qj, &vj)| HyperDual::new(qj, vj, vj, S::from(0.0)))
         .collect();
+    let one = S::from(1.0);
+    let th = HyperDual::new(S::from(t), one, one, S::from(0.0));
     let mut phi = vec![HyperDual::from_re(S::from(0.0)); L::CONSTRAINTS];
-    L::constraints(&qh, &lift_hyper(p), &mut phi);
+    L::constraints(th, &qh, &lift_hyper(p), &mut phi);
     phi.into_iter().map(|v| v.eps1eps2).collect()
 }
 
@@ -530,16 +588,16 @@ fn augmented<S: Scalar>(m: &[Vec<S>], g: &[Vec<S>]) -> Vec<Vec<S>> {
 pub const PROJECTION_ITERATIONS: usize = 8;
 
 /// Coordinate projection (Hairer, Lubich, Wanner, *Geometric Numerical Integration*,
-/// IV.4; Eich 1993): moves `q` onto `Φ(q) = 0` by Newton steps of the smallest kinetic
-/// metric change, `[M Gᵀ; G 0] [Δq; μ] = [0; −Φ]`, then `q̇` onto `G q̇ = 0` and
-/// `A(q) q̇ = 0` the same way.
+/// IV.4; Eich 1993): moves `q` onto `Φ(t, q) = 0` by Newton steps of the smallest kinetic
+/// metric change, `[M Gᵀ; G 0] [Δq; μ] = [0; −Φ]`, then `q̇` onto `G q̇ + Φ_t = 0` and
+/// `A q̇ + b = 0` the same way, all at the state's time t.
 /// The M-metric makes the velocity correction the one that changes the kinetic energy
 /// least. Leaves the state alone if a solve fails (non-finite result).
-pub fn project_onto_constraints<L: Lagrangian>(x: &mut [f64], p: &[f64]) {
+pub fn project_onto_constraints<L: Lagrangian>(t: f64, x: &mut [f64], p: &[f64]) {
     let n = x.len() / 2;
     let (q, qd) = x.split_at_mut(n);
     let correct = |q: &[f64], qd: &[f64], rows: &[Vec<f64>], defect: Vec<f64>| {
-        let m = mass_matrix::<L, f64>(q, qd, p);
+        let m = mass_matrix::<L, f64>(t, q, qd, p);
         let mut a = augmented(&m, rows);
         let mut b = vec![0.0; n];
         b.extend(defect.into_iter().map(|d| -d));
@@ -551,30 +609,27 @@ pub fn project_onto_constraints<L: Lagrangian>(x: &mut [f64], p: &[f64]) {
         if L::CONSTRAINTS == 0 {
             break;
         }
-        let phi = constraint_values::<L, f64>(q, p);
+        let phi = constraint_values::<L, f64>(t, q, p);
         let scale = q.iter().fold(1.0f64, |s, v| s.max(v.abs()));
         if phi.iter().all(|v| v.abs() <= 4.0 * f64::EPSILON * scale) {
             break;
         }
-        let g = constraint_jacobian::<L, f64>(q, p);
+        let g = constraint_jacobian::<L, f64>(t, q, p);
         let Some(dq) = correct(q, qd, &g, phi) else {
             return;
         };
         q.iter_mut().zip(&dq).for_each(|(qi, d)| *qi += d);
     }
-    let rows = all_constraint_rows::<L, f64>(q, p);
-    let velocity_defect = rows
-        .iter()
-        .map(|row| row.iter().zip(qd.iter()).map(|(a, b)| a * b).sum())
-        .collect();
+    let rows = all_constraint_rows::<L, f64>(t, q, p);
+    let velocity_defect = velocity_residuals::<L, f64>(t, q, qd, p);
     if let Some(dv) = correct(q, qd, &rows, velocity_defect) {
         qd.iter_mut().zip(&dv).for_each(|(v, d)| *v += d);
     }
 }
 
-/// Mechanical energy `E = T + V`.
-pub fn energy<L: Lagrangian, S: Scalar>(q: &[S], qd: &[S], p: &[S]) -> S {
-    L::kinetic(q, qd, p) + L::potential(q, p)
+/// Mechanical energy `E = T + V` at time t.
+pub fn energy<L: Lagrangian, S: Scalar>(t: f64, q: &[S], qd: &[S], p: &[S]) -> S {
+    L::kinetic(S::from(t), q, qd, p) + L::potential(S::from(t), q, p)
 }
 
 /// Solves `a x = b` in place (`b` becomes x) by Gaussian elimination with partial
@@ -661,9 +716,9 @@ impl<L: Lagrangian> System for L {
         <L as Lagrangian>::default_experiment()
     }
 
-    /// RATTLE handles holonomic constraints only.
+    /// RATTLE handles holonomic, time-independent constraints only.
     fn mechanics<'a>(u: &'a [f64], p: &'a [f64]) -> Option<Box<dyn Mechanics + 'a>> {
-        (L::VELOCITY_CONSTRAINTS == 0)
+        (L::VELOCITY_CONSTRAINTS == 0 && !L::RHEONOMIC)
             .then(|| Box::new(LagrangianMechanics::<L>::new(u, p)) as Box<dyn Mechanics + 'a>)
     }
 
@@ -678,28 +733,24 @@ impl<L: Lagrangian> System for L {
         <L as Lagrangian>::on_event(t, q, qd, p)
     }
 
-    fn project(_t: f64, p: &[f64], x: &mut [f64]) {
-        if L::CONSTRAINTS + L::VELOCITY_CONSTRAINTS > 0 && !L::generated_projection(p, x) {
-            project_onto_constraints::<L>(x, p);
+    fn project(t: f64, p: &[f64], x: &mut [f64]) {
+        if L::CONSTRAINTS + L::VELOCITY_CONSTRAINTS > 0
+            && (L::RHEONOMIC || !L::generated_projection(p, x))
+        {
+            project_onto_constraints::<L>(t, x, p);
         }
     }
 
-    /// Φ(q), G q̇ and A(q) q̇: the coordinates and velocities a user sets must satisfy
-    /// all three; the dependent ones are declared on `coordinates` and `velocities`.
+    /// Φ(t, q), G q̇ + Φ_t and A q̇ + b at the time t (the start time at initialisation):
+    /// the coordinates and velocities a user sets must satisfy all three; the dependent
+    /// ones are declared on `coordinates` and `velocities`.
     const STATE_CONSTRAINTS: usize = 2 * L::CONSTRAINTS + L::VELOCITY_CONSTRAINTS;
 
-    fn state_constraints<S: Scalar>(_t: f64, x: &[S], p: &[S], residual: &mut [S]) -> bool {
+    fn state_constraints<S: Scalar>(t: f64, x: &[S], p: &[S], residual: &mut [S]) -> bool {
         let (q, qd) = x.split_at(x.len() / 2);
         let m = L::CONSTRAINTS;
-        L::constraints(q, p, &mut residual[..m]);
-        // G q̇ = d/dε Φ(q + ε q̇): one dual evaluation.
-        let qdual: Vec<Dual<S>> = q.iter().zip(qd).map(|(&a, &b)| Dual::new(a, b)).collect();
-        let mut phi = vec![Dual::from_re(S::from(0.0)); m];
-        L::constraints(&qdual, &lift_dual(p), &mut phi);
-        for (r, v) in residual[m..2 * m].iter_mut().zip(&phi) {
-            *r = v.eps;
-        }
-        L::velocity_constraints(q, qd, p, &mut residual[2 * m..]);
+        L::constraints(S::from(t), q, p, &mut residual[..m]);
+        residual[m..].copy_from_slice(&velocity_residuals::<L, S>(t, q, qd, p));
         true
     }
 }

@@ -82,11 +82,11 @@ impl Lagrangian for CompoundPendulum {
         )]
     }
 
-    fn kinetic<S: Scalar>(_q: &[S], qd: &[S], p: &[S]) -> S {
+    fn kinetic<S: Scalar>(_t: S, _q: &[S], qd: &[S], p: &[S]) -> S {
         p[I_O] * qd[0] * qd[0] * 0.5
     }
 
-    fn potential<S: Scalar>(q: &[S], p: &[S]) -> S {
+    fn potential<S: Scalar>(_t: S, q: &[S], p: &[S]) -> S {
         -(p[M] * p[G] * p[L] * q[0].cos())
     }
 
@@ -94,8 +94,8 @@ impl Lagrangian for CompoundPendulum {
         out[0] = u[0];
     }
 
-    fn extra_outputs<S: Scalar>(_t: f64, q: &[S], qd: &[S], _u: &[S], p: &[S], y: &mut [S]) {
-        y[0] = lagrangian::energy::<Self, S>(q, qd, p);
+    fn extra_outputs<S: Scalar>(t: f64, q: &[S], qd: &[S], _u: &[S], p: &[S], y: &mut [S]) {
+        y[0] = lagrangian::energy::<Self, S>(t, q, qd, p);
     }
 
     fn scenes() -> Vec<Scene> {

@@ -157,12 +157,12 @@ impl Lagrangian for DoublePendulum {
         ]
     }
 
-    fn kinetic<S: Scalar>(q: &[S], qd: &[S], p: &[S]) -> S {
+    fn kinetic<S: Scalar>(_t: S, q: &[S], qd: &[S], p: &[S]) -> S {
         let [x1d, z1d, x2d, z2d] = particle_velocities(q, qd, p);
         (p[M1] * (x1d * x1d + z1d * z1d) + p[M2] * (x2d * x2d + z2d * z2d)) * 0.5
     }
 
-    fn potential<S: Scalar>(q: &[S], p: &[S]) -> S {
+    fn potential<S: Scalar>(_t: S, q: &[S], p: &[S]) -> S {
         let z1 = p[R1] * q[0].cos();
         let z2 = z1 + p[L2] * q[1].cos();
         -(p[G] * (p[M1] * z1 + p[M2] * z2))
@@ -179,7 +179,7 @@ impl Lagrangian for DoublePendulum {
         let (f1, f2) = rod_tensions(q, qd, &qdd, p);
         y[0] = f1;
         y[1] = f2;
-        y[2] = lagrangian::energy::<Self, S>(q, qd, p);
+        y[2] = lagrangian::energy::<Self, S>(t, q, qd, p);
     }
 
     fn scenes() -> Vec<Scene> {

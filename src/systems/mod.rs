@@ -5,9 +5,11 @@ mod double_pendulum;
 mod mass_spring_damper;
 mod nonlinear_bicycle;
 mod projectile;
+mod pulled_pendulum;
 mod rigid_body;
 mod rolling_disk;
 mod rolling_hoop;
+mod rotating_hoop_bead;
 pub mod slider_crank;
 mod sphere_slide;
 mod spring_rod_pendulum;
@@ -20,9 +22,11 @@ pub use double_pendulum::DoublePendulum;
 pub use mass_spring_damper::MassSpringDamper;
 pub use nonlinear_bicycle::NonlinearBicycle;
 pub use projectile::Projectile;
+pub use pulled_pendulum::PulledPendulum;
 pub use rigid_body::RigidBody;
 pub use rolling_disk::RollingDisk;
 pub use rolling_hoop::RollingHoop;
+pub use rotating_hoop_bead::RotatingHoopBead;
 pub use slider_crank::{SliderCrank, SliderCrankSurplus};
 pub use sphere_slide::SphereSlide;
 pub use spring_rod_pendulum::SpringRodPendulum;
@@ -83,5 +87,7 @@ mod tests {
         writes_every_component::<SliderCrank>();
         writes_every_component::<SliderCrankSurplus>();
         writes_every_component::<NonlinearBicycle>();
+        writes_every_component::<RotatingHoopBead>();
+        writes_every_component::<PulledPendulum>();
     }
 }

@@ -340,7 +340,7 @@ impl Lagrangian for NonlinearBicycle {
         ]
     }
 
-    fn kinetic<S: Scalar>(q: &[S], qd: &[S], p: &[S]) -> S {
+    fn kinetic<S: Scalar>(_t: S, q: &[S], qd: &[S], p: &[S]) -> S {
         let moving = place(&along::<S, N>(q, qd), &constant::<S, P>(p));
         let [rear, frame, fork, front] = inertias(p);
         kinematics::kinetic_energy(&moving.rear, &rear)
@@ -349,7 +349,7 @@ impl Lagrangian for NonlinearBicycle {
             + kinematics::kinetic_energy(&moving.front, &front)
     }
 
-    fn potential<S: Scalar>(q: &[S], p: &[S]) -> S {
+    fn potential<S: Scalar>(_t: S, q: &[S], p: &[S]) -> S {
         let b = place(q, p);
         let [rear, frame, fork, front] = inertias(p);
         -p[G]
@@ -367,20 +367,20 @@ impl Lagrangian for NonlinearBicycle {
 
     const CONSTRAINTS: usize = 1;
 
-    fn constraints<S: Scalar>(q: &[S], p: &[S], phi: &mut [S]) {
+    fn constraints<S: Scalar>(_t: S, q: &[S], p: &[S], phi: &mut [S]) {
         phi[0] = place(q, p).front_contact[2];
     }
 
     const VELOCITY_CONSTRAINTS: usize = 4;
 
-    fn velocity_constraints<S: Scalar>(q: &[S], qd: &[S], p: &[S], out: &mut [S]) {
+    fn velocity_constraints<S: Scalar>(_t: S, q: &[S], qd: &[S], p: &[S], out: &mut [S]) {
         out.copy_from_slice(&slips(q, qd, p));
     }
 
-    fn extra_outputs<S: Scalar>(_t: f64, q: &[S], qd: &[S], _u: &[S], p: &[S], y: &mut [S]) {
+    fn extra_outputs<S: Scalar>(t: f64, q: &[S], qd: &[S], _u: &[S], p: &[S], y: &mut [S]) {
         let moving = place(&along::<S, N>(q, qd), &constant::<S, P>(p));
         y[0] = qd[X] * q[YAW].cos() + qd[Y] * q[YAW].sin();
-        y[1] = lagrangian::energy::<Self, S>(q, qd, p);
+        y[1] = lagrangian::energy::<Self, S>(t, q, qd, p);
         y[2] = moving.front_contact[2].re;
         y[3] = moving.front_contact[2].eps;
         y[4..8].copy_from_slice(&slips(q, qd, p));

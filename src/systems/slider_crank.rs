@@ -178,13 +178,13 @@ impl Lagrangian for SliderCrank {
         ]
     }
 
-    fn kinetic<S: Scalar>(q: &[S], qd: &[S], p: &[S]) -> S {
+    fn kinetic<S: Scalar>(_t: S, q: &[S], qd: &[S], p: &[S]) -> S {
         let (beta, x) = closure(q[0], p);
         let (bed, xd) = closure_rates(q[0], qd[0], p);
         energies([q[0], beta, x], [qd[0], bed, xd], p).0
     }
 
-    fn potential<S: Scalar>(q: &[S], p: &[S]) -> S {
+    fn potential<S: Scalar>(_t: S, q: &[S], p: &[S]) -> S {
         let (beta, x) = closure(q[0], p);
         let zero = S::from(0.0);
         energies([q[0], beta, x], [zero; 3], p).1
@@ -195,12 +195,12 @@ impl Lagrangian for SliderCrank {
         out[0] = u[0] + u[1] * dx_dtheta;
     }
 
-    fn extra_outputs<S: Scalar>(_t: f64, q: &[S], qd: &[S], _u: &[S], p: &[S], y: &mut [S]) {
+    fn extra_outputs<S: Scalar>(t: f64, q: &[S], qd: &[S], _u: &[S], p: &[S], y: &mut [S]) {
         let (beta, x) = closure(q[0], p);
         y[0] = beta;
         y[1] = x;
         y[2] = closure_rates(q[0], qd[0], p).1;
-        y[3] = lagrangian::energy::<Self, S>(q, qd, p);
+        y[3] = lagrangian::energy::<Self, S>(t, q, qd, p);
     }
 
     fn scenes() -> Vec<Scene> {
@@ -332,11 +332,11 @@ impl Lagrangian for SliderCrankSurplus {
         ]
     }
 
-    fn kinetic<S: Scalar>(q: &[S], qd: &[S], p: &[S]) -> S {
+    fn kinetic<S: Scalar>(_t: S, q: &[S], qd: &[S], p: &[S]) -> S {
         energies([q[0], q[1], q[2]], [qd[0], qd[1], qd[2]], p).0
     }
 
-    fn potential<S: Scalar>(q: &[S], p: &[S]) -> S {
+    fn potential<S: Scalar>(_t: S, q: &[S], p: &[S]) -> S {
         let zero = S::from(0.0);
         energies([q[0], q[1], q[2]], [zero; 3], p).1
     }
@@ -347,7 +347,7 @@ impl Lagrangian for SliderCrankSurplus {
         out[2] = u[1];
     }
 
-    fn constraints<S: Scalar>(q: &[S], p: &[S], phi: &mut [S]) {
+    fn constraints<S: Scalar>(_t: S, q: &[S], p: &[S], phi: &mut [S]) {
         let (th, be, x) = (q[0], q[1], q[2]);
         phi[0] = p[L1] * th.sin() - p[L2] * be.sin();
         phi[1] = p[L1] * th.cos() + p[L2] * be.cos() - x;
@@ -368,15 +368,15 @@ impl Lagrangian for SliderCrankSurplus {
         y[0] = n;
         y[1] = pf;
         y[2] = n + p[M3] * p[G];
-        Self::constraints(q, p, &mut y[3..5]);
+        Self::constraints(S::from(t), q, p, &mut y[3..5]);
         // G q̇ = d/dε Φ(q + ε q̇), one dual evaluation on the stack.
         let q_along: [Dual<S>; 3] = std::array::from_fn(|i| Dual::new(q[i], qd[i]));
         let pd: [Dual<S>; 6] = std::array::from_fn(|i| Dual::from_re(p[i]));
         let mut rate = [Dual::from_re(S::from(0.0)); 2];
-        Self::constraints(&q_along, &pd, &mut rate);
+        Self::constraints(Dual::from_re(S::from(t)), &q_along, &pd, &mut rate);
         y[5] = rate[0].eps;
         y[6] = rate[1].eps;
-        y[7] = lagrangian::energy::<Self, S>(q, qd, p);
+        y[7] = lagrangian::energy::<Self, S>(t, q, qd, p);
     }
 
     fn scenes() -> Vec<Scene> {

@@ -164,19 +164,19 @@ impl Lagrangian for SpringRodPendulum {
         )]
     }
 
-    fn kinetic<S: Scalar>(q: &[S], qd: &[S], p: &[S]) -> S {
+    fn kinetic<S: Scalar>(_t: S, q: &[S], qd: &[S], p: &[S]) -> S {
         let [x1d, z1d, x2d, z2d] = particle_velocities(q, qd, p);
         (p[M1] * (x1d * x1d + z1d * z1d) + p[M2] * (x2d * x2d + z2d * z2d)) * 0.5
     }
 
-    fn potential<S: Scalar>(q: &[S], p: &[S]) -> S {
+    fn potential<S: Scalar>(_t: S, q: &[S], p: &[S]) -> S {
         let [_, z1, _, z2] = particle_positions(q, p);
         let stretch = spring_length(q, p) - p[R10];
         p[C] * stretch * stretch * 0.5 - p[G] * (p[M1] * z1 + p[M2] * z2)
     }
 
-    fn extra_outputs<S: Scalar>(_t: f64, q: &[S], qd: &[S], _u: &[S], p: &[S], y: &mut [S]) {
-        y[0] = lagrangian::energy::<Self, S>(q, qd, p);
+    fn extra_outputs<S: Scalar>(t: f64, q: &[S], qd: &[S], _u: &[S], p: &[S], y: &mut [S]) {
+        y[0] = lagrangian::energy::<Self, S>(t, q, qd, p);
     }
 
     fn scenes() -> Vec<Scene> {

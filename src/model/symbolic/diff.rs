@@ -200,7 +200,7 @@ mod tests {
             (fx.id(), fy.id(), r[0].id(), r[1].id())
         });
         assert!(g.branches.is_empty(), "{:?}", g.branches);
-        let v = g.eval(&[fx, fy, rx, ry], [&[x0, y0], &[], &[], &[]]);
+        let v = g.eval(&[fx, fy, rx, ry], [&[x0, y0], &[], &[], &[], &[]]);
         let dx = f(Dual64::new(x0, 1.0), Dual64::from(y0)).eps;
         let dy = f(Dual64::from(x0), Dual64::new(y0, 1.0)).eps;
         for (got, want) in [(v[0], dx), (v[1], dy), (v[2], dx), (v[3], dy)] {

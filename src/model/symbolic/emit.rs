@@ -92,6 +92,7 @@ fn arg_name(arg: Arg) -> &'static str {
         Arg::Qd => "qd",
         Arg::U => "u",
         Arg::P => "p",
+        Arg::T => "t",
     }
 }
 
@@ -139,7 +140,7 @@ pub fn emit(eq: &Equations, type_name: &str, doc: &str, krate: &str) -> Emitted 
         }
     }
 
-    let mut used_args = [false; 4];
+    let mut used_args = [false; 5];
     let mut text: Vec<Option<Text>> = vec![None; graph.len()];
     let mut body = String::new();
     let (mut nodes, mut operations, mut lets) = (0, 0, 0);
@@ -250,7 +251,7 @@ pub fn emit(eq: &Equations, type_name: &str, doc: &str, krate: &str) -> Emitted 
         writeln!(body, "        out.gamma[{k}] = {};", root(r)).unwrap();
     }
 
-    let lens = [eq.n, eq.n, eq.inputs, eq.parameters];
+    let lens = [eq.n, eq.n, eq.inputs, eq.parameters, 1];
     let param = |arg: Arg| {
         let name = arg_name(arg);
         if used_args[arg as usize] {
@@ -259,12 +260,16 @@ pub fn emit(eq: &Equations, type_name: &str, doc: &str, krate: &str) -> Emitted 
             format!("_{name}")
         }
     };
-    let slices: Vec<String> = [Arg::Q, Arg::Qd, Arg::U, Arg::P]
+    let slices: Vec<String> = [Arg::Q, Arg::Qd, Arg::U, Arg::P, Arg::T]
         .into_iter()
         .filter(|&a| used_args[a as usize])
-        .map(|a| {
-            let name = arg_name(a);
-            format!("        let {name} = &{name}[..{}];\n", lens[a as usize])
+        .map(|a| match a {
+            // The time is an f64 argument; the code reads it as the leaf t[0].
+            Arg::T => "        let t = [S::from(t)];\n".to_string(),
+            _ => {
+                let name = arg_name(a);
+                format!("        let {name} = &{name}[..{}];\n", lens[a as usize])
+            }
         })
         .collect();
     let (n, k) = (eq.n, eq.k);
@@ -301,7 +306,7 @@ impl Generated for {type_name} {{
 impl Eom<{n}, {k}> for {type_name} {{
     /// The slices' lengths are checked once, up front.
     fn eom<S: Scalar>(
-        _t: f64,
+        {t}: f64,
         {q}: &[S],
         {qd}: &[S],
         {u}: &[S],
@@ -318,6 +323,7 @@ impl Eom<{n}, {k}> for {type_name} {{
         qd = param(Arg::Qd),
         u = param(Arg::U),
         p = param(Arg::P),
+        t = param(Arg::T),
         slices = slices.concat(),
     )
     .unwrap();

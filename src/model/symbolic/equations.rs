@@ -1,19 +1,20 @@
 //! The equations of motion of a [`Lagrangian`], assembled once on the graph.
 //!
 //! The system's own `kinetic`, `potential`, `forces` and `constraints` are called with
-//! `S = Expr` on symbolic leaves q, q̇, u, p, and the same equations
+//! `S = Expr` on symbolic leaves q, q̇, u, p and t, and the same equations
 //! [`lagrangian`](crate::model::lagrangian) forms numerically at every evaluation are
 //! formed here symbolically:
 //!
 //! ```text
 //! (∂L/∂q, ∂L/∂q̇)   one reverse sweep of L = T − V (∂L/∂q̇ = ∂T/∂q̇ = p, the momenta)
 //! M[·][j] = ∂p/∂q̇ⱼ  one forward sweep of p per column (upper triangle: M is symmetric)
-//! (∂²L/∂q̇∂q) q̇      one forward sweep of p with the tangent q̇ on q
+//! (∂²L/∂q̇∂q) q̇      one forward sweep of p with the tangent q̇ on q (and 1 on t:
+//!                   + ∂²L/∂q̇∂t, for T with t in it)
 //! rhs = Q + ∂L/∂q − (∂²L/∂q̇∂q) q̇
 //! G[k] = ∂Φₖ/∂q     one reverse sweep per constraint
-//! γ = q̇ᵀ ∇²Φ q̇      two forward sweeps of Φ along q̇
+//! γ = q̇ᵀ ∇²Φ q̇      two forward sweeps of Φ along (q̇, 1): + 2 Φ_qt q̇ + Φ_tt
 //! A[k] = ∂(A q̇)ₖ/∂q̇  one reverse sweep per velocity constraint (A q̇ is linear in q̇)
-//! Ȧ q̇               one forward sweep of A q̇ along q with the tangent q̇
+//! Ȧ q̇ + ḃ           one forward sweep of A q̇ + b along (q̇, 1)
 //! ```
 //!
 //! The velocity constraints' rows follow the holonomic ones in G and γ, as
@@ -86,7 +87,20 @@ impl Equations {
         u: &[f64],
         p: &[f64],
     ) -> (Vec<Vec<f64>>, Vec<f64>, Vec<Vec<f64>>, Vec<f64>) {
-        let v = |ids: &[Id]| self.graph.eval(ids, [q, qd, u, p]);
+        self.eval_at(0.0, q, qd, u, p)
+    }
+
+    /// [`Equations::eval`] at time t (rheonomic systems).
+    #[allow(clippy::type_complexity)]
+    pub fn eval_at(
+        &self,
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+        u: &[f64],
+        p: &[f64],
+    ) -> (Vec<Vec<f64>>, Vec<f64>, Vec<Vec<f64>>, Vec<f64>) {
+        let v = |ids: &[Id]| self.graph.eval(ids, [q, qd, u, p, &[t]]);
         let m = (0..self.n)
             .map(|i| {
                 (0..self.n)
@@ -108,8 +122,8 @@ pub enum TraceError {
         system: &'static str,
         what: Vec<&'static str>,
     },
-    /// `forces` gave different graphs for different t: time is an `f64` in the trait, so
-    /// its value would be baked in.
+    /// `forces` gave different graphs for different t: time is an `f64` there (not a
+    /// leaf, as in T, V and the constraints), so its value would be baked in.
     TimeDependent { system: &'static str },
 }
 
@@ -123,7 +137,7 @@ impl fmt::Display for TraceError {
             ),
             TraceError::TimeDependent { system } => write!(
                 f,
-                "{system}: the generalised forces depend on t, which the Lagrangian trait passes as f64; no code generated"
+                "{system}: the generalised forces depend on t, which the Lagrangian trait passes to them as f64; no code generated"
             ),
         }
     }
@@ -147,6 +161,8 @@ pub fn equations<L: Lagrangian>() -> Result<Equations, TraceError> {
         let qd = Expr::inputs(Arg::Qd, n);
         let u = Expr::inputs(Arg::U, inputs);
         let p = Expr::inputs(Arg::P, parameters);
+        // The time is a leaf too, so rheonomic T, V and constraints trace exactly.
+        let t = Expr::input(Arg::T, 0);
 
         let forces_at = |t: f64| {
             let mut f = vec![Expr::constant(0.0); n];
@@ -156,7 +172,7 @@ pub fn equations<L: Lagrangian>() -> Result<Equations, TraceError> {
         let forces = forces_at(0.0);
         let time_independent = [1.0, f64::NAN].iter().all(|&t| forces_at(t) == forces);
 
-        let lagrangian = L::kinetic(&q, &qd, &p) - L::potential(&q, &p);
+        let lagrangian = L::kinetic(t, &q, &qd, &p) - L::potential(t, &q, &p);
         let leaves: Vec<Expr> = q.iter().chain(&qd).copied().collect();
         let dl = gradient(lagrangian, &leaves);
         let (dl_dq, momenta) = dl.split_at(n);
@@ -177,18 +193,23 @@ pub fn equations<L: Lagrangian>() -> Result<Equations, TraceError> {
             *row = full;
         }
 
-        let along_qd = |arg: Arg, i: usize| (arg == Arg::Q).then(|| qd[i]);
+        // Along the motion: q + ε q̇, t + ε (the time derivative of a rheonomic term).
+        let along_qd = |arg: Arg, i: usize| match arg {
+            Arg::Q => Some(qd[i]),
+            Arg::T => Some(Expr::constant(1.0)),
+            _ => None,
+        };
         let mixed = forward(momenta, along_qd);
         let rhs: Vec<Id> = (0..n)
             .map(|i| (Expr::from_id(forces[i]) + dl_dq[i] - mixed[i]).id())
             .collect();
 
         let mut phi = vec![Expr::constant(0.0); holonomic];
-        L::constraints(&q, &p, &mut phi);
+        L::constraints(t, &q, &p, &mut phi);
         let mut g: Vec<Vec<Id>> = phi.iter().map(|&c| ids(&gradient(c, &q))).collect();
         let mut gamma = ids(&forward(&forward(&phi, along_qd), along_qd));
         let mut aqd = vec![Expr::constant(0.0); k - holonomic];
-        L::velocity_constraints(&q, &qd, &p, &mut aqd);
+        L::velocity_constraints(t, &q, &qd, &p, &mut aqd);
         g.extend(aqd.iter().map(|&c| ids(&gradient(c, &qd))));
         gamma.extend(ids(&forward(&aqd, along_qd)));
         (time_independent, m, rhs, g, gamma)

@@ -43,6 +43,8 @@ pub enum Arg {
     U,
     /// Parameters p.
     P,
+    /// The time t (one leaf): rheonomic systems' T, V and constraints depend on it.
+    T,
 }
 
 /// Elementary functions of one argument.
@@ -197,7 +199,7 @@ impl Graph {
 
     /// Evaluates `roots` in `f64` at the given argument vectors (indexed by [`Arg`]): the
     /// graph as an interpreter, to check it without compiling generated code.
-    pub fn eval(&self, roots: &[Id], args: [&[f64]; 4]) -> Vec<f64> {
+    pub fn eval(&self, roots: &[Id], args: [&[f64]; 5]) -> Vec<f64> {
         let seen = self.reachable(roots);
         let mut v = vec![0.0; self.nodes.len()];
         for (i, node) in self.nodes.iter().enumerate() {
@@ -930,7 +932,7 @@ mod tests {
             (xd.sin() * xd).eps.id()
         });
         assert!(g.branches.is_empty());
-        let v = g.eval(&[d], [&[0.7], &[], &[], &[]]);
+        let v = g.eval(&[d], [&[0.7], &[], &[], &[], &[]]);
         assert!((v[0] - (0.7f64.cos() * 0.7 + 0.7f64.sin())).abs() < 1e-15);
     }
 

@@ -171,7 +171,7 @@ macro_rules! generated_eom {
                 p,
                 <Self as Lagrangian>::CONSTRAINTS,
                 PROJECTION_ITERATIONS,
-                |q, phi| <Self as Lagrangian>::constraints(q, p, phi),
+                |q, phi| <Self as Lagrangian>::constraints(0.0, q, p, phi),
             )
         }
     };

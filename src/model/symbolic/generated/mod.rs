@@ -16,6 +16,8 @@ mod spring_rod_pendulum;
 #[allow(clippy::approx_constant, clippy::excessive_precision)]
 mod nonlinear_bicycle;
 #[allow(clippy::approx_constant, clippy::excessive_precision)]
+mod pulled_pendulum;
+#[allow(clippy::approx_constant, clippy::excessive_precision)]
 mod chain_1;
 #[allow(clippy::approx_constant, clippy::excessive_precision)]
 mod chain_2;
@@ -34,6 +36,7 @@ pub use slider_crank::SliderCrankEom;
 pub use slider_crank_surplus::SliderCrankSurplusEom;
 pub use spring_rod_pendulum::SpringRodPendulumEom;
 pub use nonlinear_bicycle::NonlinearBicycleEom;
+pub use pulled_pendulum::PulledPendulumEom;
 pub use chain_1::Chain1Eom;
 pub use chain_2::Chain2Eom;
 pub use chain_4::Chain4Eom;
