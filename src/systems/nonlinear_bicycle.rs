@@ -132,10 +132,15 @@ fn inertias<S: Scalar>(p: &[S]) -> [Inertia<S>; 4] {
     ]
 }
 
+/// The bicycle placed at `q + ε q̇`: its ε parts are the velocities.
+fn moving<S: Scalar>(q: &[S], qd: &[S], p: &[S]) -> Bicycle<num_dual::Dual<S>> {
+    place(&along::<S, N>(q, qd), &constant::<S, P>(p))
+}
+
 /// The slip velocities of the wheels' material contact points, `(rear x, rear y, front x,
-/// front y)` in world axes: the velocity constraints, linear in q̇.
-fn slips<S: Scalar>(q: &[S], qd: &[S], p: &[S]) -> [S; 4] {
-    let moving = place(&along::<S, N>(q, qd), &constant::<S, P>(p));
+/// front y)` in world axes, of the bicycle placed at `q + ε q̇` ([`moving`]): the velocity
+/// constraints, linear in q̇.
+fn slips<S: Scalar>(moving: &Bicycle<num_dual::Dual<S>>) -> [S; 4] {
     let at = |c: Vec3<num_dual::Dual<S>>| c.map(|v| v.re);
     let rear = point_velocity(&moving.rear, at(moving.rear_contact));
     let front = point_velocity(&moving.front, at(moving.front_contact));
@@ -341,7 +346,7 @@ impl Lagrangian for NonlinearBicycle {
     }
 
     fn kinetic<S: Scalar>(_t: S, q: &[S], qd: &[S], p: &[S]) -> S {
-        let moving = place(&along::<S, N>(q, qd), &constant::<S, P>(p));
+        let moving = moving(q, qd, p);
         let [rear, frame, fork, front] = inertias(p);
         kinematics::kinetic_energy(&moving.rear, &rear)
             + kinematics::kinetic_energy(&moving.frame, &frame)
@@ -374,16 +379,16 @@ impl Lagrangian for NonlinearBicycle {
     const VELOCITY_CONSTRAINTS: usize = 4;
 
     fn velocity_constraints<S: Scalar>(_t: S, q: &[S], qd: &[S], p: &[S], out: &mut [S]) {
-        out.copy_from_slice(&slips(q, qd, p));
+        out.copy_from_slice(&slips(&moving(q, qd, p)));
     }
 
     fn extra_outputs<S: Scalar>(t: f64, q: &[S], qd: &[S], _u: &[S], p: &[S], y: &mut [S]) {
-        let moving = place(&along::<S, N>(q, qd), &constant::<S, P>(p));
+        let moving = moving(q, qd, p);
         y[0] = qd[X] * q[YAW].cos() + qd[Y] * q[YAW].sin();
         y[1] = lagrangian::energy::<Self, S>(t, q, qd, p);
         y[2] = moving.front_contact[2].re;
         y[3] = moving.front_contact[2].eps;
-        y[4..8].copy_from_slice(&slips(q, qd, p));
+        y[4..8].copy_from_slice(&slips(&moving));
     }
 
     fn scenes() -> Vec<Scene> {
