@@ -319,21 +319,26 @@ pub fn reduced_on<M: System>(
     let op = &lin.point;
     // ∂c/∂x, one dual pass per state.
     let k = dependent.len();
+    if k != M::STATE_CONSTRAINTS {
+        return Err(format!(
+            "{}: {k} dependent states named for {} constraints on the state",
+            M::NAME,
+            M::STATE_CONSTRAINTS
+        ));
+    }
     let mut cx = DMatrix::zeros(k, n);
     if k > 0 {
-        let pd: Vec<num_dual::Dual64> = op.p.iter().map(|&v| v.into()).collect();
-        let mut out = vec![num_dual::Dual64::from(0.0); k];
-        for j in 0..n {
-            let mut xd: Vec<num_dual::Dual64> = op.x.iter().map(|&v| v.into()).collect();
-            xd[j].eps = 1.0;
-            if !M::state_constraints(op.t, &xd, &pd, &mut out) {
-                return Err(format!(
-                    "{}: the constraints do not hold at this state, nothing to reduce",
-                    M::NAME
-                ));
-            }
-            for (i, v) in out.iter().enumerate() {
-                cx[(i, j)] = v.eps;
+        if consistent::residuals::<M>(op.t, &op.x, &op.p).is_empty() {
+            return Err(format!(
+                "{}: the constraints do not hold at this state, nothing to reduce",
+                M::NAME
+            ));
+        }
+        let all: Vec<usize> = (0..n).collect();
+        let (_, jac) = consistent::residuals_and_jacobian::<M>(op.t, &op.x, &op.p, &all);
+        for (i, row) in jac.iter().enumerate() {
+            for (j, v) in row.iter().enumerate() {
+                cx[(i, j)] = *v;
             }
         }
     }

@@ -103,20 +103,21 @@ pub fn solve<M: System>(t: f64, p: &[f64], x: &mut [f64]) -> Result<(), String> 
     Ok(())
 }
 
-/// The residuals and their Jacobian with respect to the dependent states (square, row
-/// per residual), one dual-number evaluation per dependent state.
-fn residuals_and_jacobian<M: System>(
+/// The residuals and their Jacobian with respect to the states `columns` (a row per
+/// residual, a column per listed state), one dual-number evaluation per column: square
+/// for the dependent states (Newton here), all states for [`linearize::reduced`](crate::linearize::reduced).
+pub fn residuals_and_jacobian<M: System>(
     t: f64,
     x: &[f64],
     p: &[f64],
-    dependent: &[usize],
+    columns: &[usize],
 ) -> (Vec<f64>, Vec<Vec<f64>>) {
-    let k = dependent.len();
+    let k = M::STATE_CONSTRAINTS;
     let pd: Vec<Dual64> = p.iter().map(|&v| Dual64::from(v)).collect();
-    let mut jac = vec![vec![0.0; k]; k];
+    let mut jac = vec![vec![0.0; columns.len()]; k];
     let mut r = vec![0.0; k];
     let mut out = vec![Dual64::from(0.0); k];
-    for (col, &j) in dependent.iter().enumerate() {
+    for (col, &j) in columns.iter().enumerate() {
         let mut xd: Vec<Dual64> = x.iter().map(|&v| Dual64::from(v)).collect();
         xd[j].eps = 1.0;
         M::state_constraints(t, &xd, &pd, &mut out);
