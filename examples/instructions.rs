@@ -1,7 +1,8 @@
 //! Instruction counts (a count that does not drift with the machine's load, unlike the
 //! times of `mbfmu speed`) of one doStep (RK4, 1 ms), one RHS and one Jacobian of the
 //! Lagrangian systems, on their generated code and on automatic differentiation
-//! (`AutoDiff<L>`), and of the hand-written floors where the bench has one. Runs the operation COUNT times after setting up; run it under
+//! (`AutoDiff<L>`), of the hand-written systems' FMU path (`fmu`), and of the hand-written
+//! floors where the bench has one. Runs the operation COUNT times after setting up; run it under
 //! `valgrind --tool=callgrind` with COUNT and with 0 and divide the difference by COUNT:
 //!
 //!     cargo build --release --example instructions
@@ -97,10 +98,20 @@ fn on<L: Lagrangian>(path: &str, what: &str, count: usize) {
     }
 }
 
+/// A hand-written system: the FMU's path (`fmu`) or the floor.
+fn hand<M: System, F: Floor<N>, const N: usize>(path: &str, what: &str, count: usize) {
+    let p: Vec<f64> = M::parameters().iter().map(|v| v.start).collect();
+    match path {
+        "fmu" => run::<M>(what, count),
+        "floor" => floor::<F, N>(&p, what, count),
+        other => panic!("path of a hand-written system: fmu or floor, not {other}"),
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let [system, path, what, count] = &args[..] else {
-        panic!("usage: instructions SYSTEM generated|ad dostep|rhs|jacobian COUNT");
+        panic!("usage: instructions SYSTEM generated|ad|floor|fmu dostep|rhs|jacobian COUNT");
     };
     let count: usize = count.parse().expect("COUNT");
     match system.as_str() {
@@ -110,6 +121,11 @@ fn main() {
         "SliderCrankSurplus" => on::<SliderCrankSurplus>(path, what, count),
         "SpringRodPendulum" => on::<SpringRodPendulum>(path, what, count),
         "NonlinearBicycle" => on::<NonlinearBicycle>(path, what, count),
-        other => panic!("not a Lagrangian system with generated code: {other}"),
+        "MassSpringDamper" => {
+            hand::<MassSpringDamper, floors::MassSpringDamper, 2>(path, what, count)
+        }
+        "TwoMassChain" => hand::<TwoMassChain, floors::TwoMassChain, 4>(path, what, count),
+        "RigidBody" => hand::<RigidBody, floors::RigidBody, 7>(path, what, count),
+        other => panic!("not a system of this count: {other}"),
     }
 }

@@ -538,66 +538,30 @@ impl<M: System> Instance<M> {
     /// unless an event may come (events are located on landing steps).
     fn integrate(&mut self, current: f64, t_end: f64) -> (f64, Result<(), Stop>) {
         let d = &mut self.data;
-        let Work {
-            settings,
-            x,
-            x0,
-            duals,
-            integrators: work,
-            ..
-        } = self.work.get_mut();
-        let settings = prepared(settings, d, &self.info.layout, self.adaptive_max_step);
+        let work = self.work.get_mut();
         let (u, p) = (&d.u, &d.params);
-        let mut rhs = |t: f64, x: &[f64], dx: &mut [f64]| M::derivatives(t, x, u, p, dx);
-        // ∂f/∂x column by column with dual numbers (exact), row-major for the methods.
-        let mut jacobian =
-            |t: f64, x: &[f64], jac: &mut [f64]| duals.jacobian::<M>(t, x, u, p, jac);
-        let mut mechanics = if d.method.needs_mechanics() {
-            M::mechanics(u, p)
+        let (mut t, x) = (current, copied(&mut work.x, &d.x));
+        let result = if d.method == Method::Rk4 && M::event_indicator(t, x, u, p).is_none() {
+            // The fixed-step path, on one screen: no settings, no `dyn` (the right-hand side
+            // inlines into the stages), no problem to assemble.
+            d.memory.drop_ahead();
+            let mut rhs = |t: f64, x: &[f64], dx: &mut [f64]| M::derivatives(t, x, u, p, dx);
+            let plan = (d.solver_step, d.max_steps);
+            let (stats, scratch) = (&mut d.memory.stats, &mut work.integrators);
+            integrators::rk4_fixed(&mut rhs, (&mut t, x), t_end, plan, stats, scratch)
+                .map_err(Stop::from)
         } else {
-            None
-        };
-        let n = d.x.len();
-        let mut problem = Problem {
-            rhs: &mut rhs,
-            jacobian: Some(&mut jacobian),
-            second_order: M::SECOND_ORDER.then_some(n / 2),
-            // (the cast shortens the trait object's lifetime to the borrow's)
-            mechanics: mechanics.as_deref_mut().map(|m| m as &mut dyn Mechanics),
-        };
-        let (mut t, x) = (current, copied(x, &d.x));
-        let memory = &mut d.memory;
-        let result = if d.method.is_adaptive() && M::event_indicator(t, x, u, p).is_none() {
-            // Never step past the stop time (f may not be defined beyond it).
-            let t_limit = d.stop_time.map_or(f64::INFINITY, |stop| stop.max(t_end));
-            let mut project = |t: f64, x: &mut [f64]| M::project(t, p, x);
-            let (state, ends) = ((&mut t, &mut *x), (t_end, t_limit));
-            integrators::advance_dense(
-                &mut problem,
-                &mut project,
-                state,
-                ends,
-                settings,
-                memory,
-                work,
-            )
-            .map_err(Stop::from)
-        } else {
-            memory.drop_ahead();
-            let scratch = (x0, work);
-            let model = (&u[..], &p[..]);
-            advance_locating_events::<M>(
-                &mut problem,
-                (&mut t, x),
-                t_end,
-                settings,
-                memory,
-                model,
-                scratch,
-            )
+            let settings = prepared(
+                &mut work.settings,
+                d,
+                &self.info.layout,
+                self.adaptive_max_step,
+            );
+            let scratch = (&mut work.x0, &mut work.duals, &mut work.integrators);
+            integrate_general::<M>(d, (&mut t, x), t_end, settings, scratch)
         };
         if result.is_ok() {
-            M::project(t, p, x);
+            M::project(t, &d.params, x);
         }
         (t, result)
     }
@@ -986,6 +950,63 @@ const MAX_BISECTIONS: usize = 200;
 
 fn crossed(before: Option<f64>, after: Option<f64>) -> bool {
     matches!((before, after), (Some(a), Some(b)) if (a > 0.0 && b <= 0.0) || (a < 0.0 && b >= 0.0))
+}
+
+/// Every method but plain RK4 (see [`Instance::integrate`]): the problem with its exact
+/// Jacobian and mechanical structure; the adaptive methods run ahead with dense output
+/// unless an event may come (events are located on landing steps).
+fn integrate_general<M: System>(
+    d: &mut Snapshot,
+    (t, x): (&mut f64, &mut [f64]),
+    t_end: f64,
+    settings: &Settings,
+    (x0, duals, work): (&mut Vec<f64>, &mut Duals, &mut Workspace),
+) -> Result<(), Stop> {
+    let (u, p) = (&d.u, &d.params);
+    let mut rhs = |t: f64, x: &[f64], dx: &mut [f64]| M::derivatives(t, x, u, p, dx);
+    // ∂f/∂x column by column with dual numbers (exact), row-major for the methods.
+    let mut jacobian = |t: f64, x: &[f64], jac: &mut [f64]| duals.jacobian::<M>(t, x, u, p, jac);
+    let mut mechanics = if d.method.needs_mechanics() {
+        M::mechanics(u, p)
+    } else {
+        None
+    };
+    let n = d.x.len();
+    let mut problem = Problem {
+        rhs: &mut rhs,
+        jacobian: Some(&mut jacobian),
+        second_order: M::SECOND_ORDER.then_some(n / 2),
+        // (the cast shortens the trait object's lifetime to the borrow's)
+        mechanics: mechanics.as_deref_mut().map(|m| m as &mut dyn Mechanics),
+    };
+    let memory = &mut d.memory;
+    if d.method.is_adaptive() && M::event_indicator(*t, x, u, p).is_none() {
+        // Never step past the stop time (f may not be defined beyond it).
+        let t_limit = d.stop_time.map_or(f64::INFINITY, |stop| stop.max(t_end));
+        let mut project = |t: f64, x: &mut [f64]| M::project(t, p, x);
+        integrators::advance_dense(
+            &mut problem,
+            &mut project,
+            (t, x),
+            (t_end, t_limit),
+            settings,
+            memory,
+            work,
+        )
+        .map_err(Stop::from)
+    } else {
+        memory.drop_ahead();
+        let model = (&u[..], &p[..]);
+        advance_locating_events::<M>(
+            &mut problem,
+            (t, x),
+            t_end,
+            settings,
+            memory,
+            model,
+            (x0, work),
+        )
+    }
 }
 
 /// Integrates to `t_end`, stopping at every sign change of the system's event indicator:

@@ -487,16 +487,48 @@ impl Ahead for radau5::Ahead {
 /// `settings.max_steps` steps of `settings.step` (counted as the methods count them: the last
 /// one shortened, or stretched by a sliver).
 fn check_plan(settings: &Settings, t: f64, t_end: f64) -> Result<(), Failure> {
-    let planned = problem::step_count(t_end - t, settings.step);
-    if planned > settings.max_steps as f64 {
+    check_fixed_plan(settings.step, settings.max_steps, t, t_end).map(|_| ())
+}
+
+/// A fixed-step plan from `t` to `t_end` refused before any work when it needs more than
+/// `max_steps` steps of `step`; else its number of steps.
+fn check_fixed_plan(step: f64, max_steps: u64, t: f64, t_end: f64) -> Result<u64, Failure> {
+    let planned = problem::step_count(t_end - t, step);
+    if planned > max_steps as f64 {
         return Err(Failure::TooManyPlanned {
             t,
             planned,
-            step: settings.step,
-            max: settings.max_steps,
+            step,
+            max: max_steps,
         });
     }
-    Ok(())
+    Ok(planned as u64)
+}
+
+/// RK4 from `*t` to `t_end` with `step`, at most `max_steps` steps (refused before any
+/// work), monomorphised on the right-hand side: the FMU's fixed-step doStep, where a `dyn`
+/// call per stage and the method dispatch of [`advance_in`] cost more than the equations of
+/// a small system. The same arithmetic as [`advance_in`] with [`Method::Rk4`], bit for bit.
+pub fn rk4_fixed<F: FnMut(f64, &[f64], &mut [f64])>(
+    rhs: &mut F,
+    (t, x): (&mut f64, &mut [f64]),
+    t_end: f64,
+    (step, max_steps): (f64, u64),
+    stats: &mut Stats,
+    work: &mut Workspace,
+) -> Result<(), Failure> {
+    let n = check_fixed_plan(step, max_steps, *t, t_end)?;
+    let plan = (t_end, step, n);
+    // The sizes of the systems here on the stack (more states take the buffers of `work`).
+    macro_rules! sized_for {
+        ($($n:literal)*) => {
+            match x.len() {
+                $($n => rk4::advance_sized::<$n, F>(rhs, (t, x.try_into().expect("n")), plan, stats),)*
+                _ => rk4::advance_in(rhs, t, x, t_end, step, stats, work),
+            }
+        };
+    }
+    sized_for!(2 4 6 7 8)
 }
 
 /// What the caller chooses for one call of [`advance`].
@@ -554,6 +586,7 @@ pub struct Memory {
 impl Memory {
     /// Forgets every integrator's point ahead of the communication time: f changed (an
     /// input), or the mode or method that kept it is not the one running.
+    #[inline]
     pub fn drop_ahead(&mut self) {
         self.ahead = None;
         self.radau5_ahead = None;

@@ -170,7 +170,9 @@ pub(crate) fn step_count(span: f64, step: f64) -> f64 {
     if !(step > 0.0 && step.is_finite()) {
         return 1.0;
     }
-    let full = (span / step).floor();
+    // (span / step ≥ 0 here, so the cast truncates as `floor` would, without libm's call;
+    // counts past 2⁶⁴ saturate and are refused by any step limit.)
+    let full = (span / step) as u64 as f64;
     let rest = span - full * step;
     if rest <= SLIVER * step {
         full.max(1.0)

@@ -23,8 +23,10 @@ pub fn advance(
 }
 
 /// [`advance`] in the scratch of `work`: no allocation once it has held this size.
-pub fn advance_in(
-    rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
+/// Generic over the right-hand side so that a caller holding a concrete closure (the
+/// FMU's doStep) gets it inlined into the stages; `dyn FnMut` callers pass `F = dyn ..`.
+pub fn advance_in<F: FnMut(f64, &[f64], &mut [f64]) + ?Sized>(
+    rhs: &mut F,
     t: &mut f64,
     x: &mut [f64],
     t_end: f64,
@@ -32,20 +34,46 @@ pub fn advance_in(
     stats: &mut Stats,
     work: &mut Workspace,
 ) -> Result<(), Failure> {
-    let t0 = *t;
-    // No limit here: `integrators::advance` checks the plan against `Settings::max_steps`.
-    let n = step_count(t_end - t0, step) as u64;
     let dim = x.len();
+    let n = step_count(t_end - *t, step) as u64;
     // (Each written in full, by f or below, before it is read.)
     let [k1, k2, k3, k4, y] = &mut work.rk4;
-    let (k1, k2, k3, k4) = (
+    let stages = [
         sized(k1, dim),
         sized(k2, dim),
         sized(k3, dim),
         sized(k4, dim),
-    );
-    let y = sized(y, dim);
+        sized(y, dim),
+    ];
+    steps(rhs, (t, x), (t_end, step, n), stats, stages)
+}
 
+/// [`advance_in`] in `n` steps (the [`step_count`] of the span: the caller has it from
+/// checking its plan) for a state of `N` components, its stages on the stack: with the sizes
+/// known, the stage loops unroll and no buffer is sized. The same arithmetic, bit for bit.
+pub fn advance_sized<const N: usize, F: FnMut(f64, &[f64], &mut [f64]) + ?Sized>(
+    rhs: &mut F,
+    (t, x): (&mut f64, &mut [f64; N]),
+    (t_end, step, n): (f64, f64, u64),
+    stats: &mut Stats,
+) -> Result<(), Failure> {
+    let [mut k1, mut k2, mut k3, mut k4, mut y] = [[0.0; N]; 5];
+    let stages = [&mut k1[..], &mut k2, &mut k3, &mut k4, &mut y];
+    steps(rhs, (t, x), (t_end, step, n), stats, stages)
+}
+
+/// `n` steps from `*t` to `t_end` in the buffers `[k1, k2, k3, k4, y]`, each as long as `x`.
+/// (No limit here: `integrators::advance` checks the plan against `Settings::max_steps`.)
+#[inline(always)]
+fn steps<F: FnMut(f64, &[f64], &mut [f64]) + ?Sized>(
+    rhs: &mut F,
+    (t, x): (&mut f64, &mut [f64]),
+    (t_end, step, n): (f64, f64, u64),
+    stats: &mut Stats,
+    [k1, k2, k3, k4, y]: [&mut [f64]; 5],
+) -> Result<(), Failure> {
+    let t0 = *t;
+    let dim = x.len();
     for i in 0..n {
         let ta = *t;
         let tb = if i + 1 == n {
@@ -90,6 +118,65 @@ mod tests {
     use super::super::test_support::{oscillator, oscillator_error};
     use super::super::{self as integ, Memory, Method, Settings, MAX_STEPS};
     use super::*;
+
+    /// A coupled nonlinear system of any size, time dependent.
+    fn chain(t: f64, x: &[f64], dx: &mut [f64]) {
+        let n = x.len();
+        for i in 0..n {
+            dx[i] = (t + x[(i + 1) % n]).sin() - 0.3 * x[i] * x[(i + n - 1) % n];
+        }
+    }
+
+    /// The FMU's path (`integrators::rk4_fixed`: stages on the stack for the sizes it knows,
+    /// the workspace otherwise) gives the general path's numbers bit for bit, and refuses
+    /// the plans the general path refuses.
+    #[test]
+    fn fixed_path_is_the_general_path_bit_for_bit() {
+        for dim in [1, 2, 3, 4, 6, 7, 8, 9] {
+            for (t_end, step) in [(0.47, 0.01), (0.4, 0.1), (0.101, 1e-3), (0.35, 0.07)] {
+                let x0: Vec<f64> = (0..dim).map(|i| 0.2 + 0.1 * i as f64).collect();
+                let settings = Settings {
+                    method: Method::Rk4,
+                    rtol: 0.0,
+                    atol: vec![],
+                    step,
+                    max_steps: MAX_STEPS,
+                };
+                let (mut t, mut x, mut memory) = (0.1, x0.clone(), Memory::default());
+                integ::advance(&mut chain, &mut t, &mut x, t_end, &settings, &mut memory).unwrap();
+                let (mut tf, mut xf, mut stats) = (0.1, x0, Stats::default());
+                let mut f = chain;
+                let mut work = Workspace::default();
+                let plan = (step, MAX_STEPS);
+                integ::rk4_fixed(
+                    &mut f,
+                    (&mut tf, &mut xf),
+                    t_end,
+                    plan,
+                    &mut stats,
+                    &mut work,
+                )
+                .unwrap();
+                assert_eq!(tf.to_bits(), t.to_bits());
+                assert!(
+                    x.iter().zip(&xf).all(|(a, b)| a.to_bits() == b.to_bits()),
+                    "{dim}"
+                );
+                assert_eq!(stats, memory.stats);
+            }
+        }
+        let (mut t, mut x, mut stats) = (0.0, [1.0, 0.0], Stats::default());
+        let refused = integ::rk4_fixed(
+            &mut chain,
+            (&mut t, &mut x),
+            1.0,
+            (1e-3, 999),
+            &mut stats,
+            &mut Workspace::default(),
+        );
+        assert!(matches!(refused, Err(Failure::TooManyPlanned { .. })));
+        assert_eq!((t, x, stats.rhs_evals), (0.0, [1.0, 0.0], 0));
+    }
 
     fn run_rk4(step: f64, t_end: f64) -> (f64, [f64; 2], Stats) {
         let settings = Settings {
