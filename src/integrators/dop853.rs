@@ -15,11 +15,11 @@
 // be checked against it; the compiler rounds them to the nearest f64.
 #![allow(clippy::excessive_precision)]
 
+use super::buffers::sized;
 use super::explicit_rk::{
     carried_proposal, check_attempt, initial_step, max_step, stage, Goal, PiController, PiGains,
 };
 use super::problem::{start, Problem};
-use super::workspace::{sized, Workspace};
 use super::{Failure, Memory, Settings, Stats};
 
 // Nodes c_i (dop853.f; c12 = 1; c14..c16 of the dense output are below).
@@ -251,7 +251,7 @@ pub fn advance(
         t_end,
         settings,
         memory,
-        &mut Workspace::default(),
+        &mut Scratch::default(),
     )
 }
 
@@ -263,12 +263,12 @@ pub fn advance_in(
     t_end: f64,
     settings: &Settings,
     memory: &mut Memory,
-    work: &mut Workspace,
+    work: &mut Scratch,
 ) -> Result<(), Failure> {
     if !start("DOP853", *t, x, t_end)? {
         return Ok(());
     }
-    let w = &mut work.dop853;
+    let w = &mut *work;
     let k1 = &mut w.k1;
     sized(k1, x.len());
     let result = if problem.eval(*t, x, k1, &mut memory.stats) {
@@ -373,7 +373,7 @@ impl Ahead {
         out: &mut [f64],
         stats: &mut Stats,
     ) -> Result<(), Failure> {
-        self.point_in(problem, t, out, stats, &mut Workspace::default())
+        self.point_in(problem, t, out, stats, &mut Scratch::default())
     }
 
     /// [`Ahead::point`] in the scratch of `work`: no allocation once it and the extension
@@ -384,7 +384,7 @@ impl Ahead {
         t: f64,
         out: &mut [f64],
         stats: &mut Stats,
-        work: &mut Workspace,
+        work: &mut Scratch,
     ) -> Result<(), Failure> {
         if t == self.t || self.step.is_empty() {
             out.copy_from_slice(&self.x);
@@ -392,7 +392,7 @@ impl Ahead {
         }
         if self.cont.is_empty() {
             let (t0, hs) = (self.t0, self.t - self.t0);
-            let stages = &mut work.dop853.extension;
+            let stages = &mut work.extension;
             extension(problem, t0, hs, &self.step, stats, stages, &mut self.cont)?;
         }
         let n = self.x.len();
@@ -429,7 +429,7 @@ pub fn advance_dense(
     memory: &mut Memory,
     out: &mut [f64],
 ) -> Result<(), Failure> {
-    let mut work = Workspace::default();
+    let mut work = Scratch::default();
     let ends = (t_out, t_limit);
     advance_dense_in(
         problem, project, ahead, ends, settings, memory, out, &mut work,
@@ -447,7 +447,7 @@ pub fn advance_dense_in(
     settings: &Settings,
     memory: &mut Memory,
     out: &mut [f64],
-    work: &mut Workspace,
+    work: &mut Scratch,
 ) -> Result<(), Failure> {
     if t_out > ahead.t {
         let Ahead {
@@ -461,7 +461,7 @@ pub fn advance_dense_in(
         } = ahead;
         let goal = Goal::Pass { t_out, t_limit };
         let known = (*err_prev > 0.0).then_some(*err_prev);
-        let w = &mut work.dop853;
+        let w = &mut *work;
         let scratch = (&mut w.stages, &mut w.f1, &mut w.step);
         match run(
             problem,
@@ -589,7 +589,7 @@ struct LastStep {
 /// the end of a dense step, the record of the last step of a call, and the stages of the
 /// continuous extension (its argument, k14, k15, k16).
 #[derive(Default)]
-pub(crate) struct Scratch {
+pub struct Scratch {
     k1: Vec<f64>,
     stages: Stages,
     f1: Vec<f64>,

@@ -7,11 +7,11 @@
 //! (initial step), IV.2 (PI / "Lund" stabilization); and Hairer's reference code `dopri5.f`
 //! (subroutines DOPCOR and HINIT), whose default constants are reproduced below.
 
+use super::buffers::sized;
 use super::explicit_rk::{
     carried_proposal, check_attempt, eval, initial_step, max_step, stage, Goal, PiController,
     PiGains,
 };
-use super::workspace::{sized, Workspace};
 use super::{Failure, Memory, Settings, Stats};
 
 // Butcher tableau (Table II.5.2 / dopri5.f). c_i are the nodes, a_ij the stage weights.
@@ -86,15 +86,7 @@ pub fn advance(
     settings: &Settings,
     memory: &mut Memory,
 ) -> Result<(), Failure> {
-    advance_in(
-        rhs,
-        t,
-        x,
-        t_end,
-        settings,
-        memory,
-        &mut Workspace::default(),
-    )
+    advance_in(rhs, t, x, t_end, settings, memory, &mut Scratch::default())
 }
 
 /// [`advance`] in the scratch of `work`: no allocation once it has held this size.
@@ -105,9 +97,9 @@ pub fn advance_in(
     t_end: f64,
     settings: &Settings,
     memory: &mut Memory,
-    work: &mut Workspace,
+    work: &mut Scratch,
 ) -> Result<(), Failure> {
-    let w = &mut work.dopri5;
+    let w = &mut *work;
     let k1 = &mut w.k1;
     sized(k1, x.len());
     if !eval(rhs, *t, x, k1, &mut memory.stats) {
@@ -272,7 +264,7 @@ pub fn advance_dense(
     memory: &mut Memory,
     out: &mut [f64],
 ) -> Result<(), Failure> {
-    let mut work = Workspace::default();
+    let mut work = Scratch::default();
     let ends = (t_out, t_limit);
     advance_dense_in(rhs, project, ahead, ends, settings, memory, out, &mut work)
 }
@@ -288,7 +280,7 @@ pub fn advance_dense_in(
     settings: &Settings,
     memory: &mut Memory,
     out: &mut [f64],
-    work: &mut Workspace,
+    work: &mut Scratch,
 ) -> Result<(), Failure> {
     assert!(
         t_out >= ahead.t0 && t_out <= t_limit,
@@ -306,7 +298,7 @@ pub fn advance_dense_in(
         } = ahead;
         let goal = Goal::Pass { t_out, t_limit };
         let known = (*err_prev > 0.0).then_some(*err_prev);
-        let w = &mut work.dopri5;
+        let w = &mut *work;
         let steps = (&mut w.stages, &mut w.rcont);
         match run(
             rhs,
@@ -346,7 +338,7 @@ struct Dense {
 /// DOPRI5's part of a [`Workspace`]: f at the start of a landing call, the stages, and the
 /// continuous extension of the last step of a call (swapped into [`Ahead::rcont`]).
 #[derive(Default)]
-pub(crate) struct Scratch {
+pub struct Scratch {
     k1: Vec<f64>,
     stages: Stages,
     rcont: Vec<f64>,

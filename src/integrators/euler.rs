@@ -6,8 +6,8 @@
 //! Springer 2006, Sect. I.1.2 (explicit and symplectic Euler) and Theorem VI.3.3
 //! (symplecticity of the symplectic Euler method).
 
+use super::buffers::sized;
 use super::problem::{fixed_steps, Problem};
-use super::workspace::{sized, Workspace};
 use super::{Failure, Stats};
 
 /// Explicit Euler `x₁ = x₀ + h f(t₀, x₀)` from `*t` to `t_end` with step `h` (the last step
@@ -21,7 +21,7 @@ pub fn explicit_euler(
     h: f64,
     stats: &mut Stats,
 ) -> Result<(), Failure> {
-    explicit_euler_in(problem, t, x, t_end, h, stats, &mut Workspace::default())
+    explicit_euler_in(problem, t, x, t_end, h, stats, &mut Default::default())
 }
 
 /// [`explicit_euler`] in the scratch of `work`: no allocation once it has held this size.
@@ -32,9 +32,9 @@ pub fn explicit_euler_in(
     t_end: f64,
     h: f64,
     stats: &mut Stats,
-    work: &mut Workspace,
+    work: &mut [Vec<f64>; 2],
 ) -> Result<(), Failure> {
-    let [y, k] = &mut work.fixed;
+    let [y, k] = work;
     let k = sized(k, x.len());
     fixed_steps(
         "explicit Euler",
@@ -70,7 +70,7 @@ pub fn symplectic_euler(
     h: f64,
     stats: &mut Stats,
 ) -> Result<(), Failure> {
-    symplectic_euler_in(problem, t, x, t_end, h, stats, &mut Workspace::default())
+    symplectic_euler_in(problem, t, x, t_end, h, stats, &mut Default::default())
 }
 
 /// [`symplectic_euler`] in the scratch of `work`.
@@ -81,10 +81,10 @@ pub fn symplectic_euler_in(
     t_end: f64,
     h: f64,
     stats: &mut Stats,
-    work: &mut Workspace,
+    work: &mut [Vec<f64>; 2],
 ) -> Result<(), Failure> {
     let nq = problem.positions("symplectic Euler", x.len());
-    let [y, k] = &mut work.fixed;
+    let [y, k] = work;
     let k = sized(k, x.len());
     fixed_steps(
         "symplectic Euler",

@@ -9,9 +9,9 @@
 //! N. J. Higham, *A new scaling and squaring algorithm for the matrix exponential*, SIAM J.
 //! Matrix Anal. Appl. 31 (2009) 970–989.
 
+use super::buffers::zeroed;
 use super::expm::Expm;
 use super::problem::{fixed_steps, Problem};
-use super::workspace::{zeroed, Workspace};
 use super::{Failure, Stats};
 use nalgebra::{DMatrix, DMatrixView, DMatrixViewMut, DVector};
 
@@ -46,14 +46,22 @@ pub fn advance(
     h: f64,
     stats: &mut Stats,
 ) -> Result<(), Failure> {
-    advance_in(problem, t, x, t_end, h, stats, &mut Workspace::default())
+    advance_in(
+        problem,
+        t,
+        x,
+        t_end,
+        h,
+        stats,
+        (&mut Vec::new(), &mut Scratch::default()),
+    )
 }
 
 /// ExactLinear's part of a [`Workspace`]: the Jacobian (row-major, then A column-major),
 /// f and A·x at the start, b, and the exponential of the augmented matrix for the step
 /// `h` it was last computed for in this call.
 #[derive(Default)]
-pub(crate) struct Scratch {
+pub struct Scratch {
     jac: Vec<f64>,
     a: Vec<f64>,
     f0: Vec<f64>,
@@ -71,10 +79,10 @@ pub fn advance_in(
     t_end: f64,
     h: f64,
     stats: &mut Stats,
-    work: &mut Workspace,
+    work: (&mut Vec<f64>, &mut Scratch),
 ) -> Result<(), Failure> {
     let n = x.len();
-    let (y, w) = (&mut work.fixed[0], &mut work.exact_linear);
+    let (y, w) = work;
     if t_end == *t || !x.iter().all(|v| v.is_finite()) {
         // Let the common loop report the no-op or the non-finite start, before any work.
         return fixed_steps("exact linear", t, x, t_end, h, stats, y, |_, _, _, _, _| {

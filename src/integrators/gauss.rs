@@ -17,8 +17,8 @@
 //! system). The new state is `x₁ = x₀ + Σᵢ dᵢ Zᵢ` with `dᵀ = bᵀA⁻¹` (GNI eq. VIII.6.5), which
 //! equals `x₀ + h Σ bᵢ f(Yᵢ)` at convergence without the s extra evaluations.
 
+use super::buffers::{copied, sized};
 use super::problem::{fixed_steps, ImplicitFailure, Problem, NEWTON_MAX_ITER, NEWTON_TOL};
-use super::workspace::{copied, sized, Workspace};
 use super::{Failure, Stats};
 
 /// √3 and √15 to the last bit (`f64::sqrt` is not `const`).
@@ -91,7 +91,7 @@ pub fn implicit_midpoint(
         t_end,
         h,
         stats,
-        &mut Workspace::default(),
+        (&mut Scratch::default(), &mut Vec::new()),
     )
 }
 
@@ -113,7 +113,7 @@ pub fn gauss4(
         t_end,
         h,
         stats,
-        &mut Workspace::default(),
+        (&mut Scratch::default(), &mut Vec::new()),
     )
 }
 
@@ -135,7 +135,7 @@ pub fn gauss6(
         t_end,
         h,
         stats,
-        &mut Workspace::default(),
+        (&mut Scratch::default(), &mut Vec::new()),
     )
 }
 
@@ -150,7 +150,7 @@ pub fn collocation_in(
     t_end: f64,
     h: f64,
     stats: &mut Stats,
-    work: &mut Workspace,
+    work: (&mut Scratch, &mut Vec<f64>),
 ) -> Result<(), ImplicitFailure> {
     let tab = match method {
         super::Method::ImplicitMidpoint => &MIDPOINT,
@@ -250,7 +250,7 @@ struct NewtonMatrix {
 
 /// Gauss's part of a [`Workspace`].
 #[derive(Default)]
-pub(crate) struct Scratch {
+pub struct Scratch {
     /// The weights `d` and the LU that solves for them.
     d: Vec<f64>,
     d_lu: Lu,
@@ -271,11 +271,11 @@ fn collocation(
     t_end: f64,
     h: f64,
     stats: &mut Stats,
-    work: &mut Workspace,
+    work: (&mut Scratch, &mut Vec<f64>),
 ) -> Result<(), ImplicitFailure> {
     let n = x.len();
     let s = tab.b.len();
-    let (w, y) = (&mut work.gauss, &mut work.fixed[0]);
+    let (w, y) = work;
     // dᵀ = bᵀ A⁻¹: solve Aᵀ d = b (s ≤ 3; A is invertible for Gauss methods).
     w.d_lu.a.clear();
     w.d_lu

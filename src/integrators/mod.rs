@@ -14,6 +14,7 @@
 // the interface other modules call, and an alias would hide what it takes.
 #![allow(clippy::type_complexity)]
 
+mod buffers;
 pub mod dop853;
 pub mod dopri5;
 pub mod euler;
@@ -29,10 +30,10 @@ pub mod rk4;
 pub mod verlet;
 mod workspace;
 
+pub(crate) use buffers::{copied, sized, zeroed};
 pub use problem::ImplicitFailure;
 use std::fmt;
 pub use workspace::Workspace;
-pub(crate) use workspace::{copied, sized, zeroed};
 
 /// Integration method, chosen by the FMU's `solver` parameter (these integer codes are public API).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -243,32 +244,67 @@ pub fn advance_in(
             )?)
         }
         Method::ExplicitEuler => Ok(euler::explicit_euler_in(
-            problem, t, x, t_end, h, stats, work,
+            problem,
+            t,
+            x,
+            t_end,
+            h,
+            stats,
+            &mut work.fixed,
         )?),
         Method::SymplecticEuler => Ok(euler::symplectic_euler_in(
-            problem, t, x, t_end, h, stats, work,
+            problem,
+            t,
+            x,
+            t_end,
+            h,
+            stats,
+            &mut work.fixed,
         )?),
         Method::Verlet => Ok(verlet::velocity_verlet_in(
-            problem, t, x, t_end, h, stats, work,
+            problem,
+            t,
+            x,
+            t_end,
+            h,
+            stats,
+            &mut work.fixed,
         )?),
         Method::ImplicitMidpoint | Method::Gauss4 | Method::Gauss6 => {
-            gauss::collocation_in(settings.method, problem, t, x, t_end, h, stats, work)
+            let scratch = (&mut work.gauss, &mut work.fixed[0]);
+            gauss::collocation_in(settings.method, problem, t, x, t_end, h, stats, scratch)
         }
         Method::Dop853 => Ok(dop853::advance_in(
-            problem, t, x, t_end, settings, memory, work,
+            problem,
+            t,
+            x,
+            t_end,
+            settings,
+            memory,
+            &mut work.dop853,
         )?),
         Method::Radau5 => Ok(radau5::advance_in(
-            problem, t, x, t_end, settings, memory, work,
+            problem,
+            t,
+            x,
+            t_end,
+            settings,
+            memory,
+            &mut work.radau5,
         )?),
-        Method::ExactLinear => Ok(exact_linear::advance_in(
-            problem, t, x, t_end, h, stats, work,
-        )?),
+        Method::ExactLinear => {
+            let scratch = (&mut work.fixed[0], &mut work.exact_linear);
+            Ok(exact_linear::advance_in(
+                problem, t, x, t_end, h, stats, scratch,
+            )?)
+        }
         Method::Rattle => {
             let mech = problem
                 .mechanics
                 .as_deref_mut()
                 .expect("RATTLE needs Problem::mechanics");
-            rattle::advance_in(mech, t, x, t_end, h, stats, work)
+            let scratch = (&mut work.fixed[0], &mut work.rattle);
+            rattle::advance_in(mech, t, x, t_end, h, stats, scratch)
         }
     }
 }
@@ -404,6 +440,7 @@ impl Ahead for dopri5::Ahead {
         work: &mut Workspace,
     ) -> Result<(), Failure> {
         let rhs = &mut *problem.rhs;
+        let work = &mut work.dopri5;
         dopri5::advance_dense_in(rhs, project, self, ends, settings, memory, out, work)
     }
     fn end(&self) -> (f64, &[f64]) {
@@ -437,6 +474,7 @@ impl Ahead for dop853::Ahead {
         out: &mut [f64],
         work: &mut Workspace,
     ) -> Result<(), Failure> {
+        let work = &mut work.dop853;
         dop853::advance_dense_in(problem, project, self, ends, settings, memory, out, work)
     }
     fn end(&self) -> (f64, &[f64]) {
@@ -476,6 +514,7 @@ impl Ahead for radau5::Ahead {
         out: &mut [f64],
         work: &mut Workspace,
     ) -> Result<(), Failure> {
+        let work = &mut work.radau5;
         radau5::advance_dense_in(problem, project, self, ends, settings, memory, out, work)
     }
     fn end(&self) -> (f64, &[f64]) {
@@ -524,7 +563,7 @@ pub fn rk4_fixed<F: FnMut(f64, &[f64], &mut [f64])>(
         ($($n:literal)*) => {
             match x.len() {
                 $($n => rk4::advance_sized::<$n, F>(rhs, (t, x.try_into().expect("n")), plan, stats),)*
-                _ => rk4::advance_in(rhs, t, x, t_end, step, stats, work),
+                _ => rk4::advance_in(rhs, t, x, t_end, step, stats, &mut work.rk4),
             }
         };
     }
@@ -707,9 +746,10 @@ fn advance_rhs(
             if plan {
                 check_plan(settings, *t, t_end)?;
             }
-            rk4::advance_in(rhs, t, x, t_end, settings.step, &mut memory.stats, work)
+            let stages = &mut work.rk4;
+            rk4::advance_in(rhs, t, x, t_end, settings.step, &mut memory.stats, stages)
         }
-        Method::Dopri5 => dopri5::advance_in(rhs, t, x, t_end, settings, memory, work),
+        Method::Dopri5 => dopri5::advance_in(rhs, t, x, t_end, settings, memory, &mut work.dopri5),
         other => panic!(
             "integrators::advance runs RK4 and DOPRI5; {} needs advance_with and a Problem",
             other.name()

@@ -10,7 +10,7 @@
 //! failure `*t` and `x` hold the last accepted (finite) step; `Stats` counts every evaluation of
 //! `f` (not of the Jacobian: wrap the closure to count those).
 
-use super::workspace::sized;
+use super::buffers::sized;
 use super::{Failure, Stats};
 use std::fmt;
 

@@ -27,9 +27,9 @@
 // be checked against it; the compiler rounds them to the nearest f64.
 #![allow(clippy::excessive_precision)]
 
+use super::buffers::{copied, sized, zeroed};
 use super::lu::Lu;
 use super::problem::{start, Problem};
-use super::workspace::{copied, sized, zeroed, Workspace};
 use super::{Failure, Memory, Settings, Stats};
 use nalgebra::Complex;
 
@@ -205,7 +205,7 @@ pub fn advance(
         t_end,
         settings,
         memory,
-        &mut Workspace::default(),
+        &mut Scratch::default(),
     )
 }
 
@@ -218,12 +218,12 @@ pub fn advance_in(
     t_end: f64,
     settings: &Settings,
     memory: &mut Memory,
-    work: &mut Workspace,
+    work: &mut Scratch,
 ) -> Result<(), Failure> {
     if !start("RADAU5", *t, x, t_end)? {
         return Ok(());
     }
-    let scratch = &mut work.radau5;
+    let scratch = &mut *work;
     let mut st = std::mem::take(&mut scratch.landing);
     copied(&mut st.x, x);
     let result = st
@@ -391,7 +391,7 @@ pub fn advance_dense(
     memory: &mut Memory,
     out: &mut [f64],
 ) -> Result<(), Failure> {
-    let mut work = Workspace::default();
+    let mut work = Scratch::default();
     let ends = (t_out, t_limit);
     advance_dense_in(
         problem, project, ahead, ends, settings, memory, out, &mut work,
@@ -409,7 +409,7 @@ pub fn advance_dense_in(
     settings: &Settings,
     memory: &mut Memory,
     out: &mut [f64],
-    work: &mut Workspace,
+    work: &mut Scratch,
 ) -> Result<(), Failure> {
     if t_out > ahead.t && ahead.landed {
         // Landed on an earlier limit: go on as a new integration from there. (On failure
@@ -426,7 +426,7 @@ pub fn advance_dense_in(
         Some(project),
         settings,
         &mut memory.stats,
-        &mut work.radau5,
+        &mut *work,
     ) {
         Ok(()) => {
             memory.h = ahead.hopt;
@@ -500,7 +500,7 @@ impl Constants {
 /// RADAU5's part of a [`Workspace`]: the work vectors of a step, the factorized Newton
 /// matrices, and the transformed absolute tolerances.
 #[derive(Default)]
-pub(crate) struct Scratch {
+pub struct Scratch {
     work: Work,
     factors: Factorized,
     atol: Vec<f64>,

@@ -28,10 +28,10 @@
 //! tolerance. The sign convention of λ is that of [`crate::model::lagrangian`]:
 //! `M q̈ + Gᵀ λ = F − (∂²L/∂q̇∂q) q̇`.
 
+use super::buffers::{copied, sized, zeroed};
 use super::lu::Lu;
 use super::problem::Mechanics;
 use super::problem::{fixed_steps, ImplicitFailure, NEWTON_MAX_ITER, NEWTON_TOL};
-use super::workspace::{copied, sized, zeroed, Workspace};
 use super::{Failure, Stats};
 use nalgebra::{DMatrixView, DMatrixViewMut, DVectorView};
 
@@ -128,7 +128,7 @@ impl AtQ {
 /// RATTLE's part of a [`Workspace`]: M, b, g, G at q₀ and at q₁ (also used to convert
 /// between q̇ and p), and the vectors and matrices of a step.
 #[derive(Default)]
-pub(crate) struct Scratch {
+pub struct Scratch {
     at: [AtQ; 2],
     /// q₀, p₀, v₀, F, the argument and result of the second half, and scratch, n each.
     vectors: [Vec<f64>; 8],
@@ -158,7 +158,15 @@ pub fn advance(
     h: f64,
     stats: &mut Stats,
 ) -> Result<(), ImplicitFailure> {
-    advance_in(mech, t, x, t_end, h, stats, &mut Workspace::default())
+    advance_in(
+        mech,
+        t,
+        x,
+        t_end,
+        h,
+        stats,
+        (&mut Vec::new(), &mut Scratch::default()),
+    )
 }
 
 /// [`advance`] in the scratch of `work`: the method allocates nothing once `work` has held
@@ -170,11 +178,11 @@ pub fn advance_in(
     t_end: f64,
     h: f64,
     stats: &mut Stats,
-    work: &mut Workspace,
+    work: (&mut Vec<f64>, &mut Scratch),
 ) -> Result<(), ImplicitFailure> {
     let (n, _) = mech.dims();
     assert_eq!(x.len(), 2 * n, "RATTLE: the state is (q, q̇)");
-    let (y, w) = (&mut work.fixed[0], &mut work.rattle);
+    let (y, w) = work;
     let converted = sized(&mut w.vectors[7], n);
     if x.iter().all(|v| v.is_finite()) {
         let at = &mut w.at[0];

@@ -3,8 +3,8 @@
 //! Fixed steps make the cost of a communication step known in advance and the result
 //! independent of tolerances; the price is that accuracy is the user's business.
 
+use super::buffers::sized;
 use super::problem::step_count;
-use super::workspace::{sized, Workspace};
 use super::{Failure, Stats};
 
 /// Advance with RK4 from `*t` to `t_end` (> `*t`, `x` finite; see [`super::advance`]).
@@ -19,10 +19,10 @@ pub fn advance(
     step: f64,
     stats: &mut Stats,
 ) -> Result<(), Failure> {
-    advance_in(rhs, t, x, t_end, step, stats, &mut Workspace::default())
+    advance_in(rhs, t, x, t_end, step, stats, &mut Default::default())
 }
 
-/// [`advance`] in the scratch of `work`: no allocation once it has held this size.
+/// [`advance`] in the buffers `stages`: no allocation once they have held this size.
 /// Generic over the right-hand side so that a caller holding a concrete closure (the
 /// FMU's doStep) gets it inlined into the stages; `dyn FnMut` callers pass `F = dyn ..`.
 pub fn advance_in<F: FnMut(f64, &[f64], &mut [f64]) + ?Sized>(
@@ -32,12 +32,12 @@ pub fn advance_in<F: FnMut(f64, &[f64], &mut [f64]) + ?Sized>(
     t_end: f64,
     step: f64,
     stats: &mut Stats,
-    work: &mut Workspace,
+    stages: &mut [Vec<f64>; 5],
 ) -> Result<(), Failure> {
     let dim = x.len();
     let n = step_count(t_end - *t, step) as u64;
     // (Each written in full, by f or below, before it is read.)
-    let [k1, k2, k3, k4, y] = &mut work.rk4;
+    let [k1, k2, k3, k4, y] = stages;
     let stages = [
         sized(k1, dim),
         sized(k2, dim),
@@ -146,7 +146,7 @@ mod tests {
                 integ::advance(&mut chain, &mut t, &mut x, t_end, &settings, &mut memory).unwrap();
                 let (mut tf, mut xf, mut stats) = (0.1, x0, Stats::default());
                 let mut f = chain;
-                let mut work = Workspace::default();
+                let mut work = crate::integrators::Workspace::default();
                 let plan = (step, MAX_STEPS);
                 integ::rk4_fixed(
                     &mut f,
@@ -172,7 +172,7 @@ mod tests {
             1.0,
             (1e-3, 999),
             &mut stats,
-            &mut Workspace::default(),
+            &mut crate::integrators::Workspace::default(),
         );
         assert!(matches!(refused, Err(Failure::TooManyPlanned { .. })));
         assert_eq!((t, x, stats.rhs_evals), (0.0, [1.0, 0.0], 0));

@@ -6,8 +6,8 @@
 //! E. Hairer, C. Lubich, G. Wanner, *Geometric numerical integration illustrated by the
 //! Störmer–Verlet method*, Acta Numerica 12 (2003) 399–450, Sect. 4 (stability: hω < 2).
 
+use super::buffers::sized;
 use super::problem::{fixed_steps, Problem};
-use super::workspace::{sized, Workspace};
 use super::{Failure, Stats};
 
 /// Velocity Verlet from `*t` to `t_end` with step `h` (the last step shortened; `h` not
@@ -28,7 +28,7 @@ pub fn velocity_verlet(
     h: f64,
     stats: &mut Stats,
 ) -> Result<(), Failure> {
-    velocity_verlet_in(problem, t, x, t_end, h, stats, &mut Workspace::default())
+    velocity_verlet_in(problem, t, x, t_end, h, stats, &mut Default::default())
 }
 
 /// [`velocity_verlet`] in the scratch of `work`.
@@ -39,10 +39,10 @@ pub fn velocity_verlet_in(
     t_end: f64,
     h: f64,
     stats: &mut Stats,
-    work: &mut Workspace,
+    work: &mut [Vec<f64>; 2],
 ) -> Result<(), Failure> {
     let nq = problem.positions("Störmer–Verlet", x.len());
-    let [y, k] = &mut work.fixed;
+    let [y, k] = work;
     let k = sized(k, x.len());
     fixed_steps(
         "Störmer–Verlet",

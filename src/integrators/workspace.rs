@@ -11,6 +11,10 @@
 
 use super::{dop853, dopri5, exact_linear, gauss, radau5, rattle};
 
+// Each method takes its own part (its `Scratch`, or the plain buffers below), so the methods
+// never name this type: it sits above them, where the dispatch of `integrators` hands the
+// parts out.
+
 /// Scratch for every method; each uses its own part, sized on first use.
 #[derive(Default)]
 pub struct Workspace {
@@ -26,30 +30,4 @@ pub struct Workspace {
     pub(super) rattle: rattle::Scratch,
     /// The communication point read from a dense output.
     pub(super) point: Vec<f64>,
-}
-
-/// `v` as `n` zeros, as `vec![0.0; n]` would give, without allocating once `v` has held `n`.
-pub(crate) fn zeroed(v: &mut Vec<f64>, n: usize) -> &mut [f64] {
-    v.clear();
-    v.resize(n, 0.0);
-    v
-}
-
-/// `v` with `n` entries, for a buffer written in full before it is read (its old values are
-/// left: no clearing in the hot loops), without allocating once `v` has held `n`.
-#[inline]
-pub(crate) fn sized(v: &mut Vec<f64>, n: usize) -> &mut [f64] {
-    // (The test first: `resize` is not inlined, and the hot paths call this each step.)
-    if v.len() != n {
-        v.resize(n, 0.0);
-    }
-    v
-}
-
-/// `v` holding a copy of `x`, without allocating once `v` has held as many.
-#[inline]
-pub(crate) fn copied<'a>(v: &'a mut Vec<f64>, x: &[f64]) -> &'a mut [f64] {
-    let v = sized(v, x.len());
-    v.copy_from_slice(x);
-    v
 }
