@@ -7,7 +7,6 @@ or on a cluster (``scheduler="tcp://HOST:PORT"``) without a process pool of our 
 from __future__ import annotations
 
 import hashlib
-import itertools
 import math
 import os
 import pathlib
@@ -34,11 +33,12 @@ def linspace(spec: str) -> tuple[str, np.ndarray]:
     return name.strip(), np.linspace(lo, hi, n)
 
 
-def points(grid: Mapping[str, Sequence[float]]) -> list[dict[str, float]]:
-    """The cartesian product of the grids, the last name varying fastest."""
-    names = list(grid)
-    return [dict(zip(names, map(float, combo)))
-            for combo in itertools.product(*(list(grid[n]) for n in names))]
+def points(grid: Mapping[str, Sequence[float]]) -> np.ndarray:
+    """The cartesian product of the grids, one row per run, a column per name (in the
+    order of ``grid``), the last name varying fastest."""
+    axes = [np.asarray(grid[n], dtype=float).ravel() for n in grid]
+    mesh = np.meshgrid(*axes, indexing="ij")
+    return np.stack([m.ravel() for m in mesh], axis=1).reshape(-1, len(axes))
 
 
 def _check_names(md, names: Sequence[str], what: str) -> None:
@@ -91,8 +91,8 @@ def sweep(fmu: str | os.PathLike, grid: Mapping[str, Sequence[float]], *,
             raise ValueError("a simulation sweep needs stop_time and outputs")
         _check_names(md, outputs, "outputs")
     pts = points(grid)
-    spec = dict(run=run, fixed=fixed, stop_time=stop_time, outputs=list(outputs),
-                step=step, tolerance=tolerance)
+    spec = dict(run=run, fixed=fixed, names=list(grid), stop_time=stop_time,
+                outputs=list(outputs) if run is None else [], step=step, tolerance=tolerance)
 
     from distributed import Client, LocalCluster
 
@@ -114,46 +114,50 @@ def sweep(fmu: str | os.PathLike, grid: Mapping[str, Sequence[float]], *,
     finally:
         for obj in owned:
             obj.close()
-    return _table(grid, pts, results, list(outputs))
+    return _table(grid, pts, results, spec["outputs"])
 
 
 def _run(client, data, digest, spec, pts, batches, progress, retries):
-    """Submit the batches and collect [(index, outputs, status, message)]."""
+    """Submit the batches; collect per run (results, status, message)."""
     from distributed import as_completed
     from tqdm.auto import tqdm
 
     # The FMU goes to every worker once; each task gets the worker's local copy.
     shipped = client.scatter(data, broadcast=True, hash=True)
-    futures = {}
-    for b in batches:
-        batch = [(i, pts[i]) for i in b]
-        fut = client.submit(run_batch, shipped, digest, spec, batch, pure=False,
-                            retries=retries)
-        futures[fut] = b
-    results = []
-    with tqdm(total=len(pts), unit="run", disable=not progress, smoothing=0.1) as bar:
+    futures = {client.submit(run_batch, shipped, digest, spec, b.start, pts[b.start:b.stop],
+                             pure=False, retries=retries): b for b in batches}
+    n = len(pts)
+    results, statuses, messages = [None] * n, ["lost"] * n, [""] * n
+    with tqdm(total=n, unit="run", disable=not progress, smoothing=0.1) as bar:
         for fut in as_completed(futures):
             b = futures[fut]
             try:
-                results.extend(fut.result())
+                start, res, st, msg = fut.result()
+                results[b.start:b.stop] = list(res)
+                statuses[b.start:b.stop] = st
+                for i, m in msg.items():
+                    messages[start + i] = m
             except Exception as exc:  # e.g. KilledWorker after the retries: rows say so
-                results.extend((i, None, "lost", f"{type(exc).__name__}: {exc}") for i in b)
+                messages[b.start:b.stop] = [f"{type(exc).__name__}: {exc}"] * len(b)
             bar.update(len(b))
             fut.release()
-    return results
+    return results, statuses, messages
 
 
-def _table(grid, pts, results, outputs) -> pd.DataFrame:
-    results.sort(key=lambda r: r[0])
-    names = list(outputs)
-    for _, out, _, _ in results:  # a custom run names its own results
-        for k in out or {}:
-            if k not in names:
-                names.append(k)
-    cols = {n: [p[n] for p in pts] for n in grid}
+def _table(grid, pts, run_results, outputs) -> pd.DataFrame:
+    results, statuses, messages = run_results
+    cols = {n: pts[:, j] for j, n in enumerate(grid)}
+    if outputs:  # a simulation: each result is a row of output values
+        names = list(outputs)
+        vals = np.array([np.full(len(names), np.nan) if r is None else r for r in results],
+                        dtype=float).reshape(len(results), len(names))
+        named = dict(zip(names, vals.T))
+    else:  # a custom run names its own results
+        names = list(dict.fromkeys(k for r in results if r for k in r))
+        named = {k: np.array([np.nan if not r else float(r.get(k, np.nan)) for r in results])
+                 for k in names}
     for n in names:  # an output named like a grid column (x0 swept, x read) gets "_out"
-        cols[n + "_out" if n in cols else n] = [np.nan if out is None else float(out.get(n, np.nan))
-                   for _, out, _, _ in results]
-    cols["status"] = [r[2] for r in results]
-    cols["message"] = [r[3] for r in results]
+        cols[n + "_out" if n in cols else n] = named[n]
+    cols["status"] = statuses
+    cols["message"] = messages
     return pd.DataFrame(cols)

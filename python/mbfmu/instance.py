@@ -217,36 +217,41 @@ class Instance:
         return self.jacobian(ders, self.state_names())
 
 
-def run_batch(data: bytes, digest: str, spec: dict, batch: Iterable[tuple[int, dict]]):
-    """Run a batch of points on this thread's instance; a task of the sweep.
+def run_batch(data: bytes, digest: str, spec: dict, start: int, values: np.ndarray):
+    """Run the points ``values`` (one row per run, columns ``spec["names"]``) on this
+    thread's instance; one task of a sweep. Points go in and results come out as arrays,
+    which dask passes without walking them element by element.
 
     Every exception of a run is caught into its row, so a bad point never fails the task
-    (and so never the sweep). Returns [(index, outputs or None, status, message)].
+    (and so never the sweep). Returns (start, results, statuses, {row: message}) where
+    results is an (n, outputs) array for simulations, a list of dicts for a custom run.
     """
     _route_log()
     inst = instance_for(data, digest)
-    run, fixed = spec["run"], spec["fixed"]
-    rows = []
-    for index, point in batch:
+    run, fixed, names = spec["run"], spec["fixed"], spec["names"]
+    n = len(values)
+    results = np.full((n, len(spec["outputs"])), np.nan) if run is None else [None] * n
+    statuses, messages = ["ok"] * n, {}
+    for i in range(n):
+        point = dict(zip(names, values[i].tolist()))
         try:
             inst.prepare()
-            inst.set(fixed)
-            inst.set(point)
+            inst.set({**fixed, **point})  # one fmi2SetReal; the point wins over --set
             if run is None:
                 out = inst.simulate(spec["stop_time"], spec["outputs"], spec["step"],
                                     spec["tolerance"])
+                results[i] = list(out.values())
             else:
-                out = run(inst, dict(point))
-            rows.append((index, out, "ok", ""))
+                results[i] = dict(run(inst, point))
         except Exception as exc:  # the row records it; the next run gets a new instance
             status = STATUS.get(getattr(exc, "status", None), "error") \
                 if isinstance(exc, FMICallException) else "error"
             log = inst.messages()
-            message = f"{exc}" + (" FMU log: " + " | ".join(log) if log else "")
-            rows.append((index, None, status, message))
+            statuses[i] = status
+            messages[i] = f"{exc}" + (" FMU log: " + " | ".join(log) if log else "")
             try:
                 inst.renew()
             except Exception:
                 _INSTANCES.pop((digest, threading.get_ident()), None)
                 inst = instance_for(data, digest)
-    return rows
+    return start, results, statuses, messages
