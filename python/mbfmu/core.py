@@ -12,6 +12,7 @@ import os
 import pathlib
 from typing import Callable, Mapping, Sequence
 
+import cloudpickle
 import numpy as np
 import pandas as pd
 from fmpy import read_model_description
@@ -33,9 +34,12 @@ def linspace(spec: str) -> tuple[str, np.ndarray]:
     return name.strip(), np.linspace(lo, hi, n)
 
 
-def points(grid: Mapping[str, Sequence[float]]) -> np.ndarray:
+def points(grid: Mapping[str, Sequence[float]] | pd.DataFrame) -> np.ndarray:
     """The cartesian product of the grids, one row per run, a column per name (in the
-    order of ``grid``), the last name varying fastest."""
+    order of ``grid``), the last name varying fastest. A DataFrame is taken as the runs
+    themselves, one per row (Monte Carlo samples, a hand-made design)."""
+    if isinstance(grid, pd.DataFrame):
+        return grid.to_numpy(dtype=float).reshape(len(grid), grid.shape[1])
     axes = [np.asarray(grid[n], dtype=float).ravel() for n in grid]
     mesh = np.meshgrid(*axes, indexing="ij")
     return np.stack([m.ravel() for m in mesh], axis=1).reshape(-1, len(axes))
@@ -48,28 +52,31 @@ def _check_names(md, names: Sequence[str], what: str) -> None:
         raise ValueError(f"{what}: no variable {', '.join(unknown)} in {md.modelName}")
 
 
-def _batches(n_runs: int, n_workers: int, batch_size: int | None) -> list[range]:
-    """Batches of run indices. By default about 8 batches per worker (so a slow batch or a
-    lost worker holds back little) and at most 2000 runs each (a few tenths of a second
+def _batches(n_runs: int, n_threads: int, batch_size: int | None) -> list[range]:
+    """Batches of run indices. By default about 8 batches per worker thread (so a slow
+    batch or a lost worker holds back little) and at most 2000 runs each (a few tenths of a second
     of ~0.1 ms runs, against the ~ms a dask task costs)."""
     if batch_size is None:
-        batch_size = max(1, min(2000, math.ceil(n_runs / (8 * max(1, n_workers)))))
+        batch_size = max(1, min(2000, math.ceil(n_runs / (8 * max(1, n_threads)))))
     return [range(i, min(i + batch_size, n_runs)) for i in range(0, n_runs, batch_size)]
 
 
-def sweep(fmu: str | os.PathLike, grid: Mapping[str, Sequence[float]], *,
+def sweep(fmu: str | os.PathLike, grid: Mapping[str, Sequence[float]] | pd.DataFrame, *,
           outputs: Sequence[str] = (), stop_time: float | None = None,
           fixed: Mapping[str, float] | None = None, run: Run | None = None,
           scheduler: str | None = None, client=None, n_workers: int | None = None,
           batch_size: int | None = None, tolerance: float | None = None,
           step: float | None = None, progress: bool = True, retries: int = 3) -> pd.DataFrame:
-    """Run the FMU at every point of the cartesian product of ``grid``; one row per run.
+    """Run the FMU at every point of the cartesian product of ``grid`` (or at every row
+    of ``grid`` if it is a DataFrame); one row per run.
 
     Each run starts a fresh (reset) instance, sets ``fixed`` then the point's values as
     start values, and by default simulates to ``stop_time`` recording the final value of
     each of ``outputs``. With ``run=f``, ``f(inst, point)`` does the run instead and
     returns a dict of named results (e.g. eigenvalues from :meth:`Instance.state_matrix`);
-    ``inst`` is a :class:`mbfmu.instance.Instance` in the Instantiated state.
+    ``inst`` is a :class:`mbfmu.instance.Instance` in the Instantiated state. ``run`` is
+    shipped with cloudpickle: a function of a module the workers cannot import needs
+    ``cloudpickle.register_pickle_by_value(module)`` first.
 
     Where: ``client`` (a dask Client), else ``scheduler`` (address of a running dask
     scheduler), else a LocalCluster of ``n_workers`` single-threaded processes (default:
@@ -91,7 +98,11 @@ def sweep(fmu: str | os.PathLike, grid: Mapping[str, Sequence[float]], *,
             raise ValueError("a simulation sweep needs stop_time and outputs")
         _check_names(md, outputs, "outputs")
     pts = points(grid)
-    spec = dict(run=run, fixed=fixed, names=list(grid), stop_time=stop_time,
+    # cloudpickle here, not dask's pickle-first serialisation of the graph: that pickles a
+    # function by reference, and a module registered with
+    # cloudpickle.register_pickle_by_value (one the workers cannot import) then fails.
+    spec = dict(run=None if run is None else cloudpickle.dumps(run), fixed=fixed,
+                names=list(grid), stop_time=stop_time,
                 outputs=list(outputs) if run is None else [], step=step, tolerance=tolerance)
 
     from distributed import Client, LocalCluster
@@ -108,8 +119,9 @@ def sweep(fmu: str | os.PathLike, grid: Mapping[str, Sequence[float]], *,
                 owned.append(cluster)
                 client = Client(cluster)
             owned.insert(0, client)
-        workers = max(1, len(client.scheduler_info().get("workers", {})))
-        results = _run(client, data, digest, spec, pts, _batches(len(pts), workers, batch_size),
+        client.wait_for_workers(1, timeout=120)  # scatter needs a worker to send to
+        threads = sum(client.nthreads().values())  # every thread runs a batch at a time
+        results = _run(client, data, digest, spec, pts, _batches(len(pts), threads, batch_size),
                        progress, retries)
     finally:
         for obj in owned:

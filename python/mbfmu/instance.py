@@ -17,6 +17,7 @@ import zipfile
 from ctypes import byref
 from typing import Iterable, Mapping, Sequence
 
+import cloudpickle
 import numpy as np
 from fmpy import calloc, free, read_model_description
 from fmpy.fmi1 import FMICallException
@@ -228,7 +229,8 @@ def run_batch(data: bytes, digest: str, spec: dict, start: int, values: np.ndarr
     """
     _route_log()
     inst = instance_for(data, digest)
-    run, fixed, names = spec["run"], spec["fixed"], spec["names"]
+    run = None if spec["run"] is None else cloudpickle.loads(spec["run"])
+    fixed, names = spec["fixed"], spec["names"]
     n = len(values)
     results = np.full((n, len(spec["outputs"])), np.nan) if run is None else [None] * n
     statuses, messages = ["ok"] * n, {}

@@ -37,16 +37,18 @@ def parser() -> argparse.ArgumentParser:
                         "cartesian product")
     p.add_argument("--set", action="append", type=_assignment, default=[], metavar="NAME=V",
                    help="a start value fixed for every run; repeatable")
-    p.add_argument("--stop-time", type=float, required=True, metavar="T")
+    p.add_argument("--stop-time", type=float, required=True, metavar="T",
+                   help="simulated time of each run (start 0)")
     p.add_argument("--outputs", required=True, metavar="a,b",
                    help="comma-separated variables whose final value is recorded")
-    p.add_argument("--out", required=True, metavar="FILE.parquet")
+    p.add_argument("--out", required=True, metavar="FILE.parquet",
+                   help="the table, one row per run (pandas + pyarrow)")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="a running dask scheduler, e.g. tcp://HOST:8786 (default: a "
                         "LocalCluster on this machine)")
     p.add_argument("--workers", type=int, help="LocalCluster worker processes (default: one per CPU)")
     p.add_argument("--batch-size", type=int, help="runs per dask task (default: about 8 tasks "
-                                                  "per worker, at most 2000 runs each)")
+                                                  "per worker thread, at most 2000 runs each)")
     p.add_argument("--tolerance", type=float, help="fmi2SetupExperiment tolerance "
                                                    "(default: the DefaultExperiment's)")
     p.add_argument("--step", type=float, help="communication step (default: one fmi2DoStep "

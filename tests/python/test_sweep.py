@@ -12,6 +12,7 @@ relative error of 1e-7 in ω moves x(T) by up to ωT·1e-7·x0 ≈ 3e-6·x0.
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import pathlib
@@ -122,6 +123,36 @@ def test_sweep_on_a_running_scheduler_with_two_workers(dask_scheduler, tmp_path)
     assert (df["status"] == "error").sum() == 4 * 4  # k = -20, -15, -10, -5
 
 
+def _die_once_then_simulate(marker: str, k_dies: float, inst, point):
+    """A run that kills its own worker process the first time it meets k = k_dies (the
+    marker file remembers), as a lost machine would; otherwise the usual simulation."""
+    import os
+    import pathlib
+
+    if point["k"] == k_dies and not pathlib.Path(marker).exists():
+        pathlib.Path(marker).write_text(str(os.getpid()))
+        os._exit(1)  # no cleanup, no reply: the scheduler sees the worker vanish
+    return inst.simulate(T, ["x", "E"], tolerance=1e-10)
+
+
+def test_a_lost_worker_costs_only_a_retry(dask_scheduler, tmp_path):
+    """A worker dies mid-sweep: its batch is run again elsewhere (task retries, the
+    nanny restarts the worker) and every row is still there and right."""
+    import cloudpickle
+
+    import mbfmu
+
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])  # workers lack tests/python
+    marker = tmp_path / "died"
+    k = np.linspace(1, 100, 12)
+    run = functools.partial(_die_once_then_simulate, str(marker), float(k[7]))
+    df = mbfmu.sweep(fs.fmu_file("MassSpringDamper"), {"k": k}, run=run, batch_size=3,
+                     fixed={"c": 0.0, "F_amp": 0.0, "x": X0, "v": 0.0},
+                     scheduler=dask_scheduler, progress=False)
+    assert marker.exists(), df[["k", "status", "message"]].to_string()  # a worker died
+    check_rows(df, {"k": k})
+
+
 def test_sweep_on_the_default_local_cluster(tmp_path):
     """No --scheduler: a LocalCluster; m crosses its min of 1e-12 (m = -1 and 0 fail)."""
     out = tmp_path / "msd.parquet"
@@ -131,15 +162,34 @@ def test_sweep_on_the_default_local_cluster(tmp_path):
     assert (df["status"] == "error").sum() == 2 * 21
 
 
-def test_sweep_api_with_a_linearisation_run():
-    """mbfmu.sweep(..., run=mbfmu.spectrum): eigenvalues from the FMU's directional
+def test_sweep_api_linearisation_run_and_samples():
+    """On one running client: a DataFrame of Monte Carlo samples against the closed form;
+    a run refused with fmi2Discard is a 'discard' row; run=mbfmu.spectrum: eigenvalues from the FMU's directional
     derivatives against -c/2m ± i√(k/m - (c/2m)²) (exact derivatives and a 2x2
     eigenproblem: agreement to rounding, 1e-12 relative to |λ|)."""
     import mbfmu
+    from distributed import Client, LocalCluster
 
     fmu = fs.fmu_file("MassSpringDamper")
     grid = {"k": np.linspace(5, 100, 12), "c": [0.0, 0.5, 3.0], "m": [-1.0, 2.0]}
-    df = mbfmu.sweep(fmu, grid, run=mbfmu.spectrum, n_workers=1, progress=False)
+    with LocalCluster(n_workers=1, threads_per_worker=1, dashboard_address="127.0.0.1:0") \
+            as cluster, Client(cluster) as client:
+        df = mbfmu.sweep(fmu, grid, run=mbfmu.spectrum, client=client, progress=False)
+        # A DataFrame is the runs themselves (Monte Carlo samples), not a product.
+        rng = np.random.default_rng(18)
+        samples = pd.DataFrame({"k": rng.uniform(1, 100, 40), "m": rng.uniform(0.5, 2, 40)})
+        mc = mbfmu.sweep(fmu, samples, fixed={"c": 0.0, "F_amp": 0.0, "x": X0, "v": 0.0},
+                         stop_time=T, outputs=["x", "E"], tolerance=1e-10, client=client,
+                         progress=False)
+        # fmi2Discard: RK4 at 1e-3 s needs 2000 steps to T; solver_max_steps 1000 refuses.
+        disc = mbfmu.sweep(fmu, {"solver_max_steps": [1000, 3000]}, stop_time=T,
+                           fixed={"solver": 1, "solver_step": 1e-3}, outputs=["x"],
+                           client=client, progress=False)
+    assert list(disc["status"]) == ["discard", "ok"], disc["message"].tolist()
+    assert "fmi2DoStep" in disc["message"][0] and np.isnan(disc["x"][0])
+    assert len(mc) == 40 and (mc[["k", "m"]].to_numpy() == samples.to_numpy()).all()
+    assert (mc["status"] == "ok").all()
+    assert np.abs(mc["x"] - X0 * np.cos(np.sqrt(mc["k"] / mc["m"]) * T)).max() <= TOL
     assert len(df) == 12 * 3 * 2
     assert set(df["status"][df["m"] < 0]) == {"error"}
     ok = df[df["m"] > 0]
