@@ -134,8 +134,12 @@ def _run(client, data, digest, spec, pts, batches, progress, retries):
     from distributed import as_completed
     from tqdm.auto import tqdm
 
-    # The FMU goes to every worker once; each task gets the worker's local copy.
-    shipped = client.scatter(data, broadcast=True, hash=True)
+    # The FMU goes to every worker once; each task gets the worker's local copy (and the
+    # worker unzips it once: mbfmu.instance caches by digest). hash=False: a key of its
+    # own per sweep. With hash=True a second sweep of the same FMU on one client reused
+    # the first one's key, and the first one's late release cancelled its tasks ("lost
+    # dependencies").
+    shipped = client.scatter(data, broadcast=True, hash=False)
     futures = {client.submit(run_batch, shipped, digest, spec, b.start, pts[b.start:b.stop],
                              pure=False, retries=retries): b for b in batches}
     n = len(pts)
@@ -153,6 +157,7 @@ def _run(client, data, digest, spec, pts, batches, progress, retries):
                 messages[b.start:b.stop] = [f"{type(exc).__name__}: {exc}"] * len(b)
             bar.update(len(b))
             fut.release()
+    shipped.release()
     return results, statuses, messages
 
 
