@@ -11,7 +11,8 @@ Columns:
   no dask) -- the baseline;
 - 1 worker / 2 workers: mbfmu.sweep on a LocalCluster already started (its ~2 s start is
   reported apart), FMU shipping, batching and the result table included.
-Overhead per run = (time with 1 worker - serial loop time) / runs.
+Overhead per run = (time with 1 worker - serial loop time) / runs; it includes the fixed
+cost of a sweep (shown apart: a sweep of one run) spread over the runs.
 Wall-clock times on a shared machine: take the best of --repeat.
 """
 
@@ -91,11 +92,15 @@ def main():
                 assert (df["status"] == "ok").all(), df[df["status"] != "ok"].head()
 
             # Interleaved repeats, best of each: the load of a shared machine drifts.
-            times = {"serial": [], 1: [], 2: []}
+            times = {"serial": [], 1: [], 2: [], "one": []}
+            one = {k: v[:1] for k, v in grid.items()}
             for _ in range(args.repeat):
                 times["serial"].append(best(lambda: run_batch(data, digest, spec, 0, pts), 1))
                 for workers in (1, 2):
                     times[workers].append(best(lambda: swept(workers), 1))
+                times["one"].append(best(lambda: mbfmu.sweep(
+                    fmu, one, fixed=w["fixed"], stop_time=w["stop_time"], outputs=w["outputs"],
+                    client=clusters[1][1], progress=False), 1))
         finally:
             for cluster, client in clusters.values():
                 client.close()
@@ -104,17 +109,19 @@ def main():
         row["serial"] = n / t_serial
         row["w1"], row["w2"] = n / min(times[1]), n / min(times[2])
         row["overhead_us"] = (min(times[1]) - t_serial) / n * 1e6
+        row["fixed_s"] = min(times["one"])  # a 1-run sweep: scatter, XML, task, table
         rows.append(row)
         print(row, flush=True)
 
     print(f"\nload average {os.getloadavg()}, {os.cpu_count()} CPUs\n")
-    print("| model, T | runs | fmpy.simulate_fmu loop | serial loop (reset) | 1 worker | 2 workers | overhead per run (1 worker) | run time (serial) |")
-    print("|---|---:|---:|---:|---:|---:|---:|---:|")
+    print("| model, T | runs | fmpy.simulate_fmu loop | serial loop (reset) | 1 worker | 2 workers "
+          "| overhead per run (1 worker − serial) | fixed cost of a sweep (1 run) | run (serial) |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     for r in rows:
         T = WORKLOADS[r["model"]]["stop_time"]
         print(f"| {r['model']}, {T:g} s | {r['runs']} | {r['simulate']:.0f}/s | {r['serial']:.0f}/s "
               f"| {r['w1']:.0f}/s | {r['w2']:.0f}/s | {r['overhead_us']:.0f} µs "
-              f"| {1e3 / r['serial']:.3f} ms |")
+              f"| {r['fixed_s'] * 1e3:.0f} ms | {1e3 / r['serial']:.3f} ms |")
     print(f"\nLocalCluster start: {rows[0]['start1']:.1f} s (1 worker), {rows[0]['start2']:.1f} s (2 workers)")
 
 

@@ -15,7 +15,7 @@ import tempfile
 import threading
 import zipfile
 from ctypes import byref
-from typing import Iterable, Mapping, Sequence
+from typing import Mapping, Sequence
 
 import cloudpickle
 import numpy as np
