@@ -351,8 +351,13 @@ pub fn advance_dense(
 trait Ahead: Sized {
     /// Where `memory` keeps it.
     fn kept(memory: &mut Memory) -> &mut Option<Self>;
-    /// Whether integration from `t` can go on from it.
-    fn resumes(&self, t: f64) -> bool;
+    /// The time it started from, and the time and state its last accepted step reached.
+    fn span(&self) -> (f64, f64, &[f64]);
+    /// Whether integration from `t` can go on from it: a time its steps covered.
+    fn resumes(&self, t: f64) -> bool {
+        let (t0, t1, _) = self.span();
+        t0 <= t && t <= t1
+    }
     /// A new one at `(t, x)` (evaluates f).
     fn start(
         problem: &mut problem::Problem,
@@ -374,7 +379,10 @@ trait Ahead: Sized {
         work: &mut Workspace,
     ) -> Result<(), Failure>;
     /// The end of its last accepted step.
-    fn end(&self) -> (f64, &[f64]);
+    fn end(&self) -> (f64, &[f64]) {
+        let (_, t, x) = self.span();
+        (t, x)
+    }
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -417,8 +425,8 @@ impl Ahead for dopri5::Ahead {
     fn kept(memory: &mut Memory) -> &mut Option<Self> {
         &mut memory.ahead
     }
-    fn resumes(&self, t: f64) -> bool {
-        self.t0 <= t && t <= self.t
+    fn span(&self) -> (f64, f64, &[f64]) {
+        (self.t0, self.t, &self.x)
     }
     fn start(
         problem: &mut problem::Problem,
@@ -443,17 +451,14 @@ impl Ahead for dopri5::Ahead {
         let work = &mut work.dopri5;
         dopri5::advance_dense_in(rhs, project, self, ends, settings, memory, out, work)
     }
-    fn end(&self) -> (f64, &[f64]) {
-        (self.t, &self.x)
-    }
 }
 
 impl Ahead for dop853::Ahead {
     fn kept(memory: &mut Memory) -> &mut Option<Self> {
         &mut memory.dop853_ahead
     }
-    fn resumes(&self, t: f64) -> bool {
-        self.t0 <= t && t <= self.t
+    fn span(&self) -> (f64, f64, &[f64]) {
+        (self.t0, self.t, &self.x)
     }
     fn start(
         problem: &mut problem::Problem,
@@ -476,9 +481,6 @@ impl Ahead for dop853::Ahead {
     ) -> Result<(), Failure> {
         let work = &mut work.dop853;
         dop853::advance_dense_in(problem, project, self, ends, settings, memory, out, work)
-    }
-    fn end(&self) -> (f64, &[f64]) {
-        (self.t, &self.x)
     }
 }
 
@@ -517,8 +519,9 @@ impl Ahead for radau5::Ahead {
         let work = &mut work.radau5;
         radau5::advance_dense_in(problem, project, self, ends, settings, memory, out, work)
     }
-    fn end(&self) -> (f64, &[f64]) {
-        (self.t, &self.x)
+    /// (Its start is not kept: [`Ahead::resumes`] above needs only its end.)
+    fn span(&self) -> (f64, f64, &[f64]) {
+        (f64::NEG_INFINITY, self.t, &self.x)
     }
 }
 
