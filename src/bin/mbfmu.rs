@@ -238,7 +238,8 @@ fn select(names: &[String], all: bool) -> Result<Vec<Entry>, String> {
 fn build(args: BuildArgs) -> Result<(), String> {
     if let Some(path) = args.manifest_path {
         let manifest = mbfmu::own_model::manifest(&path)?;
-        let library = mbfmu::own_model::build_cdylib(&manifest, false)?;
+        let (library, runs) = mbfmu::own_model::build_generated(&manifest, false)?;
+        println!("{}", runs);
         let out = args.out.unwrap_or_else(|| {
             manifest
                 .parent()

@@ -10,9 +10,20 @@
 //! binary it ships.
 
 /// Defines the complete FMI 2.0 Co-Simulation C API for one [`System`](crate::model::System).
+///
+/// `export_fmu!(lagrangian MyModel)` for a [`Lagrangian`](crate::model::lagrangian::Lagrangian)
+/// of a crate of one's own: its describe answer also gives the Rust source of the equations
+/// of motion generated from its T, V and constraints, which `mbfmu build --manifest-path`
+/// writes into the crate (`src/eom.rs`) for its `generated_eom!` line to run.
 #[macro_export]
 macro_rules! export_fmu {
+    (lagrangian $model:ty) => {
+        $crate::export_fmu!(@with respond_lagrangian, $model);
+    };
     ($model:ty) => {
+        $crate::export_fmu!(@with respond, $model);
+    };
+    (@with $respond:ident, $model:ty) => {
         /// The exported model, with its layout and GUID computed once per process.
         pub struct ExportedModel;
 
@@ -37,7 +48,7 @@ macro_rules! export_fmu {
             pub unsafe extern "C" fn mbfmu_describe(request: *const c_char) -> *mut c_char {
                 capi::describe(
                     request,
-                    $crate::describe::respond::<<E as $crate::fmi::Export>::Model>,
+                    $crate::describe::$respond::<<E as $crate::fmi::Export>::Model>,
                 )
             }
             /// Not FMI: frees what `mbfmu_describe` returned.

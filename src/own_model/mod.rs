@@ -7,6 +7,57 @@ use std::path::{Path, PathBuf};
 const LIB_RS: &str = include_str!("template/lib.rs.template");
 const CARGO_TOML: &str = include_str!("template/Cargo.toml.template");
 const README: &str = include_str!("template/README.md.template");
+const BUILD_RS: &str = include_str!("template/build.rs.template");
+
+/// Where a crate of one's own keeps the equations of motion generated from its Lagrangian
+/// (written by [`build_generated`]; run by the `generated_eom!` line of its template).
+pub const EOM_FILE: &str = "src/eom.rs";
+
+/// FNV-1a (64 bits) over the relative path and the bytes of every file under `src` but
+/// `eom.rs`, in path order. The template's build.rs computes the same: the generated
+/// equations run only while the model's source is the one they were generated from, so a
+/// model edited and rebuilt with plain cargo falls back to automatic differentiation
+/// (exact, slower) instead of running stale equations.
+pub fn source_hash(src: &Path) -> Result<u64, String> {
+    fn files(dir: &Path, rel: &str, out: &mut Vec<(String, PathBuf)>) -> Result<(), String> {
+        let entries = std::fs::read_dir(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        for entry in entries {
+            let entry = entry.map_err(|e| format!("{}: {e}", dir.display()))?;
+            let name = entry.file_name().to_string_lossy().into_owned();
+            let rel = if rel.is_empty() {
+                name
+            } else {
+                format!("{rel}/{name}")
+            };
+            let path = entry.path();
+            if path.is_dir() {
+                files(&path, &rel, out)?;
+            } else if rel != "eom.rs" {
+                out.push((rel, path));
+            }
+        }
+        Ok(())
+    }
+    let mut all = Vec::new();
+    files(src, "", &mut all)?;
+    all.sort();
+    let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut eat = |bytes: &[u8]| {
+        for &b in bytes.iter().chain(&[0u8]) {
+            hash = (hash ^ b as u64).wrapping_mul(0x0100_0000_01b3);
+        }
+    };
+    for (rel, path) in all {
+        eat(rel.as_bytes());
+        eat(&std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?);
+    }
+    Ok(hash)
+}
+
+/// The first line of [`EOM_FILE`]: what it was generated from.
+pub fn eom_header(hash: u64) -> String {
+    format!("// mbfmu: generated from src/ with fnv1a64={hash:016x}; `mbfmu build` rewrites it\n")
+}
 
 /// `MyPendulum` → `my_pendulum` (the crate name cargo recommends).
 fn snake_case(name: &str) -> String {
@@ -78,6 +129,7 @@ pub fn write_template(name: &str, dir: &Path, mbfmu_source: &Path) -> Result<Vec
         (dir.join("Cargo.toml"), fill(CARGO_TOML)),
         (dir.join("src/lib.rs"), fill(LIB_RS)),
         (dir.join("README.md"), fill(README)),
+        (dir.join("build.rs"), BUILD_RS.to_string()),
         (dir.join(".gitignore"), "/target\n".to_string()),
     ];
     if let Ok(lock) = std::fs::read_to_string(mbfmu_source.join("Cargo.lock")) {
@@ -185,9 +237,97 @@ pub fn build_cdylib(manifest: &Path, quiet: bool) -> Result<PathBuf, String> {
         })
 }
 
+#[cfg(feature = "cli")]
+/// [`build_cdylib`], then the model's own equations of motion: the cdylib is asked for them
+/// (`export_fmu!(lagrangian …)`), [`EOM_FILE`] is written when it does not hold them for
+/// this source, and the crate is built again to run them. Returns the cdylib and one line
+/// saying what it runs (generated equations, or automatic differentiation and why).
+pub fn build_generated(manifest: &Path, quiet: bool) -> Result<(PathBuf, String), String> {
+    use crate::package::protocol;
+    let dir = manifest.parent().expect("a manifest has a folder");
+    let mut library = build_cdylib(manifest, quiet)?;
+    let records = match ask_symbolic(&library)? {
+        Ok(records) => records,
+        Err(why) => return Ok((library, format!("runs on automatic differentiation: {why}"))),
+    };
+    let get = |key: &str| {
+        protocol::value(&records, key)
+            .unwrap_or_default()
+            .to_string()
+    };
+    let hash = source_hash(&dir.join("src"))?;
+    let text = format!("{}{}", eom_header(hash), get("source"));
+    let path = dir.join(EOM_FILE);
+    let current = std::fs::read_to_string(&path).is_ok_and(|t| t == text);
+    let mut in_use = get("in_use") == "true";
+    if !current || !in_use {
+        if !current {
+            std::fs::write(&path, &text).map_err(|e| format!("{}: {e}", path.display()))?;
+        }
+        library = build_cdylib(manifest, quiet)?;
+        in_use =
+            ask_symbolic(&library)?.is_ok_and(|r| protocol::value(&r, "in_use") == Some("true"));
+    }
+    let nodes = get("nodes");
+    let what = if in_use {
+        format!("runs the equations generated from its Lagrangian ({EOM_FILE}, {nodes} nodes)")
+    } else {
+        format!(
+            "runs on automatic differentiation: {EOM_FILE} is written ({nodes} nodes), but src/lib.rs does not run it (the template's `generated_eom!` line)"
+        )
+    };
+    Ok((library, what))
+}
+
+#[cfg(feature = "cli")]
+/// The cdylib's answer to `symbolic`: its records, or why it has none (not a Lagrangian
+/// exported with `export_fmu!(lagrangian …)`, or one the tracer cannot take). Asked of a
+/// copy: a loaded library is never unloaded ([`ModelLibrary`](crate::package::ModelLibrary)),
+/// and the crate is rebuilt and loaded again after this.
+fn ask_symbolic(
+    library: &Path,
+) -> Result<Result<crate::package::protocol::Records, String>, String> {
+    use crate::package::{protocol, ModelLibrary};
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    static PROBES: AtomicUsize = AtomicUsize::new(0);
+    let n = PROBES.fetch_add(1, Ordering::Relaxed);
+    let name = library
+        .file_name()
+        .expect("a library file")
+        .to_string_lossy();
+    let copy = std::env::temp_dir().join(format!("mbfmu-probe-{}-{n}-{name}", std::process::id()));
+    std::fs::copy(library, &copy).map_err(|e| format!("{}: {e}", copy.display()))?;
+    let answer = ModelLibrary::open(&copy)?.call(&protocol::encode(&[("request", "symbolic")]));
+    let _ = std::fs::remove_file(&copy);
+    Ok(answer.map_err(|e| {
+        if e.contains("unknown describe request") {
+            "it is exported with `export_fmu!(T)`; `export_fmu!(lagrangian T)` generates its equations".into()
+        } else {
+            e
+        }
+    }))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The hash the template's build.rs compares: the source files, not eom.rs itself.
+    #[test]
+    fn source_hash_sees_the_model_not_its_generated_equations() {
+        let dir = std::env::temp_dir().join(format!("mbfmu-hash-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("sub")).unwrap();
+        let write = |f: &str, t: &str| std::fs::write(dir.join(f), t).unwrap();
+        write("lib.rs", "mod sub;");
+        write("sub/mod.rs", "// T");
+        let h0 = source_hash(&dir).unwrap();
+        write("eom.rs", "// generated");
+        assert_eq!(source_hash(&dir).unwrap(), h0);
+        write("sub/mod.rs", "// T edited");
+        assert_ne!(source_hash(&dir).unwrap(), h0);
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert!(eom_header(h0).contains(&format!("fnv1a64={h0:016x};")));
+    }
 
     #[test]
     fn names() {

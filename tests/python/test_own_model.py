@@ -52,11 +52,28 @@ def crate(tmp_path_factory) -> pathlib.Path:
     return root
 
 
-def build(crate: pathlib.Path) -> pathlib.Path:
-    run("build", "--manifest-path", crate / "Cargo.toml", env=build_env())
+GENERATED = "runs the equations generated from its Lagrangian (src/eom.rs"
+
+
+def build(crate: pathlib.Path, runs: str | None = None) -> pathlib.Path:
+    """`mbfmu build` of the crate; `runs`: what it must say the FMU runs."""
+    out = run("build", "--manifest-path", crate / "Cargo.toml", env=build_env())
+    if runs is not None:
+        assert runs in out.stdout, out.stdout
     fmu = crate / "target" / "fmu" / f"{NAME}.fmu"
     assert fmu.is_file()
     return fmu
+
+
+def assert_exact_pendulum(fmu, g: float, theta0: float = 1.0):
+    """θ against the exact solution θ = 2 asin(k sn(K − ω t, k)), k = sin(θ0/2), ω = √(g/l),
+    l = 1, to 1e-7 rad over 10 s at rtol 1e-10 (DOPRI5's global error there is ~1e-9)."""
+    res = simulate(fmu, {"theta": theta0}, 10.0, ["theta", "E"])
+    t, theta = res["time"], res["theta"]
+    omega, m = np.sqrt(g), np.sin(theta0 / 2) ** 2
+    sn = ellipj(ellipk(m) - omega * t, m)[0]
+    assert np.max(np.abs(theta - 2 * np.arcsin(np.sqrt(m) * sn))) < 1e-7
+    return res
 
 
 def simulate(fmu, start, stop, outputs):
@@ -69,19 +86,15 @@ def test_the_template_builds_validates_and_swings_as_the_exact_pendulum(crate):
     θ = 2 asin(k sn(K − ω t, k)), k = sin(θ0/2), to 1e-7 rad over 10 s at rtol 1e-10
     (DOPRI5's global error there is ~1e-9); its energy output conserved to 1e-8 relative
     (measured 1.7e-9: DOPRI5 is not symplectic, its energy error grows with the steps)."""
-    fmu = build(crate)
+    fmu = build(crate, runs=GENERATED)
+    assert (crate / "src" / "eom.rs").read_text().startswith("// mbfmu: generated from src/")
     assert validate_fmu(str(fmu)) == []
     with zipfile.ZipFile(fmu) as z:
         names = set(z.namelist())
     assert {"modelDescription.xml", f"binaries/linux64/{NAME}.so", "documentation/index.html",
             "resources/linearization.json", "resources/linearized_model.py"} <= names
     theta0 = 1.0
-    res = simulate(fmu, {"theta": theta0}, 10.0, ["theta", "E"])
-    t, theta, energy = res["time"], res["theta"], res["E"]
-    omega, m = np.sqrt(9.81 / 1.0), np.sin(theta0 / 2) ** 2
-    sn = ellipj(ellipk(m) - omega * t, m)[0]
-    exact = 2 * np.arcsin(np.sqrt(m) * sn)
-    assert np.max(np.abs(theta - exact)) < 1e-7
+    energy = assert_exact_pendulum(fmu, 9.81, theta0)["E"]
     e0 = -9.81 * np.cos(theta0)
     assert abs(energy[0] - e0) < 1e-12
     assert np.max(np.abs(energy - e0)) < 1e-8 * abs(e0)
@@ -101,6 +114,27 @@ def test_linearize_a_users_crate(crate):
     assert bad.returncode == 1 and bad.stderr.strip() == f"mbfmu: {NAME} has no scene nope"
 
 
+def test_an_edited_model_never_runs_stale_generated_equations(crate):
+    """V edited to 4 m g l (1 − cos θ) after the equations were generated: a plain cargo
+    build (`mbfmu linearize` builds so) runs the edited model by automatic differentiation
+    (A = [[0, 1], [−4g, 0]] exactly, not the old −g: build.rs turned the stale src/eom.rs
+    off, its hash no longer the source's); `mbfmu build` generates them anew and the FMU
+    swings as the exact pendulum of 4g."""
+    import json
+
+    lib = crate / "src" / "lib.rs"
+    source = lib.read_text()
+    potential = "-(p[M] * p[G] * p[L] * q[0].cos())"
+    assert potential in source
+    lib.write_text(source.replace(potential, "-(p[M] * (p[G] * 4.0) * p[L] * q[0].cos())"))
+    header = (crate / "src" / "eom.rs").read_text().splitlines()[0]
+    out = run("linearize", "--manifest-path", crate, "--at", "theta=0", env=build_env())
+    assert np.allclose(json.loads(out.stdout)["A"], [[0, 1], [-4 * 9.81, 0]], rtol=0, atol=1e-14)
+    fmu = build(crate, runs=GENERATED)
+    assert (crate / "src" / "eom.rs").read_text().splitlines()[0] != header
+    assert_exact_pendulum(fmu, 4 * 9.81)
+
+
 def test_a_copied_system_agrees_with_the_in_tree_fmu(crate):
     """CompoundPendulum's file copied into the crate as a user would (renamed, its imports
     from mbfmu): the same trajectory as the in-tree FMU, to rounding (measured: bit for bit,
@@ -113,7 +147,7 @@ def test_a_copied_system_agrees_with_the_in_tree_fmu(crate):
     source = "\n".join(line for line in source.splitlines() if "generated_eom!" not in line)
     source = source.replace("crate::", "mbfmu::").replace("CompoundPendulum", NAME)
     (crate / "src" / "lib.rs").write_text(source + f"\nmbfmu::export_fmu!({NAME});\n")
-    mine = build(crate)
+    mine = build(crate, runs="runs on automatic differentiation: it is exported with")
     theirs = fs.fmu_file("CompoundPendulum")
     assert theirs.is_file(), f"{theirs} missing: run `mbfmu build --all`"
     outputs = ["theta", "theta_dot", "E"]
