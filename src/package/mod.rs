@@ -1,6 +1,7 @@
 //! The FMU archive: modelDescription.xml, the platform binary, and a documentation page,
 //! filled from what the compiled model itself answers ([`protocol`], [`library`]).
 
+pub mod crosscheck;
 mod documentation;
 pub mod library;
 pub mod protocol;
