@@ -180,13 +180,16 @@ fn package<M: System>() -> Result<Records, String> {
     // The linearisation at the default operating point (the start values).
     let lin = linearize_at::<M>(&[], None, &States::All)?;
     let reference = crate::docs::reference::reference::<M>()?;
+    // The page reads the model in its independent states where the constraints allow.
+    let page_lin = linearize::reduced::<M>(&lin, None).unwrap_or_else(|_| lin.clone());
+    let (documentation, page_files) = crate::docs::page::page::<M>(Some(&page_lin), &reference);
     let mut records: Records = vec![
         ("model_identifier".into(), M::NAME.into()),
         (
             "model_description".into(),
             crate::xml::model_description::<M>(),
         ),
-        ("documentation".into(), crate::package::index_html::<M>()),
+        ("documentation".into(), documentation),
         ("resource:linearization.json".into(), to_json(&lin)),
         ("resource:linearized_model.py".into(), to_py(&lin)),
     ];
@@ -194,6 +197,7 @@ fn package<M: System>() -> Result<Records, String> {
         reference
             .files(M::NAME)
             .into_iter()
+            .chain(page_files)
             .map(|(path, text)| (format!("file:{path}"), text)),
     );
     Ok(records)

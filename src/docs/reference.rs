@@ -53,8 +53,9 @@ pub fn reference<M: System>() -> Result<Reference, String> {
         .filter(|(s, _)| s.kind == crate::model::VarKind::Parameter)
         .map(|(_, v)| v.start)
         .collect();
+    // A reference of a run that stopped early would mislead: an error.
     let run = |method: Method, tol: f64, step: f64| {
-        simulate::<M>(
+        let t = simulate::<M>(
             &[],
             RunSettings {
                 method,
@@ -63,7 +64,11 @@ pub fn reference<M: System>() -> Result<Reference, String> {
                 comm_step,
                 stop,
             },
-        )
+        )?;
+        match t.failure {
+            Some(why) => Err(format!("{}: reference run: {why}", M::NAME)),
+            None => Ok(t),
+        }
     };
     let dop853 = |tol: f64| {
         format!(

@@ -19,6 +19,8 @@ pub struct Trajectory {
     pub t: Vec<f64>,
     /// `columns[j][k]`: output `j` at time `t[k]`.
     pub columns: Vec<Vec<f64>>,
+    /// Why the run stopped before its stop time (a doStep discarded: a bicycle that fell).
+    pub failure: Option<String>,
 }
 
 /// How to integrate.
@@ -35,8 +37,8 @@ pub struct RunSettings {
 }
 
 /// Runs `M` from its start values overridden by `start_values` (by variable name).
-/// An error when a start value is refused or a doStep does not complete: a reference or a
-/// plot of a run that stopped early would mislead.
+/// An error when a start value is refused or initialisation fails; a doStep that does not
+/// complete ends the trajectory there, with [`Trajectory::failure`] saying why.
 pub fn simulate<M: System>(
     start_values: &[(&str, f64)],
     s: RunSettings,
@@ -53,6 +55,7 @@ pub fn simulate<M: System>(
         nominal: Vec::new(),
         t: Vec::new(),
         columns: Vec::new(),
+        failure: None,
     };
     for (vr, (slot, var)) in layout.vars.iter().enumerate() {
         if fmi_attributes(*slot).0 == "output" {
@@ -107,11 +110,8 @@ pub fn simulate<M: System>(
         match fmu.do_step(now, next - now)? {
             StepOutcome::Completed => record(&fmu, &mut traj)?,
             StepOutcome::Discarded(why) => {
-                return Err(format!(
-                    "{}: {} stopped at t = {now}: {why}",
-                    M::NAME,
-                    s.method.name()
-                ))
+                traj.failure = Some(format!("{} stopped at t = {now}: {why}", s.method.name()));
+                break;
             }
         }
     }

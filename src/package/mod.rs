@@ -1,12 +1,11 @@
-//! The FMU archive: modelDescription.xml, the platform binary, and a documentation page,
+//! The FMU archive: modelDescription.xml, the platform binary, the documentation page and the
+//! other files (made by `docs`),
 //! filled from what the compiled model itself answers ([`protocol`], [`library`]).
 
 pub mod crosscheck;
-mod documentation;
 pub mod library;
 pub mod protocol;
 
-pub use documentation::index_html;
 pub use library::ModelLibrary;
 
 use std::io::Write;
