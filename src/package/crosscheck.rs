@@ -102,6 +102,25 @@ fn read_description(xml: &str) -> Result<Description, String> {
     Ok(d)
 }
 
+/// Whether fmpy's tube around `column` (10 % of its range) is at least [`TUBE_FLOOR`] ×
+/// `rtol` × its scale (the largest of its range, largest magnitude and `nominal`), or the
+/// column is exactly constant (then fmpy's tube is 10 % of its value, or 0.5 around 0).
+fn fits_fmpys_tube(column: &[f64], nominal: f64, rtol: f64) -> Result<(), String> {
+    let max = column.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    let min = column.iter().cloned().fold(f64::INFINITY, f64::min);
+    let magnitude = column.iter().map(|v| v.abs()).fold(0.0, f64::max);
+    let scale = (max - min).max(magnitude).max(nominal);
+    let needed = TUBE_FLOOR * rtol * scale;
+    if max == min || 0.1 * (max - min) >= needed {
+        Ok(())
+    } else {
+        Err(format!(
+            "varies by {:.1e} only: fmpy's tube (10 % of that) is narrower than {TUBE_FLOOR:e} x rtol x scale = {needed:.1e}",
+            max - min
+        ))
+    }
+}
+
 /// A CSV as (header, rows).
 fn parse_csv(text: &str) -> Result<(Vec<String>, Vec<Vec<f64>>), String> {
     let mut lines = text.lines();
@@ -203,28 +222,17 @@ fn write_model(fmu: &Path, out: &Path, platform: &str, version: &str) -> Result<
     };
     for (j, name) in header.iter().enumerate().skip(1) {
         let column: Vec<f64> = rows.iter().map(|r| r[j]).collect();
-        let max = column.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-        let min = column.iter().cloned().fold(f64::INFINITY, f64::min);
-        let magnitude = column.iter().map(|v| v.abs()).fold(0.0, f64::max);
         let nominal = d
             .outputs
             .iter()
             .find(|(n, _)| n == name)
             .map_or(1.0, |(_, n)| *n);
-        let scale = (max - min).max(magnitude).max(nominal);
-        let tube = 0.1 * (max - min);
-        let needed = TUBE_FLOOR * d.tolerance * scale;
-        if max == min || tube >= needed {
-            keep.push(j);
-            written.kept.push(name.clone());
-        } else {
-            written.dropped.push((
-                name.clone(),
-                format!(
-                    "varies by {:.1e} only: fmpy's tube (10 % of that) is narrower than {TUBE_FLOOR:e} x rtol x scale = {needed:.1e}",
-                    max - min
-                ),
-            ));
+        match fits_fmpys_tube(&column, nominal, d.tolerance) {
+            Ok(()) => {
+                keep.push(j);
+                written.kept.push(name.clone());
+            }
+            Err(why) => written.dropped.push((name.clone(), why)),
         }
     }
     let mut csv = String::new();
@@ -306,4 +314,47 @@ fn readme(model: &str, version: &str, d: &Description, w: &Written) -> String {
          fmpy's cross-check in mbfmu's test suite.\n",
     );
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_description_gives_the_experiment_inputs_and_outputs() {
+        let xml = r#"<fmiModelDescription><DefaultExperiment startTime="0" stopTime="2.5" tolerance="1e-8" stepSize="0.01"/>
+<ModelVariables>
+<ScalarVariable name="F" causality="input"><Real start="1.5"/></ScalarVariable>
+<ScalarVariable name="x" causality="output"><Real nominal="-0.1"/></ScalarVariable>
+<ScalarVariable name="m" causality="parameter"><Real start="2"/></ScalarVariable>
+<ScalarVariable name="E" causality="output" initial="calculated"><Real/></ScalarVariable>
+</ModelVariables></fmiModelDescription>"#;
+        let d = read_description(xml).unwrap();
+        assert_eq!(
+            (d.start, d.stop, d.tolerance, d.step),
+            (0.0, 2.5, 1e-8, 0.01)
+        );
+        assert_eq!(d.inputs, vec![("F".to_string(), 1.5)]);
+        assert_eq!(
+            d.outputs,
+            vec![("x".to_string(), 0.1), ("E".to_string(), 1.0)]
+        );
+        let no_experiment = xml.replace("stepSize=\"0.01\"", "");
+        assert!(read_description(&no_experiment).is_err());
+        let (header, rows) = parse_csv("time,x\n0.0,1\n0.5,2e-3\n").unwrap();
+        assert_eq!(header, vec!["time", "x"]);
+        assert_eq!(rows, vec![vec![0.0, 1.0], vec![0.5, 2e-3]]);
+        assert!(parse_csv("time,x\n0.0,abc\n").is_err());
+    }
+
+    #[test]
+    fn a_column_conserved_to_rounding_is_left_out_of_the_reference() {
+        let t: Vec<f64> = (0..1001).map(|k| k as f64 * 0.01).collect();
+        let swing: Vec<f64> = t.iter().map(|t| 0.1 * t.sin()).collect();
+        let energy: Vec<f64> = t.iter().map(|t| -4.9 + 1e-14 * t.cos()).collect();
+        assert!(fits_fmpys_tube(&swing, 1.0, 1e-8).is_ok());
+        assert!(fits_fmpys_tube(&energy, 1.0, 1e-8).is_err());
+        assert!(fits_fmpys_tube(&[0.0; 5], 1.0, 1e-8).is_ok());
+        assert!(fits_fmpys_tube(&[-4.9; 5], 1.0, 1e-8).is_ok());
+    }
 }
