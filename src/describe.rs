@@ -180,16 +180,28 @@ impl LinearizeRequest {
 fn package<M: System>() -> Result<Records, String> {
     // The linearisation at the default operating point (the start values).
     let lin = linearize_at::<M>(&[], None, &States::All)?;
-    Ok(vec![
+    let reference = crate::docs::reference::reference::<M>()?;
+    // The page reads the model in its independent states where the constraints allow.
+    let page_lin = linearize::reduced::<M>(&lin, None).unwrap_or_else(|_| lin.clone());
+    let (documentation, page_files) = crate::docs::page::page::<M>(Some(&page_lin), &reference);
+    let mut records: Records = vec![
         ("model_identifier".into(), M::NAME.into()),
         (
             "model_description".into(),
             crate::xml::model_description::<M>(),
         ),
-        ("documentation".into(), crate::package::index_html::<M>()),
+        ("documentation".into(), documentation),
         ("resource:linearization.json".into(), to_json(&lin)),
         ("resource:linearized_model.py".into(), to_py(&lin)),
-    ])
+    ];
+    records.extend(
+        reference
+            .files(M::NAME)
+            .into_iter()
+            .chain(page_files)
+            .map(|(path, text)| (format!("file:{path}"), text)),
+    );
+    Ok(records)
 }
 
 fn answer<M: System>(request: &Records) -> Result<Records, String> {
@@ -302,6 +314,12 @@ mod tests {
             crate::xml::model_description::<CompoundPendulum>()
         );
         assert!(get("resource:linearization.json").contains("\"A\""));
+        let csv = get("file:extra/org.fmi-standard.fmi-ls-ref/reference.csv");
+        assert!(csv.starts_with("time,theta,"), "{}", &csv[..40]);
+        assert!(
+            get("file:extra/org.fmi-standard.fmi-ls-ref/fmi-ls-manifest.xml")
+                .contains("role=\"result\"")
+        );
         let bad = respond::<CompoundPendulum>(&protocol::encode(&[("request", "fly")]));
         assert!(protocol::parse_response(&bad)
             .unwrap_err()

@@ -9,6 +9,7 @@
 //! - [`package`]: the FMU archive and its documentation page.
 //! - [`linearize`]: A, B, C, D at an operating point, exact, and their export formats.
 //! - [`bench`]: the work–precision sweeps of `mbfmu bench`.
+//! - [`docs`]: what an FMU carries to explain and check itself (reference result, page data).
 //! - [`describe`]: what a compiled model answers the packager (its FMU contents, its
 //!   linearisation), behind its cdylib's `mbfmu_describe`.
 //! - [`own_model`]: a user's model in its own crate: `mbfmu new`, and building that crate.
@@ -17,6 +18,7 @@
 pub mod bench;
 pub mod catalogue;
 pub mod describe;
+pub mod docs;
 pub mod fmi;
 pub mod integrators;
 pub mod linearize;

@@ -58,6 +58,44 @@ enum Cmd {
     Bench(BenchArgs),
     /// Start a model of your own: a crate with a commented Lagrangian template (a pendulum)
     New(NewArgs),
+    /// Write the FMI Cross-Check vendor tree (fmus/2.0/cs/<platform>/mbfmu/<version>/) of built FMUs
+    Crosscheck(CrosscheckArgs),
+}
+
+#[derive(Args)]
+struct CrosscheckArgs {
+    /// Where to write the tree (its fmus/ folder goes there)
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    /// Where the built .fmu files are [default: target/fmu of this tree]
+    #[arg(long, value_name = "DIR")]
+    fmus: Option<PathBuf>,
+}
+
+/// The cross-check tree from the FMUs as built: their DefaultExperiment and FMI-LS-REF
+/// reference result (`package::crosscheck`).
+fn crosscheck(args: CrosscheckArgs) -> Result<(), String> {
+    let fmus = args.fmus.unwrap_or_else(|| target_dir().join("fmu"));
+    let written = package::crosscheck::write_tree(
+        &fmus,
+        &args.out,
+        package::platform(),
+        env!("CARGO_PKG_VERSION"),
+    )?;
+    for w in &written {
+        let dropped: Vec<&str> = w.dropped.iter().map(|(n, _)| n.as_str()).collect();
+        println!(
+            "wrote {} ({} reference columns{})",
+            w.dir.display(),
+            w.kept.len(),
+            if dropped.is_empty() {
+                String::new()
+            } else {
+                format!("; dropped {}", dropped.join(", "))
+            }
+        );
+    }
+    Ok(())
 }
 
 #[derive(Args)]
@@ -671,6 +709,7 @@ fn main() -> ExitCode {
         Cmd::Speed(args) => speed(args),
         Cmd::Bench(args) => bench(args),
         Cmd::New(args) => new(args),
+        Cmd::Crosscheck(args) => crosscheck(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

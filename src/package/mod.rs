@@ -1,11 +1,11 @@
-//! The FMU archive: modelDescription.xml, the platform binary, and a documentation page,
+//! The FMU archive: modelDescription.xml, the platform binary, the documentation page and the
+//! other files (made by `docs`),
 //! filled from what the compiled model itself answers ([`protocol`], [`library`]).
 
-mod documentation;
+pub mod crosscheck;
 pub mod library;
 pub mod protocol;
 
-pub use documentation::index_html;
 pub use library::ModelLibrary;
 
 use std::io::Write;
@@ -36,7 +36,8 @@ pub fn library_file(crate_name: &str) -> String {
 
 /// Writes `<out>`, an FMU with the model's XML, documentation, binary `library`
 /// (stored as `binaries/<platform>/<model_identifier>.<ext>`) and `resources`
-/// (`(file name, content)` pairs under `resources/`).
+/// (`(file name, content)` pairs under `resources/`) and `files` (`(path in the archive,
+/// content)`: the FMI-LS-REF reference result under `extra/`).
 pub fn write_fmu(
     out: &Path,
     model_identifier: &str,
@@ -44,6 +45,7 @@ pub fn write_fmu(
     documentation: &str,
     library: &Path,
     resources: &[(String, String)],
+    files: &[(String, String)],
 ) -> Result<(), String> {
     let binary =
         std::fs::read(library).map_err(|e| format!("cannot read {}: {e}", library.display()))?;
@@ -69,6 +71,12 @@ pub fn write_fmu(
     ];
     for (name, text) in resources {
         entries.push((format!("resources/{name}"), text.as_bytes()));
+    }
+    for (path, text) in files {
+        if path.starts_with('/') || path.split('/').any(|p| p == ".." || p.is_empty()) {
+            return Err(format!("{path}: not a relative path inside the FMU"));
+        }
+        entries.push((path.clone(), text.as_bytes()));
     }
     for (name, data) in entries {
         zip.start_file(name.as_str(), options)
@@ -107,6 +115,10 @@ pub fn package_library(library: &Path, out_dir: &Path) -> Result<std::path::Path
         .iter()
         .filter_map(|(k, v)| Some((k.strip_prefix("resource:")?.to_string(), v.clone())))
         .collect();
+    let files: Vec<(String, String)> = records
+        .iter()
+        .filter_map(|(k, v)| Some((k.strip_prefix("file:")?.to_string(), v.clone())))
+        .collect();
     let fmu = out_dir.join(format!("{identifier}.fmu"));
     write_fmu(
         &fmu,
@@ -115,6 +127,7 @@ pub fn package_library(library: &Path, out_dir: &Path) -> Result<std::path::Path
         get("documentation")?,
         library,
         &resources,
+        &files,
     )?;
     Ok(fmu)
 }

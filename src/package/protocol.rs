@@ -3,10 +3,12 @@
 //!
 //! Requests and responses are lists of `(key, value)` records, each written as
 //! `key byte_length\n` then the value's bytes: values may hold any text (XML, newlines).
+//! A `package` answer names the FMU's files: `resource:NAME` under `resources/`, and
+//! `file:PATH` at any other path of the archive (version 2: the FMI-LS-REF files).
 //! Every response starts with the record `abi` = [`ABI`]; a failure is one `error` record.
 
 /// Bumped whenever a request or a response changes meaning.
-pub const ABI: &str = "mbfmu-describe 1";
+pub const ABI: &str = "mbfmu-describe 2";
 /// The cdylib's symbol: `char *mbfmu_describe(const char *request)`.
 pub const DESCRIBE_SYMBOL: &str = "mbfmu_describe";
 /// The cdylib's symbol that frees what `mbfmu_describe` returned (its own allocator).

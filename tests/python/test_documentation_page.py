@@ -1,0 +1,113 @@
+"""Every FMU's documentation/index.html, rendered in headless Chromium (Debian's
+``chromium``) from the FMU's own files, offline: the MathML is laid out (every <math> has a
+non-zero box, every dotted letter's <mover> stands taller than its letter: the dot is drawn
+above it), every image loads (an <img> with a natural width), every solver of the
+modelDescription's `solver` enumeration is named, the sections are there, the page holds no
+script.  The measurements come from a copy of the page with a measuring script appended
+(the page itself has none), read back with ``--dump-dom``.  A screenshot of each page goes
+to ``$MBFMU_SCREENSHOT_DIR`` (default ``target/screenshots``): the CI artifact.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import re
+import shutil
+import subprocess
+import unicodedata
+import zipfile
+
+import pytest
+from fmpy import read_model_description
+
+import fmu_support as fs
+
+FMUS = sorted(p.stem for p in fs.fmu_dir().glob("*.fmu"))
+
+MEASURE = """
+<script>
+window.addEventListener('load', () => {
+  const box = e => e.getBoundingClientRect();
+  const maths = [...document.querySelectorAll('math')];
+  const movers = [...document.querySelectorAll('mover')];
+  const r = {
+    maths: maths.length,
+    empty_maths: maths.filter(m => box(m).width <= 0 || box(m).height <= 0).length,
+    movers: movers.length,
+    flat_movers: movers.filter(m => !(box(m).height > box(m.firstElementChild).height + 0.5)).length,
+    images: [...document.images].map(i => [i.getAttribute('src'), i.complete && i.naturalWidth > 0]),
+    text: document.body.innerText,
+    ids: [...document.querySelectorAll('[id]')].map(e => e.id),
+  };
+  const pre = document.createElement('pre');
+  pre.id = 'mbfmu-measure';
+  pre.textContent = JSON.stringify(r);
+  document.body.appendChild(pre);
+});
+</script>
+"""
+
+
+def chromium() -> str:
+    path = shutil.which("chromium") or shutil.which("chromium-browser")
+    if path is None:
+        pytest.fail("chromium is not installed (apt-get install chromium)", pytrace=False)
+    return path
+
+
+def run_chromium(tmp, *args) -> str:
+    profile = tmp / "profile"
+    cmd = [chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
+           "--no-first-run", "--disable-background-networking", "--disable-component-update",
+           "--disable-sync", f"--user-data-dir={profile}", *args]
+    out = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr[-2000:]
+    return out.stdout
+
+
+def screenshot_dir() -> pathlib.Path:
+    env = os.environ.get("MBFMU_SCREENSHOT_DIR")
+    return pathlib.Path(env) if env else fs.REPO / "target" / "screenshots"
+
+
+@pytest.mark.parametrize("name", FMUS)
+def test_the_page_renders_offline_with_its_mathematics_plots_and_solvers(name, tmp_path):
+    path = fs.fmu_file(name)
+    with zipfile.ZipFile(path) as z:
+        z.extractall(tmp_path / "fmu")
+    page = tmp_path / "fmu" / "documentation" / "index.html"
+    html = page.read_text(encoding="utf-8")
+    assert "<script" not in html.lower()
+    assert not re.search(r"(src|href)=\"(https?:)?//", html), "the page loads nothing from the network"
+    measured = page.with_name("measured.html")
+    measured.write_text(html.replace("</body>", MEASURE + "</body>"), encoding="utf-8")
+    dom = run_chromium(tmp_path, "--virtual-time-budget=10000", "--dump-dom", measured.as_uri())
+    m = re.search(r'<pre id="mbfmu-measure">(.*?)</pre>', dom, re.S)
+    assert m, "the measuring script did not run"
+    r = json.loads(m.group(1).replace("&lt;", "<").replace("&gt;", ">").replace("&amp;", "&"))
+
+    assert r["maths"] > 0 and r["empty_maths"] == 0, r
+    # Every dot over a letter in the equations is typeset (a <mover>), none left to a font.
+    equations = re.search(r'<ul class="eq">(.*?)</ul>', html, re.S).group(1)
+    raw = [c for c in equations if {"\u0307", "\u0308"} & set(unicodedata.normalize("NFD", c))]
+    assert not raw, f"dots left as characters in the equations: {raw}"
+    if "<mover" in equations:
+        assert r["movers"] > 0 and r["flat_movers"] == 0, r
+    assert r["images"], "no scene plot"
+    assert all(ok for _, ok in r["images"]), [src for src, ok in r["images"] if not ok]
+    md = read_model_description(str(path))
+    solver = next(v for v in md.modelVariables if v.name == "solver")
+    names = [item.name for item in solver.declaredType.items]
+    assert len(names) >= 12
+    for method in names:
+        assert method in r["text"], f"solver {method} not named"
+    for section in ("equations", "variables", "scenes", "linearisation", "solvers", "reference"):
+        assert section in r["ids"]
+
+    shots = screenshot_dir()
+    shots.mkdir(parents=True, exist_ok=True)
+    run_chromium(tmp_path, f"--screenshot={shots / (name + '.png')}", "--window-size=1000,1400",
+                 "--hide-scrollbars", page.as_uri())
+    assert (shots / f"{name}.png").stat().st_size > 10_000
