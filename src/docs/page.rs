@@ -309,7 +309,8 @@ pub fn page<M: System>(
     let mut h = String::new();
     h.push_str("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n");
     h.push_str(&format!("<title>{}</title>\n", escape(M::NAME)));
-    h.push_str("<style>body{font-family:sans-serif;max-width:64em;margin:2em auto;padding:0 1em;line-height:1.45}table{border-collapse:collapse;margin:.5em 0}td,th{border:1px solid #ccc;padding:.2em .5em;text-align:left;vertical-align:top}code{background:#f4f4f4}ul.eq li{margin:.35em 0}math{font-size:1.1em}figure{margin:1em 0}figcaption{font-size:.9em;color:#444}img{max-width:100%;height:auto}nav a{margin-right:1em}</style>\n");
+    // (`mover>mo`: a gap under each dot, so it never touches a tall letter's top, Ω's say.)
+    h.push_str("<style>body{font-family:sans-serif;max-width:64em;margin:2em auto;padding:0 1em;line-height:1.45}table{border-collapse:collapse;margin:.5em 0}td,th{border:1px solid #ccc;padding:.2em .5em;text-align:left;vertical-align:top}code{background:#f4f4f4}ul.eq li{margin:.35em 0}math{font-size:1.1em}mover>mo{padding-bottom:.15em}figure{margin:1em 0}figcaption{font-size:.9em;color:#444}img{max-width:100%;height:auto}nav a{margin-right:1em}</style>\n");
     h.push_str("</head>\n<body>\n");
     h.push_str(&format!(
         "<h1>{}</h1>\n<p>{}</p>\n<nav><a href=\"#equations\">Equations</a><a href=\"#variables\">Variables</a><a href=\"#scenes\">Scenes</a><a href=\"#linearisation\">Linearisation</a><a href=\"#solvers\">Solvers</a><a href=\"#reference\">Reference result</a></nav>\n",
