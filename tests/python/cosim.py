@@ -56,8 +56,8 @@ class _Slave:
             tol=tol,
             stop=stop,
         )
-        fmu = self.inst.lib
-        fmu.component = self.inst.c
+        # fmpy's wrappers of the two derivative functions take the component from here.
+        self.inst.lib.component = self.inst.c
 
     def y(self) -> np.ndarray:
         return np.array(self.inst.get_reals(["x", "v"]))
@@ -84,7 +84,7 @@ def _force(ya: np.ndarray, yb: np.ndarray) -> float:
     return K2 * (yb[0] - ya[0]) + C2 * (yb[1] - ya[1])
 
 
-def _taylor(a: _Slave, b: _Slave, ya, yb, order: int) -> list[float]:
+def _taylor(a: _Slave, b: _Slave, order: int) -> list[float]:
     """F's derivatives at t_n up to ``order`` from the slaves' output derivatives, setting
     each one before reading the next order (v̈ depends on Ḟ)."""
     out = []
@@ -110,14 +110,14 @@ def run(model: fs.Model, h: float, order: int, scheme: str = "jacobi",
             a.set_force(f)
             b.set_force(-f)
             if scheme == "jacobi":
-                _taylor(a, b, ya, yb, order)
+                _taylor(a, b, order)
                 a.step(h)
                 b.step(h)
                 continue
             # Gauss–Seidel (orders 0 and 1): A first, with the Jacobi force (B is still at
             # t_n).
             assert order <= 1, "Gauss–Seidel is studied with orders 0 and 1"
-            _taylor(a, b, ya, yb, order)
+            _taylor(a, b, order)
             a.step(h)
             ya1 = a.y()
             if order == 0:

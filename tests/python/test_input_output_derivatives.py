@@ -201,7 +201,7 @@ def test_simulate_fmu_with_input_derivatives_is_exact(msd, interval, fmpy_deriva
     assert err_held > 1e3 * max(err, 1e-12)
 
 
-def test_rheonomic_and_time_forced_refuse_what_needs_d_dt(load_model, logs):
+def test_time_forced_oscillator_refuses_order_two(load_model, logs):
     """MassSpringDamper with its harmonic forcing on: f reads t, so the states' second
     derivative is refused (one log line); the first stays (ẋ = f)."""
     msd = load_model("MassSpringDamper")
