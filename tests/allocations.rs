@@ -9,7 +9,8 @@
 //! counts the allocations over many more doSteps, which must themselves take internal
 //! steps (checked from the statistics): fixed-step methods with one and with several
 //! internal steps per doStep; adaptive ones in dense mode with many communication points
-//! inside one step. A test binary of its own: its `#[global_allocator]` counts per thread,
+//! inside one step; for MassSpringDamper also with input derivatives set (the polynomial
+//! input, adaptive methods landing). A test binary of its own: its `#[global_allocator]` counts per thread,
 //! so the tests running beside each other do not see each other's allocations.
 //!
 //! The Lagrangian systems with generated equations of motion (`generated_eom!`) are
@@ -105,6 +106,9 @@ struct Case {
     /// The adaptive methods land on every communication point (a system with an event
     /// indicator) instead of running ahead with dense output.
     landing: bool,
+    /// The input `F` moves (derivatives of orders 1 and 2 set before initialisation): the
+    /// right-hand side evaluates the polynomial input, and the adaptive methods land.
+    moving: bool,
 }
 
 /// Allocations over the counted doSteps of one case, by the call that made them.
@@ -154,6 +158,19 @@ fn run<E: Export>((scene, extra): (&str, &[(&str, f64)]), case: Case) -> Counts 
         unsafe { capi::set_integer::<E>(c, r.as_ptr(), 1, &case.method) },
         "solver",
     );
+    if case.moving {
+        let (r, orders, values) = ([vr("F"), vr("F")], [1, 2], [0.5, -0.25]);
+        let status = unsafe {
+            capi::set_real_input_derivatives::<E>(
+                c,
+                r.as_ptr(),
+                2,
+                orders.as_ptr(),
+                values.as_ptr(),
+            )
+        };
+        ok(status, "input derivatives");
+    }
     // Start values before initialization mode, as fmpy sets them (a dependent state,
     // initial = "approx", may only be set there).
     ok(capi::enter_initialization_mode::<E>(c), "init");
@@ -211,7 +228,7 @@ fn run<E: Export>((scene, extra): (&str, &[(&str, f64)]), case: Case) -> Counts 
         counts.directional += c.directional;
     }
     let steps = stats().steps - steps_before;
-    if adaptive(case.method) && case.landing {
+    if adaptive(case.method) && (case.landing || case.moving) {
         assert!(steps >= COUNTED as u64, "{case:?}: {steps} steps");
     } else if adaptive(case.method) {
         // Dense mode: many communication points per step, and still steps in the window.
@@ -240,6 +257,17 @@ fn check<E: Export>(
     (step, several): (f64, f64),
     landing: bool,
 ) {
+    check_inputs::<E>(scene, methods, (step, several), landing, false)
+}
+
+/// [`check`], with the input moving (`moving`) or held.
+fn check_inputs<E: Export>(
+    scene: (&str, &[(&str, f64)]),
+    methods: &[i32],
+    (step, several): (f64, f64),
+    landing: bool,
+    moving: bool,
+) {
     let mut failures = Vec::new();
     for &method in methods {
         let hs: &[f64] = if adaptive(method) {
@@ -253,6 +281,7 @@ fn check<E: Export>(
                 step,
                 h,
                 landing,
+                moving,
             };
             let counts = run::<E>(scene, case);
             let name = <E::Model as System>::NAME;
@@ -272,6 +301,14 @@ const ALL_BUT_RATTLE: [i32; 11] = [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11];
 #[test]
 fn mass_spring_damper() {
     check::<MassSpringDamper>(("damped", &[]), &ALL_BUT_RATTLE, (1e-3, 4.0), false);
+}
+
+/// Input derivatives set: every method that follows a moving input (not ExactLinear, whose
+/// propagator holds it).
+#[test]
+fn mass_spring_damper_with_input_derivatives() {
+    let methods = &ALL_BUT_RATTLE[..10];
+    check_inputs::<MassSpringDamper>(("damped", &[]), methods, (1e-3, 4.0), false, true);
 }
 
 #[test]

@@ -592,19 +592,39 @@ pub unsafe fn get_directional_derivative<E: Export>(
     })
 }
 
-/// Declared unsupported (canInterpolateInputs = false).
-pub fn set_real_input_derivatives<E: Export>(c: Component) -> Status {
-    call::<E>(c, "fmi2SetRealInputDerivatives", |inst| {
-        inst.require(machine::INPUT_DERIVATIVES, "fmi2SetRealInputDerivatives")?;
-        Err("fmi2SetRealInputDerivatives: not supported (canInterpolateInputs = false): inputs are held constant over a step".into())
+/// # Safety
+/// The arrays hold `n` elements when `n` is positive.
+pub unsafe fn set_real_input_derivatives<E: Export>(
+    c: Component,
+    vr: *const c_uint,
+    n: usize,
+    order: *const c_int,
+    value: *const f64,
+) -> Status {
+    const F: &str = "fmi2SetRealInputDerivatives";
+    call::<E>(c, F, |inst| {
+        let vr = slice(vr, n, "vr[]", F)?;
+        let order = slice(order, n, "order[]", F)?;
+        let value = slice(value, n, "value[]", F)?;
+        ok(inst.set_input_derivatives(vr, order, value))
     })
 }
 
-/// Declared unsupported (maxOutputDerivativeOrder = 0).
-pub fn get_real_output_derivatives<E: Export>(c: Component) -> Status {
-    call::<E>(c, "fmi2GetRealOutputDerivatives", |inst| {
-        inst.require(machine::OUTPUT_DERIVATIVES, "fmi2GetRealOutputDerivatives")?;
-        Err("fmi2GetRealOutputDerivatives: not supported (maxOutputDerivativeOrder = 0)".into())
+/// # Safety
+/// The arrays hold `n` elements when `n` is positive.
+pub unsafe fn get_real_output_derivatives<E: Export>(
+    c: Component,
+    vr: *const c_uint,
+    n: usize,
+    order: *const c_int,
+    value: *mut f64,
+) -> Status {
+    const F: &str = "fmi2GetRealOutputDerivatives";
+    call::<E>(c, F, |inst| {
+        let vr = slice(vr, n, "vr[]", F)?;
+        let order = slice(order, n, "order[]", F)?;
+        let value = slice_mut(value, n, "value[]", F)?;
+        ok(inst.output_derivatives(vr, order, value))
     })
 }
 

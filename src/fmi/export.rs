@@ -243,24 +243,24 @@ macro_rules! export_fmu {
                 )
             }
             #[no_mangle]
-            pub extern "C" fn fmi2SetRealInputDerivatives(
+            pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
                 c: Component,
-                _vr: *const c_uint,
-                _n: usize,
-                _order: *const c_int,
-                _v: *const f64,
+                vr: *const c_uint,
+                n: usize,
+                order: *const c_int,
+                v: *const f64,
             ) -> Status {
-                capi::set_real_input_derivatives::<E>(c)
+                capi::set_real_input_derivatives::<E>(c, vr, n, order, v)
             }
             #[no_mangle]
-            pub extern "C" fn fmi2GetRealOutputDerivatives(
+            pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(
                 c: Component,
-                _vr: *const c_uint,
-                _n: usize,
-                _order: *const c_int,
-                _v: *mut f64,
+                vr: *const c_uint,
+                n: usize,
+                order: *const c_int,
+                v: *mut f64,
             ) -> Status {
-                capi::get_real_output_derivatives::<E>(c)
+                capi::get_real_output_derivatives::<E>(c, vr, n, order, v)
             }
             #[no_mangle]
             pub extern "C" fn fmi2DoStep(c: Component, t: f64, h: f64, no_prior: c_int) -> Status {

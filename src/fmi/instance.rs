@@ -3,6 +3,7 @@
 //!
 //! A rejected call has no effect: every argument is checked before anything changes.
 
+use super::inputs::{self, Inputs, MAX_INPUT_DERIVATIVE_ORDER};
 use super::machine::{self, Machine};
 use super::Status;
 use super::{Logger, ModelInfo, Snapshot};
@@ -11,7 +12,7 @@ use crate::integrators::{
     self, copied, problem::Mechanics, sized, zeroed, Memory, Method, Settings, Workspace,
 };
 use crate::model::consistent;
-use crate::model::jacobian::{Direction, Duals};
+use crate::model::jacobian::{self, Direction, Duals, Moving};
 use crate::model::{Layout, Slot, System, Var, VarKind};
 use std::cell::RefCell;
 use std::marker::PhantomData;
@@ -86,6 +87,9 @@ struct Work {
     sensitivities: [Vec<f64>; 2],
     /// Dual numbers for the Jacobian and the directional derivatives.
     duals: Duals,
+    /// The inputs at a time inside doStep when they move (input derivatives set): one
+    /// buffer each for the right-hand side, the Jacobian and the event indicator.
+    u_at: [Vec<f64>; 3],
     integrators: Workspace,
 }
 
@@ -145,6 +149,7 @@ impl<M: System> Instance<M> {
             params: start(VarKind::Parameter),
             x: start(VarKind::State),
             u: start(VarKind::Input),
+            u_der: [vec![0.0; layout.n_inputs], vec![0.0; layout.n_inputs]],
             method: Method::from_code(start(VarKind::SolverMethod)[0] as i32)
                 .expect("default method exists"),
             solver_step: start(VarKind::SolverStep)[0],
@@ -469,6 +474,7 @@ impl<M: System> Instance<M> {
         }
         let d = &self.data;
         check_method::<M>(method, &d.u, &d.params, true)
+            .and_then(|()| check_moving(method, &d.u_der))
             .map_err(|e| format!("fmi2SetInteger: {e}"))?;
         self.data.method = method;
         self.data.max_steps = max_steps;
@@ -502,7 +508,7 @@ impl<M: System> Instance<M> {
         let t_end = self.check_step(current, h)?;
         let (t, result) = self.integrate(current, t_end);
         self.report_stiffness();
-        Ok(self.settle(t_end, t, result))
+        Ok(self.settle(current, t_end, t, result))
     }
 
     /// The checks of fmi2DoStep before any work (state machine, arguments); the step's end.
@@ -536,6 +542,8 @@ impl<M: System> Instance<M> {
     /// ended. The state is projected onto the constraints when the integration succeeded.
     /// The adaptive methods run ahead of the communication points with dense output,
     /// unless an event may come (events are located on landing steps).
+    /// Inputs with derivatives set move along their polynomial from `current`
+    /// ([`Inputs`]).
     fn integrate(&mut self, current: f64, t_end: f64) -> (f64, Result<(), Stop>) {
         let d = &mut self.data;
         let work = self.work.get_mut();
@@ -543,13 +551,27 @@ impl<M: System> Instance<M> {
         let (mut t, x) = (current, copied(&mut work.x, &d.x));
         let result = if d.method == Method::Rk4 && M::event_indicator(t, x, u, p).is_none() {
             // The fixed-step path, on one screen: no settings, no `dyn` (the right-hand side
-            // inlines into the stages), no problem to assemble.
+            // inlines into the stages), no problem to assemble. Moving inputs get a closure
+            // of their own, so held ones pay nothing for them.
             d.memory.drop_ahead();
-            let mut rhs = |t: f64, x: &[f64], dx: &mut [f64]| M::derivatives(t, x, u, p, dx);
             let plan = (d.solver_step, d.max_steps);
             let (stats, scratch) = (&mut d.memory.stats, &mut work.integrators);
-            integrators::rk4_fixed(&mut rhs, (&mut t, x), t_end, plan, stats, scratch)
-                .map_err(Stop::from)
+            let inputs = Inputs {
+                u,
+                der: &d.u_der,
+                t_c: current,
+            };
+            if inputs.moving() {
+                let buf = sized(&mut work.u_at[0], u.len());
+                let mut rhs = |t: f64, x: &[f64], dx: &mut [f64]| {
+                    M::derivatives(t, x, inputs.at(t, buf), p, dx)
+                };
+                integrators::rk4_fixed(&mut rhs, (&mut t, x), t_end, plan, stats, scratch)
+            } else {
+                let mut rhs = |t: f64, x: &[f64], dx: &mut [f64]| M::derivatives(t, x, u, p, dx);
+                integrators::rk4_fixed(&mut rhs, (&mut t, x), t_end, plan, stats, scratch)
+            }
+            .map_err(Stop::from)
         } else {
             let settings = prepared(
                 &mut work.settings,
@@ -558,7 +580,7 @@ impl<M: System> Instance<M> {
                 self.adaptive_max_step,
             );
             let scratch = (&mut work.x0, &mut work.duals, &mut work.integrators);
-            integrate_general::<M>(d, (&mut t, x), t_end, settings, scratch)
+            integrate_general::<M>(d, (&mut t, x), t_end, settings, scratch, &mut work.u_at)
         };
         if result.is_ok() {
             M::project(t, &d.params, x);
@@ -579,14 +601,42 @@ impl<M: System> Instance<M> {
         }
     }
 
-    /// The end of a doStep to `t_end` that reached `t` with `result` (the state in
-    /// `work.x`): the new state if it and the outputs are finite, else the last good one,
-    /// and the outcome.
-    fn settle(&mut self, t_end: f64, t: f64, result: Result<(), Stop>) -> StepOutcome {
+    /// The end of a doStep from `current` to `t_end` that reached `t` with `result` (the
+    /// state in `work.x`): the new state if it and the outputs are finite, else the last
+    /// good one, and the outcome. Moving inputs move to the time reached.
+    fn settle(
+        &mut self,
+        current: f64,
+        t_end: f64,
+        t: f64,
+        result: Result<(), Stop>,
+    ) -> StepOutcome {
+        let outcome = self.settle_state(current, t_end, t, result);
+        let d = &mut self.data;
+        if d.time != current && inputs::moving(&d.u_der) {
+            inputs::advance(&mut d.u, &mut d.u_der, d.time - current);
+        }
+        outcome
+    }
+
+    /// [`Instance::settle`] but the inputs.
+    fn settle_state(
+        &mut self,
+        current: f64,
+        t_end: f64,
+        t: f64,
+        result: Result<(), Stop>,
+    ) -> StepOutcome {
         let (d, work) = (&mut self.data, self.work.get_mut());
         let now = d.time;
         let y = sized(&mut work.y, self.info.layout.n_outputs);
-        M::extra_outputs(t, &work.x, &d.u, &d.params, y);
+        let inputs = Inputs {
+            u: &d.u,
+            der: &d.u_der,
+            t_c: current,
+        };
+        let u = inputs.at(t, sized(&mut work.u_at[0], d.u.len()));
+        M::extra_outputs(t, &work.x, u, &d.params, y);
         let finite = work.x.iter().chain(y.iter()).all(|v| v.is_finite());
         match result {
             Ok(()) if finite => {
@@ -700,6 +750,98 @@ impl<M: System> Instance<M> {
         Ok(())
     }
 
+    /// fmi2SetRealInputDerivatives: the inputs' time derivatives of order 1 or 2 at the
+    /// communication point; the next doStep integrates with the polynomial input they
+    /// make ([`Inputs`]). A changed derivative changes f over the step: the integrator's
+    /// point ahead no longer holds (as for a changed input).
+    pub fn set_input_derivatives(&mut self, vrs: &[u32], orders: &[i32], values: &[f64]) -> Res {
+        const F: &str = "fmi2SetRealInputDerivatives";
+        self.require(machine::INPUT_DERIVATIVES, F)?;
+        let mut der = self.data.u_der.clone();
+        for ((&vr, &order), &value) in vrs.iter().zip(orders).zip(values) {
+            let slot = self.slot(F, vr)?;
+            if slot.kind != VarKind::Input {
+                return Err(format!(
+                    "{F}: {} (value reference {vr}) is not an input",
+                    self.name(vr)
+                ));
+            }
+            if !(1..=MAX_INPUT_DERIVATIVE_ORDER).contains(&order) {
+                return Err(format!(
+                    "{F}: order {order} for {} is not in 1 … {MAX_INPUT_DERIVATIVE_ORDER}",
+                    self.name(vr)
+                ));
+            }
+            if !value.is_finite() {
+                return Err(format!(
+                    "{F}: derivative {value} of order {order} for {} is not finite",
+                    self.name(vr)
+                ));
+            }
+            der[order as usize - 1][slot.index] = value;
+        }
+        check_moving(self.data.method, &der).map_err(|e| format!("{F}: {e}"))?;
+        let bits = |d: &[Vec<f64>; 2]| d.iter().flatten().map(|v| v.to_bits()).collect::<Vec<_>>();
+        if bits(&der) != bits(&self.data.u_der) {
+            self.data.memory.drop_ahead();
+        }
+        self.data.u_der = der;
+        Ok(())
+    }
+
+    /// fmi2GetRealOutputDerivatives: exact time derivatives of outputs (states and extra
+    /// outputs) at the current time, along the trajectory with the inputs' derivatives
+    /// ([`jacobian::rates`]). An order that would need ∂/∂t of a model that reads t with
+    /// these parameters is refused, never approximated.
+    pub fn output_derivatives(&self, vrs: &[u32], orders: &[i32], values: &mut [f64]) -> Res {
+        const F: &str = "fmi2GetRealOutputDerivatives";
+        self.require(machine::OUTPUT_DERIVATIVES, F)?;
+        let max = jacobian::output_derivative_order::<M>();
+        let d = &self.data;
+        let (f_reads_t, g_reads_t) = M::explicit_time(&d.params);
+        for (&vr, &order) in vrs.iter().zip(orders) {
+            let slot = self.slot(F, vr)?;
+            let name = self.name(vr);
+            if !matches!(slot.kind, VarKind::State | VarKind::Output) {
+                return Err(format!(
+                    "{F}: {name} (value reference {vr}) is not an output"
+                ));
+            }
+            if !(1..=max).contains(&order) {
+                return Err(format!(
+                    "{F}: order {order} for {name} is not in 1 … {max} (maxOutputDerivativeOrder = {max})"
+                ));
+            }
+            let needs_f_t = order == 2;
+            let needs_g_t = slot.kind == VarKind::Output;
+            if (needs_f_t && f_reads_t) || (needs_g_t && g_reads_t) {
+                return Err(format!(
+                    "{F}: the derivative of order {order} of {name} needs ∂/∂t of a model that reads t explicitly with these parameters; not available exactly"
+                ));
+            }
+        }
+        let rates = jacobian::rates::<M>(
+            &Moving {
+                t: d.time,
+                x: &d.x,
+                u: [&d.u, &d.u_der[0], &d.u_der[1]],
+                p: &d.params,
+            },
+            self.info.layout.n_outputs,
+        );
+        for ((out, &vr), &order) in values.iter_mut().zip(vrs).zip(orders) {
+            let slot = self.info.layout.vars[vr as usize].0;
+            let i = slot.index;
+            *out = match (slot.kind, order) {
+                (VarKind::State, 1) => rates.x1[i],
+                (VarKind::State, _) => rates.x2[i],
+                (_, 1) => rates.y1[i],
+                _ => rates.y2[i],
+            };
+        }
+        Ok(())
+    }
+
     /// fmi2GetRealStatus(fmi2LastSuccessfulTime).
     pub fn last_successful_time(&self) -> Res<f64> {
         self.require(machine::STATUS, "fmi2GetRealStatus")?;
@@ -723,6 +865,7 @@ impl<M: System> Instance<M> {
         if snapshot.params.len() != l.n_params
             || snapshot.x.len() != l.n_states
             || snapshot.u.len() != l.n_inputs
+            || snapshot.u_der.iter().any(|d| d.len() != l.n_inputs)
         {
             return Err(format!("{F}: the FMU state belongs to another model"));
         }
@@ -778,6 +921,15 @@ impl<M: System> Instance<M> {
             check_real(var, vr as u32, value)?;
         }
         check_method::<M>(s.method, &s.u, &s.params, !before_init)?;
+        for (order, der) in s.u_der.iter().enumerate() {
+            if let Some(v) = der.iter().find(|v| !v.is_finite()) {
+                return Err(format!(
+                    "an input derivative of order {} is not finite ({v})",
+                    order + 1
+                ));
+            }
+        }
+        check_moving(s.method, &s.u_der)?;
         check_experiment(Some(s.tolerance), s.start_time, s.stop_time)?;
         let (time, start) = (s.time, s.start_time);
         if before_init {
@@ -801,6 +953,13 @@ impl<M: System> Instance<M> {
         let m = &s.memory;
         if !(m.h.is_finite() && m.h >= 0.0) {
             return Err(format!("the step-size proposal {} is not a step", m.h));
+        }
+        if inputs::moving(&s.u_der)
+            && (m.ahead.is_some() || m.radau5_ahead.is_some() || m.dop853_ahead.is_some())
+        {
+            return Err(
+                "an integrator state ahead is kept while input derivatives are set (doStep lands on each communication point then)".into(),
+            );
         }
         self.check_ahead(s)
     }
@@ -941,6 +1100,18 @@ fn check_method<M: System>(method: Method, u: &[f64], p: &[f64], lti: bool) -> R
     Ok(())
 }
 
+/// Whether `method` can follow inputs that move over a step (input derivatives `der`):
+/// ExactLinear's propagator and RATTLE's mechanics hold the inputs constant.
+fn check_moving(method: Method, der: &[Vec<f64>; 2]) -> Res {
+    if inputs::moving(der) && (method.needs_linear_time_invariant() || method.needs_mechanics()) {
+        return Err(format!(
+            "solver {} holds the inputs constant over a step, and input derivatives are set (set them to 0 or choose another solver)",
+            method.name()
+        ));
+    }
+    Ok(())
+}
+
 /// Most events handled inside one doStep before it gives up (a chattering model).
 const MAX_EVENTS_PER_STEP: usize = 100;
 
@@ -961,11 +1132,21 @@ fn integrate_general<M: System>(
     t_end: f64,
     settings: &Settings,
     (x0, duals, work): (&mut Vec<f64>, &mut Duals, &mut Workspace),
+    [u_rhs, u_jac, u_event]: &mut [Vec<f64>; 3],
 ) -> Result<(), Stop> {
     let (u, p) = (&d.u, &d.params);
-    let mut rhs = |t: f64, x: &[f64], dx: &mut [f64]| M::derivatives(t, x, u, p, dx);
+    // The inputs from the communication point (moving ones: a buffer per closure).
+    let inputs = Inputs {
+        u,
+        der: &d.u_der,
+        t_c: *t,
+    };
+    let (u_rhs, u_jac) = (sized(u_rhs, u.len()), sized(u_jac, u.len()));
+    let mut rhs =
+        |t: f64, x: &[f64], dx: &mut [f64]| M::derivatives(t, x, inputs.at(t, u_rhs), p, dx);
     // ∂f/∂x column by column with dual numbers (exact), row-major for the methods.
-    let mut jacobian = |t: f64, x: &[f64], jac: &mut [f64]| duals.jacobian::<M>(t, x, u, p, jac);
+    let mut jacobian =
+        |t: f64, x: &[f64], jac: &mut [f64]| duals.jacobian::<M>(t, x, inputs.at(t, u_jac), p, jac);
     let mut mechanics = if d.method.needs_mechanics() {
         M::mechanics(u, p)
     } else {
@@ -980,7 +1161,10 @@ fn integrate_general<M: System>(
         mechanics: mechanics.as_deref_mut().map(|m| m as &mut dyn Mechanics),
     };
     let memory = &mut d.memory;
-    if d.method.is_adaptive() && M::event_indicator(*t, x, u, p).is_none() {
+    // Dense output runs past the communication point with this step's f: with moving
+    // inputs the next step's differs (its polynomial starts there), so it lands instead.
+    let dense = d.method.is_adaptive() && !inputs.moving();
+    if dense && M::event_indicator(*t, x, u, p).is_none() {
         // Never step past the stop time (f may not be defined beyond it).
         let t_limit = d.stop_time.map_or(f64::INFINITY, |stop| stop.max(t_end));
         let mut project = |t: f64, x: &mut [f64]| M::project(t, p, x);
@@ -996,14 +1180,14 @@ fn integrate_general<M: System>(
         .map_err(Stop::from)
     } else {
         memory.drop_ahead();
-        let model = (&u[..], &p[..]);
+        let u_event = sized(u_event, u.len());
         advance_locating_events::<M>(
             &mut problem,
             (t, x),
             t_end,
             settings,
             memory,
-            model,
+            (inputs, p, u_event),
             (x0, work),
         )
     }
@@ -1021,10 +1205,10 @@ fn advance_locating_events<M: System>(
     t_end: f64,
     settings: &Settings,
     memory: &mut Memory,
-    (u, p): (&[f64], &[f64]),
+    (inputs, p, u_buf): (Inputs, &[f64], &mut [f64]),
     (x0, work): (&mut Vec<f64>, &mut Workspace),
 ) -> Result<(), Stop> {
-    let indicator = |t: f64, x: &[f64]| M::event_indicator(t, x, u, p);
+    let mut indicator = |t: f64, x: &[f64]| M::event_indicator(t, x, inputs.at(t, u_buf), p);
     for _ in 0..MAX_EVENTS_PER_STEP {
         let g0 = indicator(*t, x);
         if g0.is_none() {

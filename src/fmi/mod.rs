@@ -12,11 +12,13 @@
 
 pub mod capi;
 mod export;
+mod inputs;
 mod instance;
 mod logger;
 mod machine;
 mod snapshot;
 
+pub use inputs::MAX_INPUT_DERIVATIVE_ORDER;
 pub use instance::{Instance, StepOutcome};
 pub use logger::{CallbackFunctions, CallbackLogger, Logger};
 pub use machine::Machine;

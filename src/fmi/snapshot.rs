@@ -17,8 +17,9 @@ pub const SNAPSHOT_MAGIC: [u8; 8] = *b"MBFMU\0ST";
 /// 2: adds DOPRI5's dense-output point ([`crate::integrators::dopri5::Ahead`]) and
 /// stiffness monitor. 3: adds RADAU5's loop state ([`radau5::Ahead`]). 4: adds DOP853's
 /// dense-output point ([`dop853::Ahead`]). 5: ends with a CRC-32 of the blob. 6: adds
-/// `solver_max_steps` after `solver_step`.
-pub const SNAPSHOT_VERSION: u32 = 6;
+/// `solver_max_steps` after `solver_step`. 7: adds the inputs' first and second time
+/// derivatives (fmi2SetRealInputDerivatives) after the inputs.
+pub const SNAPSHOT_VERSION: u32 = 7;
 
 /// Bytes of the checksum that ends a blob.
 const CRC_LEN: usize = 4;
@@ -28,6 +29,9 @@ pub struct Snapshot {
     pub params: Vec<f64>,
     pub x: Vec<f64>,
     pub u: Vec<f64>,
+    /// The inputs' first and second time derivatives at `time` (fmi2SetRealInputDerivatives;
+    /// zero: held over a doStep).
+    pub u_der: [Vec<f64>; 2],
     pub method: Method,
     pub solver_step: f64,
     /// `solver_max_steps`: most internal steps in one doStep.
@@ -214,7 +218,15 @@ impl Snapshot {
             b.extend_from_slice(&(n as u32).to_le_bytes());
         }
         let f = |b: &mut Vec<u8>, v: f64| b.extend_from_slice(&v.to_bits().to_le_bytes());
-        for &v in self.params.iter().chain(&self.x).chain(&self.u) {
+        let [u1, u2] = &self.u_der;
+        for &v in self
+            .params
+            .iter()
+            .chain(&self.x)
+            .chain(&self.u)
+            .chain(u1)
+            .chain(u2)
+        {
             f(&mut b, v);
         }
         b.extend_from_slice(&(self.method.code() as u32).to_le_bytes());
@@ -309,6 +321,7 @@ impl Snapshot {
         let params = r.f64s(counts[0])?;
         let x = r.f64s(counts[1])?;
         let u = r.f64s(counts[2])?;
+        let u_der = [r.f64s(counts[2])?, r.f64s(counts[2])?];
         let code = r.u32()?;
         let method = Method::from_code(code as i32)
             .ok_or_else(|| format!("FMU state names unknown method {code}"))?;
@@ -386,6 +399,7 @@ impl Snapshot {
             params,
             x,
             u,
+            u_der,
             method,
             solver_step,
             max_steps,

@@ -72,6 +72,12 @@ pub trait Lagrangian: 'static {
     /// themselves need no declaration: `t` is a scalar (dual numbers) or a leaf (tracer).
     const RHEONOMIC: bool = false;
 
+    /// Whether the generalised forces or the extra outputs use `t` (an `f64` there, unlike
+    /// in T, V and the constraints, whose time is declared by `RHEONOMIC`). Default: true,
+    /// so a system that does not say gets no output derivative that would need ∂/∂t
+    /// ([`System::explicit_time`]).
+    const TIME_IN_FORCES_OR_OUTPUTS: bool = true;
+
     /// Kinetic energy `T(t, q, q̇, p)`. `t` is a scalar (not `f64`) so that the dual
     /// numbers carry ∂/∂t through it (rheonomic systems); most systems ignore it.
     fn kinetic<S: Scalar>(t: S, q: &[S], qd: &[S], p: &[S]) -> S;
@@ -199,6 +205,7 @@ impl<L: Lagrangian> Lagrangian for AutoDiff<L> {
     const CONSTRAINTS: usize = L::CONSTRAINTS;
     const VELOCITY_CONSTRAINTS: usize = L::VELOCITY_CONSTRAINTS;
     const RHEONOMIC: bool = L::RHEONOMIC;
+    const TIME_IN_FORCES_OR_OUTPUTS: bool = L::TIME_IN_FORCES_OR_OUTPUTS;
     fn parameters() -> Vec<Var> {
         L::parameters()
     }
@@ -710,6 +717,13 @@ impl<L: Lagrangian> System for L {
 
     fn scenes() -> Vec<Scene> {
         <L as Lagrangian>::scenes()
+    }
+
+    /// Time enters f and g through T, V, the constraints (rheonomic), or the forces and
+    /// outputs when they say so.
+    fn explicit_time(_p: &[f64]) -> (bool, bool) {
+        let t = L::RHEONOMIC || L::TIME_IN_FORCES_OR_OUTPUTS;
+        (t, t)
     }
 
     fn default_experiment() -> (f64, f64, f64) {

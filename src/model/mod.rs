@@ -136,6 +136,14 @@ pub trait System: 'static {
     /// The configured experiments of this system.
     fn scenes() -> Vec<Scene>;
 
+    /// Whether `f` (first) and `g` (second) depend on `t` other than through x and u, with
+    /// these parameters. `t` is an `f64` in them, so dual numbers cannot carry ∂/∂t: the
+    /// exact output derivatives (fmi2GetRealOutputDerivatives) that would need it are
+    /// refused, never approximated. Default: both (a system that does not say).
+    fn explicit_time(_p: &[f64]) -> (bool, bool) {
+        (true, true)
+    }
+
     /// True when the states are (q, q̇) halves with dq/dt = q̇: the symplectic fixed-step
     /// methods (symplectic Euler, Verlet) need that split.
     const SECOND_ORDER: bool = false;

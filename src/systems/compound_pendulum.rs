@@ -17,6 +17,8 @@ const I_O: usize = 2;
 const G: usize = 3;
 
 impl Lagrangian for CompoundPendulum {
+    /// Forces and outputs take t only into T, V and the constraints.
+    const TIME_IN_FORCES_OR_OUTPUTS: bool = false;
     const NAME: &'static str = "CompoundPendulum";
     crate::generated_eom!(crate::model::symbolic::generated::CompoundPendulumEom);
     const DESCRIPTION: &'static str =

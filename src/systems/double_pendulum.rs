@@ -73,6 +73,8 @@ pub fn rod_tensions<S: Scalar>(q: &[S], qd: &[S], qdd: &[S], p: &[S]) -> (S, S) 
 }
 
 impl Lagrangian for DoublePendulum {
+    /// Forces and outputs take t only into T, V and the constraints.
+    const TIME_IN_FORCES_OR_OUTPUTS: bool = false;
     const NAME: &'static str = "DoublePendulum";
     crate::generated_eom!(crate::model::symbolic::generated::DoublePendulumEom);
     const DESCRIPTION: &'static str =

@@ -14,7 +14,7 @@ impl System for MassSpringDamper {
         "m ẍ + c ẋ + k x = F + F_amp sin(F_omega t)",
         "ωn = √(k/m), ζ = c / (2 m ωn)",
         "E = ½ m ẋ² + ½ k x²",
-        "The sinusoidal term is built in so a resonance scene is exact: a co-simulation input is held constant over each communication step.",
+        "The sinusoidal term is built in so a resonance scene is exact: a co-simulation input is a polynomial over each communication step (held, or with the derivatives the master gives), never a sine.",
     ];
 
     fn parameters() -> Vec<Var> {
@@ -61,6 +61,11 @@ impl System for MassSpringDamper {
             0.0,
             "Mechanical energy ½ m v² + ½ k x²",
         )]
+    }
+
+    /// f reads t in the harmonic forcing (when it is on); g never.
+    fn explicit_time(p: &[f64]) -> (bool, bool) {
+        (p[3] != 0.0, false)
     }
 
     fn derivatives<S: Scalar>(t: f64, x: &[S], u: &[S], p: &[S], dx: &mut [S]) {

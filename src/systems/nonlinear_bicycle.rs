@@ -166,6 +166,8 @@ impl NonlinearBicycle {
 }
 
 impl Lagrangian for NonlinearBicycle {
+    /// Forces and outputs take t only into T, V and the constraints.
+    const TIME_IN_FORCES_OR_OUTPUTS: bool = false;
     const NAME: &'static str = "NonlinearBicycle";
     crate::generated_eom!(crate::model::symbolic::generated::NonlinearBicycleEom);
     const DESCRIPTION: &'static str =

@@ -51,6 +51,11 @@ impl System for Projectile {
         )]
     }
 
+    /// Neither f nor g reads t.
+    fn explicit_time(_p: &[f64]) -> (bool, bool) {
+        (false, false)
+    }
+
     fn derivatives<S: Scalar>(_t: f64, x: &[S], _u: &[S], p: &[S], dx: &mut [S]) {
         dx[0] = x[3];
         dx[1] = x[4];

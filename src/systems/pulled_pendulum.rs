@@ -26,6 +26,8 @@ fn length<S: Scalar>(t: S, p: &[S]) -> S {
 }
 
 impl Lagrangian for PulledPendulum {
+    /// Forces and outputs take t only into T, V and the constraints.
+    const TIME_IN_FORCES_OR_OUTPUTS: bool = false;
     const NAME: &'static str = "PulledPendulum";
     crate::generated_eom!(crate::model::symbolic::generated::PulledPendulumEom);
     const DESCRIPTION: &'static str =

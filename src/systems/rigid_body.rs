@@ -205,6 +205,11 @@ impl System for RigidBody {
         ]
     }
 
+    /// Neither f nor g reads t.
+    fn explicit_time(_p: &[f64]) -> (bool, bool) {
+        (false, false)
+    }
+
     fn derivatives<S: Scalar>(_t: f64, x: &[S], u: &[S], p: &[S], dx: &mut [S]) {
         let [i1, i2, i3] = [p[0], p[1], p[2]];
         let [w1, w2, w3] = [x[0], x[1], x[2]];

@@ -172,6 +172,11 @@ impl System for RollingDisk {
         ]
     }
 
+    /// Neither f nor g reads t.
+    fn explicit_time(_p: &[f64]) -> (bool, bool) {
+        (false, false)
+    }
+
     fn derivatives<S: Scalar>(_t: f64, x: &[S], u: &[S], p: &[S], dx: &mut [S]) {
         let (_, qdd) = solve(x, u, p);
         dx[..4].copy_from_slice(&x[4..8]);

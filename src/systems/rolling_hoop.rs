@@ -135,6 +135,11 @@ impl System for RollingHoop {
         ]
     }
 
+    /// Neither f nor g reads t.
+    fn explicit_time(_p: &[f64]) -> (bool, bool) {
+        (false, false)
+    }
+
     fn derivatives<S: Scalar>(_t: f64, x: &[S], _u: &[S], p: &[S], dx: &mut [S]) {
         let (_, x_ddot, theta_ddot) = solve(p);
         dx[0] = x[2];

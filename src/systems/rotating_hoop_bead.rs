@@ -26,6 +26,8 @@ const OMEGA: usize = 2;
 const G: usize = 3;
 
 impl Lagrangian for RotatingHoopBead {
+    /// Forces and outputs take t only into T, V and the constraints.
+    const TIME_IN_FORCES_OR_OUTPUTS: bool = false;
     const NAME: &'static str = "RotatingHoopBead";
     const DESCRIPTION: &'static str =
         "A bead on a hoop turned about its vertical diameter at a prescribed rate (rheonomic)";

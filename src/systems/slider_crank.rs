@@ -140,6 +140,8 @@ fn run_scene(name: &'static str, description: &'static str) -> Scene {
 pub struct SliderCrank;
 
 impl Lagrangian for SliderCrank {
+    /// Forces and outputs take t only into T, V and the constraints.
+    const TIME_IN_FORCES_OR_OUTPUTS: bool = false;
     const NAME: &'static str = "SliderCrank";
     crate::generated_eom!(crate::model::symbolic::generated::SliderCrankEom);
     const DESCRIPTION: &'static str =
@@ -231,6 +233,8 @@ impl Lagrangian for SliderCrank {
 pub struct SliderCrankSurplus;
 
 impl Lagrangian for SliderCrankSurplus {
+    /// Forces and outputs take t only into T, V and the constraints.
+    const TIME_IN_FORCES_OR_OUTPUTS: bool = false;
     const NAME: &'static str = "SliderCrankSurplus";
     crate::generated_eom!(crate::model::symbolic::generated::SliderCrankSurplusEom);
     const DESCRIPTION: &'static str =

@@ -137,6 +137,11 @@ impl System for SphereSlide {
         ]
     }
 
+    /// Neither f nor g reads t.
+    fn explicit_time(_p: &[f64]) -> (bool, bool) {
+        (false, false)
+    }
+
     fn derivatives<S: Scalar>(_t: f64, x: &[S], _u: &[S], p: &[S], dx: &mut [S]) {
         dx[X] = x[VX];
         dx[H] = x[VH];

@@ -89,6 +89,8 @@ fn spring_length<S: Scalar>(q: &[S], p: &[S]) -> S {
 }
 
 impl Lagrangian for SpringRodPendulum {
+    /// Forces and outputs take t only into T, V and the constraints.
+    const TIME_IN_FORCES_OR_OUTPUTS: bool = false;
     const NAME: &'static str = "SpringRodPendulum";
     crate::generated_eom!(crate::model::symbolic::generated::SpringRodPendulumEom);
     const DESCRIPTION: &'static str =

@@ -71,6 +71,11 @@ impl System for TwoMassChain {
         )]
     }
 
+    /// Neither f nor g reads t.
+    fn explicit_time(_p: &[f64]) -> (bool, bool) {
+        (false, false)
+    }
+
     fn derivatives<S: Scalar>(_t: f64, x: &[S], u: &[S], p: &[S], dx: &mut [S]) {
         let [m1, m2, k1, k2, c2] = [p[0], p[1], p[2], p[3], p[4]];
         let coupling = k2 * (x[1] - x[0]) + c2 * (x[3] - x[2]);

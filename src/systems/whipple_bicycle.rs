@@ -356,6 +356,11 @@ impl System for WhippleBicycle {
         Vec::new()
     }
 
+    /// Neither f nor g reads t.
+    fn explicit_time(_p: &[f64]) -> (bool, bool) {
+        (false, false)
+    }
+
     fn derivatives<S: Scalar>(_t: f64, x: &[S], u: &[S], p: &[S], dx: &mut [S]) {
         let k = canonical(p);
         let [phi_dd, delta_dd] = accelerations(&k, p[G], p[V], x, u);

@@ -117,8 +117,11 @@ fn render<M: System>(guid: &str) -> String {
             ("modelIdentifier", s(M::NAME)),
             ("needsExecutionTool", s(false)),
             ("canHandleVariableCommunicationStepSize", s(true)),
-            ("canInterpolateInputs", s(false)),
-            ("maxOutputDerivativeOrder", s(0)),
+            ("canInterpolateInputs", s(true)),
+            (
+                "maxOutputDerivativeOrder",
+                s(crate::model::jacobian::output_derivative_order::<M>()),
+            ),
             ("canRunAsynchronuously", s(false)),
             ("canBeInstantiatedOnlyOncePerProcess", s(false)),
             ("canNotUseMemoryManagementFunctions", s(true)),

@@ -7,7 +7,8 @@ modelDescription's [min, max], wrong variability for the machine state), doStep 
 and bad steps and times, Get/Set/Free/Serialize/DeSerialize FMU state (also blobs mutated:
 bits flipped, truncated or extended, header fields changed, and values at their offsets
 overwritten with out-of-range ones), reset, terminate, directional derivatives, status
-queries, debug logging, and the declared-unsupported functions — in whatever state the
+queries, debug logging, input and output derivatives, and fmi2CancelStep — in whatever
+state the
 machine is in. A model of the standard's state machine (section 4.2.4) says which calls
 are valid; the FMU's documented contract ("every rejected call returns fmi2Error, changes
 nothing") says where a rejected call leaves it.
@@ -194,6 +195,7 @@ class Spec:
             md.defaultExperiment and md.defaultExperiment.tolerance) else 1e-8
         self.solver_step = next((v for v in self.reals if v.name == "solver_step"), None)
         self.max_vr = max(v.vr for v in self.vars)
+        self.max_output_order = int(md.coSimulation.maxOutputDerivativeOrder or 0)
 
 
 # ---------------------------------------------------------------------------------------
@@ -456,7 +458,8 @@ class Sequence:
         ("set_int", 2), ("get_int", 2), ("bool_string", 1.5), ("do_step", 12),
         ("get_state", 3), ("set_state", 3), ("free_state", 2), ("state_size", 1),
         ("serialize", 2.5), ("deserialize", 5), ("reset", 1), ("terminate", 1),
-        ("dir_der", 2), ("status", 2), ("debug_logging", 1), ("unsupported", 1),
+        ("dir_der", 2), ("status", 2), ("debug_logging", 1), ("unsupported", 0.3),
+        ("derivatives", 2),
         ("free_instance", 0.4), ("bad_instantiate", 0.6), ("null_component", 0.5),
         ("platform", 0.2),
     ]
@@ -1222,17 +1225,58 @@ class Sequence:
                   expect=INVALID if (invalid or null_array) else VALID)
 
     def do_unsupported(self):
-        """Declared unsupported: canInterpolateInputs = false, maxOutputDerivativeOrder = 0,
-        canRunAsynchronuously = false."""
+        """fmi2CancelStep (canRunAsynchronuously = false): always refused."""
+        self.call("fmi2CancelStep", "fmi2CancelStep", self.comp, expect=INVALID)
+
+    def _derivative_args(self, allowed_vrs, max_order):
+        """Random (vrs, orders, values) for the two derivative functions, and whether the
+        value references (of `allowed_vrs`, or others) and orders (1 … `max_order`, or 0,
+        −1, one above) are bad; values are 0 or, sometimes, one NaN/±Inf."""
         rng, spec = self.rng, self.spec
-        f = rng.choice(("fmi2SetRealInputDerivatives", "fmi2GetRealOutputDerivatives",
-                        "fmi2CancelStep"))
-        if f == "fmi2CancelStep":
-            self.call(f, f, self.comp, expect=INVALID)
+        n = rng.randint(1, 3)
+        vrs, _ = self._vr_list(allowed_vrs or spec.real_vrs, n, 0.1)
+        if rng.random() < 0.1:
+            vrs[rng.randrange(len(vrs))] = rng.choice(spec.real_vrs)
+        bad = any(vr not in allowed_vrs for vr in vrs)
+        orders = [rng.randint(1, max(max_order, 1)) for _ in vrs]
+        if rng.random() < 0.1 or max_order < 1:
+            orders[rng.randrange(len(orders))] = rng.choice((0, -1, max_order + 1))
+            bad = True
+        values = [0.0 for _ in vrs]
+        if rng.random() < 0.1:
+            values[rng.randrange(len(values))] = rng.choice((math.nan, math.inf, -math.inf))
+        return vrs, orders, values, bad
+
+    def do_derivatives(self):
+        """fmi2SetRealInputDerivatives (inputs, orders 1–2, finite values; valid ones are 0,
+        so the other oracles' expectations of the inputs hold) and
+        fmi2GetRealOutputDerivatives (outputs, orders up to maxOutputDerivativeOrder; the
+        model may refuse one that needs ∂/∂t with its parameters: not checked by O2)."""
+        rng, spec = self.rng, self.spec
+        null = rng.random() < 0.05
+        if rng.random() < 0.5:
+            f = "fmi2SetRealInputDerivatives"
+            vrs, orders, values, bad = self._derivative_args([v.vr for v in spec.inputs], 2)
+            bad |= not finite(values)
+            ok_state = self.machine in SET_STATES
+            expect = INVALID if (bad or null or not ok_state) else VALID
+            self.call(f"{f}({vrs}, {orders}, {values}{', NULL' if null else ''})", f,
+                      self.comp, arr(c_uint, vrs), len(vrs), arr(c_int, orders),
+                      None if null else arr(c_double, values), expect=expect)
             return
-        vrs = [rng.choice([v.vr for v in spec.inputs] or spec.real_vrs)]
-        self.call(f, f, self.comp, arr(c_uint, vrs), 1, arr(c_int, [1]),
-                  (c_double * 1)(1.0), expect=INVALID)
+        f = "fmi2GetRealOutputDerivatives"
+        vrs, orders, _, bad = self._derivative_args(spec.checked_vrs, spec.max_output_order)
+        out = (c_double * len(vrs))()
+        ok_state = self.machine in STATUS_STATES
+        expect = INVALID if (bad or null or not ok_state) else ANY
+
+        def after(st):
+            if st == OK and not finite(list(out)):
+                self.fail("O3", f"{f} returned OK with {list(out)}")
+
+        self.call(f"{f}({vrs}, {orders}{', NULL' if null else ''})", f, self.comp,
+                  arr(c_uint, vrs), len(vrs), arr(c_int, orders), None if null else out,
+                  expect=expect, after=after)
 
 
 # ---------------------------------------------------------------------------------------

@@ -107,9 +107,16 @@ def _cases_step_mode(model):
     c["DoStep t=current-0.01"] = lambda i: i.call("fmi2DoStep", c_double(i.t - 0.01), c_double(0.01), 1)
     c["DoStep t=current+1e-6"] = lambda i: i.call("fmi2DoStep", c_double(i.t + 1e-6), c_double(0.01), 1)
     c["DoStep t=NaN"] = lambda i: i.call("fmi2DoStep", c_double(NAN), c_double(0.01), 1)
-    # unsupported capabilities
-    c["SetRealInputDerivatives"] = lambda i: i.call("fmi2SetRealInputDerivatives", vrs(F), 1, ints(1), reals(1.0))
-    c["GetRealOutputDerivatives"] = lambda i: i.call("fmi2GetRealOutputDerivatives", vrs(X), 1, ints(1), reals(0.0))
+    # input and output derivatives: wrong variable, order out of range, non-finite value
+    c["SetRealInputDerivatives of a state"] = lambda i: i.call("fmi2SetRealInputDerivatives", vrs(X), 1, ints(1), reals(1.0))
+    c["SetRealInputDerivatives order 0"] = lambda i: i.call("fmi2SetRealInputDerivatives", vrs(F), 1, ints(0), reals(1.0))
+    c["SetRealInputDerivatives order 3"] = lambda i: i.call("fmi2SetRealInputDerivatives", vrs(F), 1, ints(3), reals(1.0))
+    c["SetRealInputDerivatives NaN"] = lambda i: i.call("fmi2SetRealInputDerivatives", vrs(F), 1, ints(1), reals(NAN))
+    c["SetRealInputDerivatives unknown vr"] = lambda i: i.call("fmi2SetRealInputDerivatives", vrs(99999), 1, ints(1), reals(1.0))
+    c["GetRealOutputDerivatives of an input"] = lambda i: i.call("fmi2GetRealOutputDerivatives", vrs(F), 1, ints(1), reals(0.0))
+    c["GetRealOutputDerivatives of a parameter"] = lambda i: i.call("fmi2GetRealOutputDerivatives", vrs(M), 1, ints(1), reals(0.0))
+    c["GetRealOutputDerivatives order 0"] = lambda i: i.call("fmi2GetRealOutputDerivatives", vrs(X), 1, ints(0), reals(0.0))
+    c["GetRealOutputDerivatives order 3"] = lambda i: i.call("fmi2GetRealOutputDerivatives", vrs(X), 1, ints(3), reals(0.0))
     # status queries with null value pointers
     c["GetRealStatus null value"] = lambda i: i.call("fmi2GetRealStatus", fs.fmi2LastSuccessfulTime, None)
     c["GetStatus null value"] = lambda i: i.call("fmi2GetStatus", fs.fmi2DoStepStatus, None)
