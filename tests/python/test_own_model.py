@@ -89,6 +89,7 @@ def test_the_template_builds_validates_and_swings_as_the_exact_pendulum(crate):
     fmu = build(crate, runs=GENERATED)
     assert (crate / "src" / "eom.rs").read_text().startswith("// mbfmu: generated from src/")
     assert validate_fmu(str(fmu)) == []
+    assert fmpy.read_model_description(str(fmu)).coSimulation.maxOutputDerivativeOrder == 2
     with zipfile.ZipFile(fmu) as z:
         names = set(z.namelist())
     assert {"modelDescription.xml", f"binaries/linux64/{NAME}.so", "documentation/index.html",
