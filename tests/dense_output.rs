@@ -176,3 +176,37 @@ fn a_changed_input_restarts_at_the_communication_point() {
     };
     assert_eq!(work(true), work(false));
 }
+
+/// A free mass (k = c = 0) pushed by a force held over each communication step and changed
+/// at every one, with no stop time: DOPRI5 integrates each piece exactly (a quadratic), so
+/// its error estimate is zero and its step proposal grew tenfold per step without bound;
+/// the state was then read off steps of up to 1e45 s, 0.54 m wrong after 1.6 s, then
+/// fmi2Discard. Bounded run-ahead: the exact piecewise solution to rounding (2e-12 here,
+/// positions of order 0.1 m after 3 s; the bound leaves 50×).
+#[test]
+fn a_step_the_error_estimate_cannot_judge_does_not_grow_without_bound() {
+    let mut inst = Instance::<MassSpringDamper>::new(info(), Logger::silent("dense"));
+    inst.setup_experiment(Some(TOL), 0.0, None).unwrap();
+    inst.set_real(&[vr("k"), vr("c"), vr("x"), vr("v")], &[0.0; 4])
+        .unwrap();
+    inst.set_integer(&[vr("solver")], &[2]).unwrap(); // DOPRI5
+    inst.enter_initialization_mode().unwrap();
+    inst.exit_initialization_mode().unwrap();
+    let (h, mut t, mut exact): (f64, f64, [f64; 2]) = (0.01, 0.0, [0.0, 0.0]);
+    for _ in 0..300 {
+        let f = (3.0 * t).sin();
+        inst.set_real(&[vr("F")], &[f]).unwrap();
+        assert_eq!(
+            inst.do_step(t, h).unwrap(),
+            StepOutcome::Completed,
+            "t = {t}"
+        );
+        exact = [exact[0] + exact[1] * h + 0.5 * f * h * h, exact[1] + f * h];
+        t += h;
+        let got = state(&inst);
+        assert!(
+            (got[0] - exact[0]).abs() < 1e-10 && (got[1] - exact[1]).abs() < 1e-10,
+            "t = {t}: {got:?} against {exact:?}"
+        );
+    }
+}

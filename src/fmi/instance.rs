@@ -1115,6 +1115,19 @@ fn check_moving(method: Method, der: &[Vec<f64>; 2]) -> Res {
 /// Most events handled inside one doStep before it gives up (a chattering model).
 const MAX_EVENTS_PER_STEP: usize = 100;
 
+/// How far past the communication point the methods with dense output may run ahead when
+/// no stop time bounds them: as far again as the time simulated so far, and at least this
+/// many communication steps. A step the error estimate cannot judge (zero for a solution
+/// the method integrates exactly: a free mass under a held force) is accepted and the next
+/// one proposed ten times longer, without end when nothing bounds it (steps of 1e45 s were
+/// seen); the state at the communication point was then read off a step whose end was so
+/// large that rounding swamped it (0.54 m wrong, then fmi2Discard). A step no longer than
+/// the time behind it keeps a step's end within a few times the state it starts from (for
+/// a polynomial motion) and leaves the run-ahead its gain. With a stop time the steps stay
+/// bounded by it, as in Hairer's codes, and do not depend on the communication grid
+/// (tests/dense_common).
+const RUN_AHEAD: f64 = 1000.0;
+
 /// Bisection halvings of the interval that holds an event: stops earlier when the
 /// midpoint can no longer be told from an end point in floating point.
 const MAX_BISECTIONS: usize = 200;
@@ -1165,8 +1178,10 @@ fn integrate_general<M: System>(
     // inputs the next step's differs (its polynomial starts there), so it lands instead.
     let dense = d.method.is_adaptive() && !inputs.moving();
     if dense && M::event_indicator(*t, x, u, p).is_none() {
-        // Never step past the stop time (f may not be defined beyond it).
-        let t_limit = d.stop_time.map_or(f64::INFINITY, |stop| stop.max(t_end));
+        // Never step past the stop time (f may not be defined beyond it); without one, not
+        // past the horizon of RUN_AHEAD.
+        let horizon = || t_end + (RUN_AHEAD * (t_end - *t)).max(t_end - d.start_time);
+        let t_limit = d.stop_time.map_or_else(horizon, |stop| stop.max(t_end));
         let mut project = |t: f64, x: &mut [f64]| M::project(t, p, x);
         integrators::advance_dense(
             &mut problem,
