@@ -177,13 +177,14 @@ impl LinearizeRequest {
 }
 
 /// What goes into `M`'s FMU beside the binary (the `package` request).
-fn package<M: System>() -> Result<Records, String> {
+fn package<M: System>(traced: Option<String>) -> Result<Records, String> {
     // The linearisation at the default operating point (the start values).
     let lin = linearize_at::<M>(&[], None, &States::All)?;
     let reference = crate::docs::reference::reference::<M>()?;
     // The page reads the model in its independent states where the constraints allow.
     let page_lin = linearize::reduced::<M>(&lin, None).unwrap_or_else(|_| lin.clone());
-    let (documentation, page_files) = crate::docs::page::page::<M>(Some(&page_lin), &reference);
+    let (documentation, page_files) =
+        crate::docs::page::page::<M>(Some(&page_lin), &reference, traced.as_deref());
     let mut records: Records = vec![
         ("model_identifier".into(), M::NAME.into()),
         (
@@ -206,7 +207,7 @@ fn package<M: System>() -> Result<Records, String> {
 
 fn answer<M: System>(request: &Records) -> Result<Records, String> {
     match protocol::value(request, "request") {
-        Some("package") => package::<M>(),
+        Some("package") => package::<M>(None),
         Some("linearize") => {
             let a = LinearizeRequest::decode(request)?.answer::<M>()?;
             let mut r: Records = a
@@ -221,18 +222,29 @@ fn answer<M: System>(request: &Records) -> Result<Records, String> {
     }
 }
 
-/// [`respond`] for a Lagrangian (`export_fmu!(lagrangian …)`): also answers `symbolic`
+/// [`respond`] for a Lagrangian (`export_fmu!(lagrangian …)`): its page also shows T and V
+/// typeset from their trace, and it also answers `symbolic`
 /// with `source`, the Rust source of its equations of motion traced from T, V and the
 /// constraints (`type_name` its type, `nodes` its size), and `in_use`, whether this binary
 /// already runs generated equations; or with `error` when the model cannot be traced (it
 /// then runs on automatic differentiation, exact and slower).
 pub fn respond_lagrangian<L: Lagrangian>(request: &str) -> String {
-    let symbolic =
-        protocol::decode(request).is_ok_and(|r| protocol::value(&r, "request") == Some("symbolic"));
-    if !symbolic {
-        return respond::<L>(request);
-    }
+    let asked = protocol::decode(request)
+        .ok()
+        .and_then(|r| protocol::value(&r, "request").map(str::to_string));
     let mut records = vec![("abi".to_string(), ABI.to_string())];
+    match asked.as_deref() {
+        Some("symbolic") => {}
+        // The page with T and V typeset from the code besides the equation lines.
+        Some("package") => {
+            match package::<L>(Some(traced_energies::<L>())) {
+                Ok(r) => records.extend(r),
+                Err(e) => records.push(("error".into(), e)),
+            }
+            return protocol::encode(&records);
+        }
+        _ => return respond::<L>(request),
+    }
     // One name whatever the model's: the crate's `generated_eom!` line names it.
     let type_name = "GeneratedEom".to_string();
     match generated_source::<L>(&type_name) {
@@ -245,6 +257,49 @@ pub fn respond_lagrangian<L: Lagrangian>(request: &str) -> String {
         Err(e) => records.push(("error".into(), e)),
     }
     protocol::encode(&records)
+}
+
+/// The page's section of `L`'s T and V typeset from their trace (see
+/// [`crate::docs::traced`]); a model whose code looks at values (a branch the trace cannot
+/// follow) or has an operation with no symbolic form gets a line saying so instead.
+fn traced_energies<L: Lagrangian>() -> String {
+    use symbolic::{Arg, Expr};
+    let (n, np) = (L::coordinates().len(), L::parameters().len());
+    let traced = std::panic::catch_unwind(|| {
+        symbolic::record(|| {
+            let q = Expr::inputs(Arg::Q, n);
+            let qd = Expr::inputs(Arg::Qd, n);
+            let p = Expr::inputs(Arg::P, np);
+            let t = Expr::input(Arg::T, 0);
+            (
+                L::kinetic(t, &q, &qd, &p).id(),
+                L::potential(t, &q, &p).id(),
+            )
+        })
+    });
+    let ((kinetic, potential), graph) = match traced {
+        Ok(r) if r.1.branches.is_empty() => r,
+        _ => return "<p id=\"traced\">T and V are not typeset from the code: it does something the tracer cannot follow.</p>\n".into(),
+    };
+    let names = |vars: Vec<crate::model::Var>| -> Vec<String> {
+        vars.iter()
+            .map(|v| crate::docs::traced::greek(&v.name))
+            .collect()
+    };
+    let (coordinates, parameters) = (names(L::coordinates()), names(L::parameters()));
+    let inputs = names(L::inputs());
+    let name = |arg: Arg, i: u32| -> String {
+        let i = i as usize;
+        match arg {
+            Arg::Q => coordinates[i].clone(),
+            Arg::Qd => crate::docs::traced::dotted(&coordinates[i]),
+            Arg::P => parameters[i].clone(),
+            Arg::U => inputs[i].clone(),
+            Arg::T => "t".into(),
+        }
+    };
+    let math = |lhs: &str, root| crate::docs::traced::equation(lhs, &graph, root, &name);
+    crate::docs::page::traced_section(&[("T", math("T", kinetic)), ("V", math("V", potential))])
 }
 
 /// The generated equations of `L` as a file of a crate that depends on mbfmu.
@@ -288,6 +343,34 @@ pub fn respond<M: System>(request: &str) -> String {
 mod tests {
     use super::*;
     use crate::systems::CompoundPendulum;
+
+    /// A Lagrangian's page shows T and V typeset from its traced code: CompoundPendulum's
+    /// T = ½ I_O θ̇² and V = −m g l cos θ, with the dot a glyph of its own.
+    #[test]
+    fn a_lagrangians_page_typesets_t_and_v_from_its_code() {
+        let request = protocol::encode(&[("request", "package")]);
+        let records =
+            protocol::parse_response(&respond_lagrangian::<CompoundPendulum>(&request)).unwrap();
+        let page = protocol::value(&records, "documentation").unwrap();
+        let start = page.find("id=\"traced\"").expect("the traced section");
+        let section = &page[start..start + page[start..].find("</ul>").unwrap()];
+        println!("{section}");
+        assert_eq!(section.matches("<math>").count(), 2, "{section}");
+        assert!(
+            section.contains("<mover><mi>θ</mi><mo>˙</mo></mover>"),
+            "{section}"
+        );
+        assert!(section.contains("<mi>cos</mi>"), "{section}");
+        assert!(
+            section.contains("<mfrac><mn>1</mn><mn>2</mn></mfrac>"),
+            "{section}"
+        );
+        // The plain `respond` (no Lagrangian bound) has no such section.
+        let plain = protocol::parse_response(&respond::<CompoundPendulum>(&request)).unwrap();
+        assert!(!protocol::value(&plain, "documentation")
+            .unwrap()
+            .contains("id=\"traced\""));
+    }
 
     #[test]
     fn a_linearize_request_round_trips() {

@@ -187,7 +187,7 @@ fn is_mathy(t: &Tok) -> bool {
 }
 
 /// An identifier: a base letter (with its marks and primes) and a subscript of the rest.
-fn identifier(word: &str) -> String {
+pub(super) fn identifier(word: &str) -> String {
     if FUNCTIONS.contains(&word) {
         return format!("<mi mathvariant=\"normal\">{}</mi>", escape(word));
     }

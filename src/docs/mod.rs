@@ -9,3 +9,4 @@ pub mod page;
 pub mod reference;
 pub mod run;
 pub mod svg;
+pub mod traced;

@@ -297,12 +297,31 @@ fn linearisation_section(lin: &Linearization) -> String {
     h
 }
 
+/// The page's section of T and V as the FMU computes them: each `Some` a `<math>` typeset
+/// from the traced code, `None` one too long to read.
+pub fn traced_section(energies: &[(&str, Option<String>)]) -> String {
+    let mut h = String::from("<h3 id=\"traced\">T and V as the FMU computes them</h3>\n<p>Typeset from the traced code of <code>kinetic</code> and <code>potential</code> when the FMU was built (the equations of motion are generated from the same trace), so they cannot differ from what runs.</p>\n<ul class=\"eq\">\n");
+    for (what, math) in energies {
+        match math {
+            Some(m) => h.push_str(&format!("<li>{m}</li>\n")),
+            None => h.push_str(&format!(
+                "<li>{what}: too long to typeset readably (see the lines above)</li>\n"
+            )),
+        }
+    }
+    h.push_str("</ul>\n");
+    h
+}
+
 const BAD_INPUT: &str = "<h3>Bad input and failed steps</h3>\n<ul>\n<li>A value outside a variable's [min, max], or not finite, is refused: <code>fmi2SetReal</code> returns fmi2Error and logs the variable and the range; the instance keeps its previous value.</li>\n<li>A <code>solver</code> the system cannot use (a symplectic method without (q, q̇) states, ExactLinear on a nonlinear system, RATTLE without a Lagrangian) is refused at <code>fmi2ExitInitializationMode</code> with a message naming the reason.</li>\n<li>A doStep whose integration fails (step size underflow, Newton failure, more than <code>solver_max_steps</code> internal steps, a model that stops holding such as a bicycle that has fallen) returns fmi2Discard; the state is the last good one and <code>fmi2GetRealStatus(fmi2LastSuccessfulTime)</code> says where it is. The importer can retry with a shorter communication step, another solver or a larger <code>solver_max_steps</code>.</li>\n<li>Events (a particle leaving a surface) are located inside doStep to the integration's time resolution and never stepped over.</li>\n</ul>\n";
 
 /// The page and the files it refers to (`(path in the FMU, content)`: the scene plots).
+/// `traced`: the section of T and V typeset from the code (a Lagrangian's, see
+/// [`traced_section`]), after the equation lines.
 pub fn page<M: System>(
     lin: Option<&Linearization>,
     reference: &Reference,
+    traced: Option<&str>,
 ) -> (String, Vec<(String, String)>) {
     let layout = Layout::of::<M>();
     let mut files = Vec::new();
@@ -324,6 +343,9 @@ pub fn page<M: System>(
         h.push_str(&format!("<li>{}</li>\n", line_html(line)));
     }
     h.push_str("</ul>\n");
+    if let Some(traced) = traced {
+        h.push_str(traced);
+    }
 
     h.push_str("<h2 id=\"variables\">Variables</h2>\n<p><em>Set</em>: a value the importer chooses (a parameter, an input, the start value of a state); <em>computed</em>: the FMU's result. A dependent state's start value is only a guess: initialisation solves the constraints for it.</p>\n<table>\n<tr><th>name</th><th>causality</th><th>set or computed</th><th>unit</th><th>start</th><th>range</th><th>description</th></tr>\n");
     for (slot, var) in &layout.vars {

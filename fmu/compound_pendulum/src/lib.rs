@@ -1,2 +1,2 @@
 //! The CompoundPendulum FMU: this binary carries only this model.
-mbfmu::export_fmu!(mbfmu::systems::CompoundPendulum);
+mbfmu::export_fmu!(lagrangian mbfmu::systems::CompoundPendulum);

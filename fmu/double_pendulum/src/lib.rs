@@ -1,2 +1,2 @@
 //! The DoublePendulum FMU: this binary carries only this model.
-mbfmu::export_fmu!(mbfmu::systems::DoublePendulum);
+mbfmu::export_fmu!(lagrangian mbfmu::systems::DoublePendulum);

@@ -1,2 +1,2 @@
 //! The NonlinearBicycle FMU: this binary carries only this model.
-mbfmu::export_fmu!(mbfmu::systems::NonlinearBicycle);
+mbfmu::export_fmu!(lagrangian mbfmu::systems::NonlinearBicycle);

@@ -1,2 +1,2 @@
 //! The PulledPendulum FMU: this binary carries only this model.
-mbfmu::export_fmu!(mbfmu::systems::PulledPendulum);
+mbfmu::export_fmu!(lagrangian mbfmu::systems::PulledPendulum);

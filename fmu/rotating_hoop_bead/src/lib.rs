@@ -1,2 +1,2 @@
 //! The RotatingHoopBead FMU: this binary carries only this model.
-mbfmu::export_fmu!(mbfmu::systems::RotatingHoopBead);
+mbfmu::export_fmu!(lagrangian mbfmu::systems::RotatingHoopBead);

@@ -1,2 +1,2 @@
 //! The SliderCrank FMU: this binary carries only this model.
-mbfmu::export_fmu!(mbfmu::systems::SliderCrank);
+mbfmu::export_fmu!(lagrangian mbfmu::systems::SliderCrank);

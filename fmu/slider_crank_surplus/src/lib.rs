@@ -1,2 +1,2 @@
 //! The SliderCrankSurplus FMU: this binary carries only this model.
-mbfmu::export_fmu!(mbfmu::systems::SliderCrankSurplus);
+mbfmu::export_fmu!(lagrangian mbfmu::systems::SliderCrankSurplus);

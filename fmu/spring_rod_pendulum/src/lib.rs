@@ -1,2 +1,2 @@
 //! The SpringRodPendulum FMU: this binary carries only this model.
-mbfmu::export_fmu!(mbfmu::systems::SpringRodPendulum);
+mbfmu::export_fmu!(lagrangian mbfmu::systems::SpringRodPendulum);
