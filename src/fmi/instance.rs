@@ -635,7 +635,12 @@ impl<M: System> Instance<M> {
             der: &d.u_der,
             t_c: current,
         };
-        let u = inputs.at(t, sized(&mut work.u_at[0], d.u.len()));
+        // (Held inputs, the common case, are read as they are: no buffer to size.)
+        let u = if inputs.moving() {
+            inputs.at(t, sized(&mut work.u_at[0], d.u.len()))
+        } else {
+            &d.u
+        };
         M::extra_outputs(t, &work.x, u, &d.params, y);
         let finite = work.x.iter().chain(y.iter()).all(|v| v.is_finite());
         match result {
