@@ -8,36 +8,52 @@
 //! see the input the integration used there, and a master that sets nothing new continues
 //! along the same polynomial.
 
+use crate::integrators::sized;
+
 /// Highest input derivative order fmi2SetRealInputDerivatives accepts.
 pub const MAX_INPUT_DERIVATIVE_ORDER: i32 = 2;
 
 /// The inputs `u` with their time derivatives `der` at `t_c`.
 #[derive(Clone, Copy)]
 pub struct Inputs<'a> {
-    pub u: &'a [f64],
-    pub der: &'a [Vec<f64>; 2],
-    pub t_c: f64,
+    u: &'a [f64],
+    der: &'a [Vec<f64>; 2],
+    t_c: f64,
+    /// Whether any derivative is set, found once here: [`Inputs::at`] is asked at every
+    /// evaluation of the right-hand side.
+    moving: bool,
 }
 
 impl<'a> Inputs<'a> {
+    #[inline]
+    pub fn new(u: &'a [f64], der: &'a [Vec<f64>; 2], t_c: f64) -> Self {
+        Inputs {
+            u,
+            der,
+            t_c,
+            moving: moving(der),
+        }
+    }
+
     /// Whether any derivative is set (else the inputs are held: the fast paths).
     #[inline]
     pub fn moving(&self) -> bool {
-        moving(self.der)
+        self.moving
     }
 
     /// `u(t)`: the held inputs themselves when nothing moves, else written into `buf`
-    /// (one entry per input).
+    /// (sized to one entry per input only then).
     #[inline]
-    pub fn at<'b>(&self, t: f64, buf: &'b mut [f64]) -> &'b [f64]
+    pub fn at<'b>(&self, t: f64, buf: &'b mut Vec<f64>) -> &'b [f64]
     where
         'a: 'b,
     {
-        if !self.moving() {
+        if !self.moving {
             return self.u;
         }
         let s = t - self.t_c;
         let [d1, d2] = self.der;
+        let buf = sized(buf, self.u.len());
         for (i, v) in buf.iter_mut().enumerate() {
             *v = value(self.u[i], d1[i], d2[i], s);
         }
@@ -75,23 +91,15 @@ mod tests {
     #[test]
     fn polynomial_and_its_advance_agree() {
         let der = [vec![2.0], vec![-4.0]];
-        let inputs = Inputs {
-            u: &[1.0],
-            der: &der,
-            t_c: 3.0,
-        };
-        let mut buf = [0.0];
+        let inputs = Inputs::new(&[1.0], &der, 3.0);
+        let mut buf = Vec::new();
         // u(3.5) = 1 + 2·0.5 − 4·0.25/2 = 1.5 (exact in binary).
         assert_eq!(inputs.at(3.5, &mut buf), &[1.5]);
         let (mut u, mut d) = (vec![1.0], der.clone());
         advance(&mut u, &mut d, 0.5);
         assert_eq!((u[0], d[0][0], d[1][0]), (1.5, 0.0, -4.0));
         let held = [vec![0.0], vec![0.0]];
-        let inputs = Inputs {
-            u: &[7.0],
-            der: &held,
-            t_c: 0.0,
-        };
+        let inputs = Inputs::new(&[7.0], &held, 0.0);
         assert_eq!(inputs.at(1.0, &mut buf), &[7.0]);
     }
 }

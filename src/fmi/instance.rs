@@ -556,13 +556,9 @@ impl<M: System> Instance<M> {
             d.memory.drop_ahead();
             let plan = (d.solver_step, d.max_steps);
             let (stats, scratch) = (&mut d.memory.stats, &mut work.integrators);
-            let inputs = Inputs {
-                u,
-                der: &d.u_der,
-                t_c: current,
-            };
+            let inputs = Inputs::new(u, &d.u_der, current);
             if inputs.moving() {
-                let buf = sized(&mut work.u_at[0], u.len());
+                let buf = &mut work.u_at[0];
                 let mut rhs = |t: f64, x: &[f64], dx: &mut [f64]| {
                     M::derivatives(t, x, inputs.at(t, buf), p, dx)
                 };
@@ -630,17 +626,8 @@ impl<M: System> Instance<M> {
         let (d, work) = (&mut self.data, self.work.get_mut());
         let now = d.time;
         let y = sized(&mut work.y, self.info.layout.n_outputs);
-        let inputs = Inputs {
-            u: &d.u,
-            der: &d.u_der,
-            t_c: current,
-        };
-        // (Held inputs, the common case, are read as they are: no buffer to size.)
-        let u = if inputs.moving() {
-            inputs.at(t, sized(&mut work.u_at[0], d.u.len()))
-        } else {
-            &d.u
-        };
+        let inputs = Inputs::new(&d.u, &d.u_der, current);
+        let u = inputs.at(t, &mut work.u_at[0]);
         M::extra_outputs(t, &work.x, u, &d.params, y);
         let finite = work.x.iter().chain(y.iter()).all(|v| v.is_finite());
         match result {
@@ -1154,12 +1141,7 @@ fn integrate_general<M: System>(
 ) -> Result<(), Stop> {
     let (u, p) = (&d.u, &d.params);
     // The inputs from the communication point (moving ones: a buffer per closure).
-    let inputs = Inputs {
-        u,
-        der: &d.u_der,
-        t_c: *t,
-    };
-    let (u_rhs, u_jac) = (sized(u_rhs, u.len()), sized(u_jac, u.len()));
+    let inputs = Inputs::new(u, &d.u_der, *t);
     let mut rhs =
         |t: f64, x: &[f64], dx: &mut [f64]| M::derivatives(t, x, inputs.at(t, u_rhs), p, dx);
     // ∂f/∂x column by column with dual numbers (exact), row-major for the methods.
@@ -1200,7 +1182,6 @@ fn integrate_general<M: System>(
         .map_err(Stop::from)
     } else {
         memory.drop_ahead();
-        let u_event = sized(u_event, u.len());
         advance_locating_events::<M>(
             &mut problem,
             (t, x),
@@ -1225,7 +1206,7 @@ fn advance_locating_events<M: System>(
     t_end: f64,
     settings: &Settings,
     memory: &mut Memory,
-    (inputs, p, u_buf): (Inputs, &[f64], &mut [f64]),
+    (inputs, p, u_buf): (Inputs, &[f64], &mut Vec<f64>),
     (x0, work): (&mut Vec<f64>, &mut Workspace),
 ) -> Result<(), Stop> {
     let mut indicator = |t: f64, x: &[f64]| M::event_indicator(t, x, inputs.at(t, u_buf), p);
