@@ -35,6 +35,17 @@ impl<'a> Inputs<'a> {
         }
     }
 
+    /// The inputs `u` held (no derivative set: the caller knows it), without looking.
+    #[inline]
+    pub fn held(u: &'a [f64], der: &'a [Vec<f64>; 2]) -> Self {
+        Inputs {
+            u,
+            der,
+            t_c: 0.0,
+            moving: false,
+        }
+    }
+
     /// Whether any derivative is set (else the inputs are held: the fast paths).
     #[inline]
     pub fn moving(&self) -> bool {

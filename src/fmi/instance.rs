@@ -9,7 +9,8 @@ use super::Status;
 use super::{Logger, ModelInfo, Snapshot};
 use crate::integrators::problem::Problem;
 use crate::integrators::{
-    self, copied, problem::Mechanics, sized, zeroed, Memory, Method, Settings, Workspace,
+    self, all_finite, copied, finite, problem::Mechanics, sized, zeroed, Memory, Method, Settings,
+    Workspace,
 };
 use crate::model::consistent;
 use crate::model::jacobian::{self, Direction, Duals, Moving};
@@ -200,13 +201,10 @@ impl<M: System> Instance<M> {
     }
 
     /// Fails unless the current state is in `mask`.
+    #[inline]
     pub fn require(&self, mask: u32, function: &str) -> Res {
         if mask & self.data.machine.code() == 0 {
-            return Err(format!(
-                "{function}: not allowed in state {:?} (allowed in: {})",
-                self.data.machine,
-                machine::describe(mask)
-            ));
+            return Err(not_allowed(self.data.machine, mask, function));
         }
         Ok(())
     }
@@ -506,22 +504,71 @@ impl<M: System> Instance<M> {
     /// fmi2DoStep: from the held state at `current` to `current + h`.
     pub fn do_step(&mut self, current: f64, h: f64) -> Res<StepOutcome> {
         let t_end = self.check_step(current, h)?;
+        let d = &self.data;
+        if d.method == Method::Rk4
+            && !inputs::moving(&d.u_der)
+            && M::event_indicator(current, &d.x, &d.u, &d.params).is_none()
+        {
+            // The sizes of the systems here on the stack (other sizes: `integrate`).
+            macro_rules! sized_for {
+                ($($n:literal)*) => {
+                    match d.x.len() {
+                        $($n => return Ok(self.fixed_step::<$n>(current, t_end)),)*
+                        _ => {}
+                    }
+                };
+            }
+            sized_for!(2 4 6 7 8);
+        }
         let (t, result) = self.integrate(current, t_end);
         self.report_stiffness();
         Ok(self.settle(current, t_end, t, result))
     }
 
+    /// The fixed-step doStep, on one screen: RK4 with held inputs and no event, the state's
+    /// `N` components on the stack, the right-hand side inlined into the stages ([`Held`]),
+    /// nothing assembled. The general path's numbers, bit for bit (tested).
+    #[inline(always)]
+    fn fixed_step<const N: usize>(&mut self, current: f64, t_end: f64) -> StepOutcome {
+        let (d, work) = (&mut self.data, self.work.get_mut());
+        d.memory.drop_ahead();
+        let (u, p) = (&d.u[..], &d.params[..]);
+        let mut x: [f64; N] = d.x[..].try_into().expect("N states");
+        let mut t = current;
+        let result = integrators::fixed_plan(d.solver_step, d.max_steps, t, t_end)
+            .and_then(|plan| {
+                let mut rhs = Held::<M> {
+                    u,
+                    p,
+                    model: PhantomData,
+                };
+                integrators::rk4::advance_sized(
+                    &mut rhs,
+                    (&mut t, &mut x),
+                    plan,
+                    &mut d.memory.stats,
+                )
+            })
+            .map_err(Stop::from);
+        if result.is_ok() {
+            M::project(t, p, &mut x);
+        }
+        let outputs = (&mut work.y, &mut work.u_at[0]);
+        let layout = &self.info.layout;
+        settle_state::<M>(d, layout, (current, t_end), (t, &x, result), outputs, true)
+    }
+
     /// The checks of fmi2DoStep before any work (state machine, arguments); the step's end.
     fn check_step(&self, current: f64, h: f64) -> Res<f64> {
         self.require(machine::DO_STEP, "fmi2DoStep")?;
-        if !(h.is_finite() && h > 0.0) {
+        if !(finite(h) && h > 0.0) {
             return Err(format!(
                 "fmi2DoStep: communicationStepSize must be positive and finite, got {h}"
             ));
         }
         let now = self.data.time;
         let slack = 1e-9 * now.abs().max(1.0);
-        if !current.is_finite() || (current - now).abs() > slack {
+        if !finite(current) || (current - now).abs() > slack {
             return Err(format!(
                 "fmi2DoStep: currentCommunicationPoint {current} is not the FMU's time {now}"
             ));
@@ -564,7 +611,11 @@ impl<M: System> Instance<M> {
                 };
                 integrators::rk4_fixed(&mut rhs, (&mut t, x), t_end, plan, stats, scratch)
             } else {
-                let mut rhs = |t: f64, x: &[f64], dx: &mut [f64]| M::derivatives(t, x, u, p, dx);
+                let mut rhs = Held::<M> {
+                    u,
+                    p,
+                    model: PhantomData,
+                };
                 integrators::rk4_fixed(&mut rhs, (&mut t, x), t_end, plan, stats, scratch)
             }
             .map_err(Stop::from)
@@ -623,50 +674,18 @@ impl<M: System> Instance<M> {
         t: f64,
         result: Result<(), Stop>,
     ) -> StepOutcome {
-        let (d, work) = (&mut self.data, self.work.get_mut());
-        let now = d.time;
-        let y = sized(&mut work.y, self.info.layout.n_outputs);
-        let inputs = Inputs::new(&d.u, &d.u_der, current);
-        let u = inputs.at(t, &mut work.u_at[0]);
-        M::extra_outputs(t, &work.x, u, &d.params, y);
-        let finite = work.x.iter().chain(y.iter()).all(|v| v.is_finite());
-        match result {
-            Ok(()) if finite => {
-                std::mem::swap(&mut d.x, &mut work.x);
-                d.time = t_end;
-                StepOutcome::Completed
-            }
-            Ok(()) => {
-                // The state stays at `now`: the point ahead of `t_end` no longer goes with it.
-                d.memory.drop_ahead();
-                d.machine = Machine::StepFailed;
-                StepOutcome::Discarded(format!(
-                    "fmi2DoStep: outputs became non-finite at t = {t_end}; state kept at t = {now}"
-                ))
-            }
-            Err(stop) => {
-                d.machine = Machine::StepFailed;
-                let mut why = stop.reason;
-                if stop.step_limit {
-                    let vr = self.info.layout.vr_of_slot(VarKind::SolverMaxSteps, 0);
-                    why += &format!(
-                        "; raise solver_max_steps (value reference {vr}, now {}) or shorten the communication step",
-                        d.max_steps
-                    );
-                }
-                if t > now && finite {
-                    std::mem::swap(&mut d.x, &mut work.x);
-                    d.time = t;
-                    StepOutcome::Discarded(format!(
-                        "fmi2DoStep: {why}; integration stopped at the last good state, t = {t}"
-                    ))
-                } else {
-                    StepOutcome::Discarded(format!("fmi2DoStep: {why}; state kept at t = {now}"))
-                }
-            }
-        }
+        let work = self.work.get_mut();
+        let (reached, outputs) = ((t, &work.x[..], result), (&mut work.y, &mut work.u_at[0]));
+        let layout = &self.info.layout;
+        settle_state::<M>(
+            &mut self.data,
+            layout,
+            (current, t_end),
+            reached,
+            outputs,
+            false,
+        )
     }
-
     /// fmi2GetDirectionalDerivative: `dv_unknown = J · dv_known`, exact (dual numbers).
     /// Unknowns: state derivatives and outputs (an output that is a state gives the seed
     /// of that state); knowns: states and inputs (standard, 2.1.9).
@@ -1286,4 +1305,95 @@ fn advance_locating_events<M: System>(
         reason: format!("more than {MAX_EVENTS_PER_STEP} events in one communication step"),
         step_limit: false,
     })
+}
+
+/// Why `function` is refused in state `machine` (allowed in `mask`).
+#[cold]
+fn not_allowed(machine: Machine, mask: u32, function: &str) -> String {
+    format!(
+        "{function}: not allowed in state {machine:?} (allowed in: {})",
+        machine::describe(mask)
+    )
+}
+
+/// The end of a doStep from `current` to `t_end` that reached `t` with `result` and the
+/// state `x`: the new state if it and the outputs (written into `y`; inputs evaluated in
+/// `u_at` when they move, `held` when the caller knows they do not) are finite, else the last good one ([`failed_step`]), and the
+/// outcome. Inlined, so that the fixed-step path copies and checks a state of known length.
+#[inline(always)]
+fn settle_state<M: System>(
+    d: &mut Snapshot,
+    layout: &Layout,
+    (current, t_end): (f64, f64),
+    (t, x, result): (f64, &[f64], Result<(), Stop>),
+    (y, u_at): (&mut Vec<f64>, &mut Vec<f64>),
+    held: bool,
+) -> StepOutcome {
+    let y = sized(y, layout.n_outputs);
+    let inputs = if held {
+        Inputs::held(&d.u, &d.u_der)
+    } else {
+        Inputs::new(&d.u, &d.u_der, current)
+    };
+    let u = inputs.at(t, u_at);
+    M::extra_outputs(t, x, u, &d.params, y);
+    let finite = all_finite(x) && all_finite(y);
+    if finite && result.is_ok() {
+        d.x.copy_from_slice(x);
+        d.time = t_end;
+        return StepOutcome::Completed;
+    }
+    failed_step(d, layout, t_end, (t, x, result), finite)
+}
+
+/// [`settle_state`] when the integration failed or the outputs are not finite.
+#[cold]
+#[inline(never)]
+fn failed_step(
+    d: &mut Snapshot,
+    layout: &Layout,
+    t_end: f64,
+    (t, x, result): (f64, &[f64], Result<(), Stop>),
+    finite: bool,
+) -> StepOutcome {
+    let now = d.time;
+    d.machine = Machine::StepFailed;
+    let Err(stop) = result else {
+        // The state stays at `now`: the point ahead of `t_end` no longer goes with it.
+        d.memory.drop_ahead();
+        return StepOutcome::Discarded(format!(
+            "fmi2DoStep: outputs became non-finite at t = {t_end}; state kept at t = {now}"
+        ));
+    };
+    let mut why = stop.reason;
+    if stop.step_limit {
+        let vr = layout.vr_of_slot(VarKind::SolverMaxSteps, 0);
+        why += &format!(
+            "; raise solver_max_steps (value reference {vr}, now {}) or shorten the communication step",
+            d.max_steps
+        );
+    }
+    if t > now && finite {
+        d.x.copy_from_slice(x);
+        d.time = t;
+        StepOutcome::Discarded(format!(
+            "fmi2DoStep: {why}; integration stopped at the last good state, t = {t}"
+        ))
+    } else {
+        StepOutcome::Discarded(format!("fmi2DoStep: {why}; state kept at t = {now}"))
+    }
+}
+
+/// The right-hand side with inputs held, inlined into the RK4 stages of the fixed-step path.
+struct Held<'a, M> {
+    u: &'a [f64],
+    p: &'a [f64],
+    model: PhantomData<M>,
+}
+
+impl<M: System> integrators::rk4::Rhs for Held<'_, M> {
+    #[inline(always)]
+    fn eval(&mut self, t: f64, x: &[f64], dx: &mut [f64]) {
+        M::derivatives(t, x, self.u, self.p, dx)
+    }
 }

@@ -117,6 +117,7 @@ impl Logger {
         }
     }
 
+    #[inline]
     pub fn debug_enabled(&self) -> bool {
         self.logging_on && self.category_on("logAll")
     }

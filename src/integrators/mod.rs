@@ -21,6 +21,7 @@ pub mod euler;
 pub mod exact_linear;
 mod explicit_rk;
 mod expm;
+mod finite;
 pub mod gauss;
 mod lu;
 pub mod problem;
@@ -31,6 +32,7 @@ pub mod verlet;
 mod workspace;
 
 pub(crate) use buffers::{copied, sized, zeroed};
+pub use finite::{all_finite, finite};
 pub use problem::ImplicitFailure;
 use std::fmt;
 pub use workspace::Workspace;
@@ -529,12 +531,18 @@ impl Ahead for radau5::Ahead {
 /// `settings.max_steps` steps of `settings.step` (counted as the methods count them: the last
 /// one shortened, or stretched by a sliver).
 fn check_plan(settings: &Settings, t: f64, t_end: f64) -> Result<(), Failure> {
-    check_fixed_plan(settings.step, settings.max_steps, t, t_end).map(|_| ())
+    fixed_plan(settings.step, settings.max_steps, t, t_end).map(|_| ())
 }
 
-/// A fixed-step plan from `t` to `t_end` refused before any work when it needs more than
-/// `max_steps` steps of `step`; else its number of steps.
-fn check_fixed_plan(step: f64, max_steps: u64, t: f64, t_end: f64) -> Result<u64, Failure> {
+/// The fixed-step plan from `t` to `t_end` with steps of `step`, `(t_end, step, number of
+/// steps)`, refused before any work when it needs more than `max_steps` steps.
+#[inline]
+pub fn fixed_plan(
+    step: f64,
+    max_steps: u64,
+    t: f64,
+    t_end: f64,
+) -> Result<(f64, f64, u64), Failure> {
     let planned = problem::step_count(t_end - t, step);
     if planned > max_steps as f64 {
         return Err(Failure::TooManyPlanned {
@@ -544,14 +552,15 @@ fn check_fixed_plan(step: f64, max_steps: u64, t: f64, t_end: f64) -> Result<u64
             max: max_steps,
         });
     }
-    Ok(planned as u64)
+    // (planned ≤ max_steps < 2⁶⁴ here; through i64 as in `step_count`.)
+    Ok((t_end, step, planned as i64 as u64))
 }
 
 /// RK4 from `*t` to `t_end` with `step`, at most `max_steps` steps (refused before any
 /// work), monomorphised on the right-hand side: the FMU's fixed-step doStep, where a `dyn`
 /// call per stage and the method dispatch of [`advance_in`] cost more than the equations of
 /// a small system. The same arithmetic as [`advance_in`] with [`Method::Rk4`], bit for bit.
-pub fn rk4_fixed<F: FnMut(f64, &[f64], &mut [f64])>(
+pub fn rk4_fixed<F: rk4::Rhs>(
     rhs: &mut F,
     (t, x): (&mut f64, &mut [f64]),
     t_end: f64,
@@ -559,8 +568,7 @@ pub fn rk4_fixed<F: FnMut(f64, &[f64], &mut [f64])>(
     stats: &mut Stats,
     work: &mut Workspace,
 ) -> Result<(), Failure> {
-    let n = check_fixed_plan(step, max_steps, *t, t_end)?;
-    let plan = (t_end, step, n);
+    let plan = fixed_plan(step, max_steps, *t, t_end)?;
     // The sizes of the systems here on the stack (more states take the buffers of `work`).
     macro_rules! sized_for {
         ($($n:literal)*) => {
@@ -630,9 +638,12 @@ impl Memory {
     /// input), or the mode or method that kept it is not the one running.
     #[inline]
     pub fn drop_ahead(&mut self) {
-        self.ahead = None;
-        self.radau5_ahead = None;
-        self.dop853_ahead = None;
+        // (Tested first: the fixed-step doStep calls this each step, and has none to drop.)
+        if self.ahead.is_some() || self.radau5_ahead.is_some() || self.dop853_ahead.is_some() {
+            self.ahead = None;
+            self.radau5_ahead = None;
+            self.dop853_ahead = None;
+        }
     }
 }
 

@@ -11,6 +11,7 @@
 //! `f` (not of the Jacobian: wrap the closure to count those).
 
 use super::buffers::sized;
+use super::finite::{all_finite, finite};
 use super::{Failure, Stats};
 use std::fmt;
 
@@ -167,12 +168,19 @@ pub const SLIVER: f64 = 1e-10;
 /// shortened, or lengthened by at most a [`SLIVER`] of a step; one step if `step` is not
 /// positive and finite.
 pub(crate) fn step_count(span: f64, step: f64) -> f64 {
-    if !(step > 0.0 && step.is_finite()) {
+    if !(step > 0.0 && finite(step)) {
         return 1.0;
     }
     // (span / step ≥ 0 here, so the cast truncates as `floor` would, without libm's call;
-    // counts past 2⁶⁴ saturate and are refused by any step limit.)
-    let full = (span / step) as u64 as f64;
+    // counts past 2⁶³ saturate and are refused by any step limit. Through i64, not u64:
+    // x86-64 converts signed integers in one instruction, unsigned ones in a dozen.)
+    let ratio = span / step;
+    if ratio < 1.0 + 1e-12 {
+        // One step (the doStep of one solver step): what the rule below gives here, as
+        // `full` is 0 or 1 and `rest` at most ~1e-12 steps, well inside the sliver.
+        return 1.0;
+    }
+    let full = ratio as i64 as f64;
     let rest = span - full * step;
     if rest <= SLIVER * step {
         full.max(1.0)
@@ -212,7 +220,7 @@ pub(crate) fn fixed_steps<E: From<Failure>>(
             t0 + (i + 1) as f64 * step
         };
         one_step(stats, ta, tb, x, y)?;
-        if !y.iter().all(|v| v.is_finite()) {
+        if !all_finite(y) {
             return Err(Failure::NonFinite { t: ta }.into());
         }
         x.copy_from_slice(y);
@@ -240,6 +248,34 @@ pub(crate) mod test_support {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The one-step shortcut of `step_count` gives what its rule gives, at spans a
+    /// rounding away from one step and a sliver on either side.
+    #[test]
+    fn step_count_shortcut_is_the_rule() {
+        let rule = |span: f64, step: f64| {
+            let full = (span / step) as i64 as f64;
+            if span - full * step <= SLIVER * step {
+                full.max(1.0)
+            } else {
+                full + 1.0
+            }
+        };
+        for step in [1e-3, 0.1, 0.7, 3.0, 1e-9] {
+            for ulps in -40i64..=40 {
+                for scale in [0.0, 1e-13, 1e-12, 1e-11, 1e-10, 2e-10, 1e-6] {
+                    let span = step * (1.0 + scale * ulps as f64 / 40.0);
+                    let span = f64::from_bits((span.to_bits() as i64 + ulps) as u64);
+                    assert_eq!(step_count(span, step), rule(span, step), "{span} {step}");
+                }
+            }
+            // Spans made as a doStep makes them: (t + h) − t.
+            for t in [0.0, 0.001, 0.3, 1.7, 123.4, 1e5] {
+                let span = (t + step) - t;
+                assert_eq!(step_count(span, step), rule(span, step), "{t} {step}");
+            }
+        }
+    }
 
     #[test]
     fn step_count_matches_rk4_rules() {

@@ -4,8 +4,24 @@
 //! independent of tolerances; the price is that accuracy is the user's business.
 
 use super::buffers::sized;
+use super::finite::all_finite;
 use super::problem::step_count;
 use super::{Failure, Stats};
+
+/// A right-hand side `f(t, x, dx)` for the stages of [`advance_sized`]. Closures are one
+/// (inlined at the compiler's discretion); the FMU's fixed-step doStep passes a type whose
+/// `eval` is `#[inline(always)]`, so that a small system's equations sit in the stages with
+/// their lengths known, not behind a call.
+pub trait Rhs {
+    fn eval(&mut self, t: f64, x: &[f64], dx: &mut [f64]);
+}
+
+impl<F: FnMut(f64, &[f64], &mut [f64]) + ?Sized> Rhs for F {
+    #[inline(always)]
+    fn eval(&mut self, t: f64, x: &[f64], dx: &mut [f64]) {
+        self(t, x, dx)
+    }
+}
 
 /// Advance with RK4 from `*t` to `t_end` (> `*t`, `x` finite; see [`super::advance`]).
 ///
@@ -25,7 +41,7 @@ pub fn advance(
 /// [`advance`] in the buffers `stages`: no allocation once they have held this size.
 /// Generic over the right-hand side so that a caller holding a concrete closure (the
 /// FMU's doStep) gets it inlined into the stages; `dyn FnMut` callers pass `F = dyn ..`.
-pub fn advance_in<F: FnMut(f64, &[f64], &mut [f64]) + ?Sized>(
+pub fn advance_in<F: Rhs + ?Sized>(
     rhs: &mut F,
     t: &mut f64,
     x: &mut [f64],
@@ -50,28 +66,37 @@ pub fn advance_in<F: FnMut(f64, &[f64], &mut [f64]) + ?Sized>(
 
 /// [`advance_in`] in `n` steps (the [`step_count`] of the span: the caller has it from
 /// checking its plan) for a state of `N` components, its stages on the stack: with the sizes
-/// known, the stage loops unroll and no buffer is sized. The same arithmetic, bit for bit.
-pub fn advance_sized<const N: usize, F: FnMut(f64, &[f64], &mut [f64]) + ?Sized>(
+/// known, the stage loops unroll, no index is checked and no buffer is sized. The same
+/// arithmetic, bit for bit.
+#[inline]
+pub fn advance_sized<const N: usize, F: Rhs + ?Sized>(
     rhs: &mut F,
     (t, x): (&mut f64, &mut [f64; N]),
     (t_end, step, n): (f64, f64, u64),
     stats: &mut Stats,
 ) -> Result<(), Failure> {
     let [mut k1, mut k2, mut k3, mut k4, mut y] = [[0.0; N]; 5];
-    let stages = [&mut k1[..], &mut k2, &mut k3, &mut k4, &mut y];
+    let stages = [&mut k1, &mut k2, &mut k3, &mut k4, &mut y];
     steps(rhs, (t, x), (t_end, step, n), stats, stages)
 }
 
-/// `n` steps from `*t` to `t_end` in the buffers `[k1, k2, k3, k4, y]`, each as long as `x`.
+/// `n` steps from `*t` to `t_end` in the buffers `[k1, k2, k3, k4, y]`, each as long as `x`:
+/// slices, or arrays whose length the compiler then knows.
 /// (No limit here: `integrators::advance` checks the plan against `Settings::max_steps`.)
 #[inline(always)]
-fn steps<F: FnMut(f64, &[f64], &mut [f64]) + ?Sized>(
+fn steps<F, B>(
     rhs: &mut F,
-    (t, x): (&mut f64, &mut [f64]),
+    (t, x): (&mut f64, &mut B),
     (t_end, step, n): (f64, f64, u64),
     stats: &mut Stats,
-    [k1, k2, k3, k4, y]: [&mut [f64]; 5],
-) -> Result<(), Failure> {
+    [k1, k2, k3, k4, y]: [&mut B; 5],
+) -> Result<(), Failure>
+where
+    F: Rhs + ?Sized,
+    B: AsMut<[f64]> + ?Sized,
+{
+    let (x, y) = (x.as_mut(), y.as_mut());
+    let (k1, k2, k3, k4) = (k1.as_mut(), k2.as_mut(), k3.as_mut(), k4.as_mut());
     let t0 = *t;
     let dim = x.len();
     for i in 0..n {
@@ -79,31 +104,31 @@ fn steps<F: FnMut(f64, &[f64], &mut [f64]) + ?Sized>(
         let tb = if i + 1 == n {
             t_end
         } else {
-            t0 + (i + 1) as f64 * step
+            t0 + (i as i64 + 1) as f64 * step // (i < n ≤ a step limit: exact through i64)
         };
         let h = tb - ta;
         let tm = ta + 0.5 * h;
 
-        rhs(ta, x, k1);
+        rhs.eval(ta, x, k1);
         for j in 0..dim {
             y[j] = x[j] + 0.5 * h * k1[j];
         }
-        rhs(tm, y, k2);
+        rhs.eval(tm, y, k2);
         for j in 0..dim {
             y[j] = x[j] + 0.5 * h * k2[j];
         }
-        rhs(tm, y, k3);
+        rhs.eval(tm, y, k3);
         for j in 0..dim {
             y[j] = x[j] + h * k3[j];
         }
-        rhs(tb, y, k4);
+        rhs.eval(tb, y, k4);
         stats.rhs_evals += 4;
         for j in 0..dim {
             y[j] = x[j] + h / 6.0 * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j]);
         }
         // Every stage enters the new state with a nonzero weight, so a non-finite stage always
         // makes it non-finite (inf - inf is NaN): checking the new state suffices.
-        if !y.iter().all(|v| v.is_finite()) {
+        if !all_finite(y) {
             return Err(Failure::NonFinite { t: ta });
         }
         x.copy_from_slice(y);

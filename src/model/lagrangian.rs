@@ -702,6 +702,8 @@ impl<L: Lagrangian> System for L {
         <L as Lagrangian>::outputs()
     }
 
+    // (Always inlined: the fixed-step doStep then has the equations in its stages.)
+    #[inline(always)]
     fn derivatives<S: Scalar>(t: f64, x: &[S], u: &[S], p: &[S], dx: &mut [S]) {
         let n = x.len() / 2;
         let (q, qd) = x.split_at(n);
@@ -710,6 +712,7 @@ impl<L: Lagrangian> System for L {
         accelerations_into::<L, S>(t, q, qd, u, p, qdd);
     }
 
+    #[inline(always)]
     fn extra_outputs<S: Scalar>(t: f64, x: &[S], u: &[S], p: &[S], y: &mut [S]) {
         let (q, qd) = x.split_at(x.len() / 2);
         <L as Lagrangian>::extra_outputs(t, q, qd, u, p, y);

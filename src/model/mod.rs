@@ -127,6 +127,10 @@ pub trait System: 'static {
 
     /// `dx = f(t, x, u, p)`, every component of `dx` written: the integrators reuse
     /// their buffers between calls, so a component left alone holds an old value, not 0.
+    /// The in-tree systems mark it `#[inline(always)]`: the fixed-step doStep then has the
+    /// equations in its RK4 stages, the slices' lengths known (no call, no index checks:
+    /// MassSpringDamper's doStep 545 → 449 instructions); the compiler does not inline a
+    /// generic function of this size by itself.
     fn derivatives<S: Scalar>(t: f64, x: &[S], u: &[S], p: &[S], dx: &mut [S]);
 
     /// `y = g(t, x, u, p)`, the extra outputs only, every component of `y` written (as

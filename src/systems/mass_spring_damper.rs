@@ -68,6 +68,7 @@ impl System for MassSpringDamper {
         (p[3] != 0.0, false)
     }
 
+    #[inline(always)]
     fn derivatives<S: Scalar>(t: f64, x: &[S], u: &[S], p: &[S], dx: &mut [S]) {
         let [m, k, c, f_amp, f_omega] = [p[0], p[1], p[2], p[3], p[4]];
         // (No sine to pay for when the forcing is off: F_amp·sin is then zero.)
@@ -80,6 +81,7 @@ impl System for MassSpringDamper {
         dx[1] = (force - c * x[1] - k * x[0]) / m;
     }
 
+    #[inline(always)]
     fn extra_outputs<S: Scalar>(_t: f64, x: &[S], _u: &[S], p: &[S], y: &mut [S]) {
         let (m, k) = (p[0], p[1]);
         y[0] = m * x[1] * x[1] * 0.5 + k * x[0] * x[0] * 0.5;

@@ -56,6 +56,7 @@ impl System for Projectile {
         (false, false)
     }
 
+    #[inline(always)]
     fn derivatives<S: Scalar>(_t: f64, x: &[S], _u: &[S], p: &[S], dx: &mut [S]) {
         dx[0] = x[3];
         dx[1] = x[4];

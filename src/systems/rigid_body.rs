@@ -210,6 +210,7 @@ impl System for RigidBody {
         (false, false)
     }
 
+    #[inline(always)]
     fn derivatives<S: Scalar>(_t: f64, x: &[S], u: &[S], p: &[S], dx: &mut [S]) {
         let [i1, i2, i3] = [p[0], p[1], p[2]];
         let [w1, w2, w3] = [x[0], x[1], x[2]];
@@ -225,6 +226,7 @@ impl System for RigidBody {
         dx[6] = (q0 * w3 + q1 * w2 - q2 * w1) * 0.5;
     }
 
+    #[inline(always)]
     fn extra_outputs<S: Scalar>(_t: f64, x: &[S], _u: &[S], p: &[S], y: &mut [S]) {
         let [i1, i2, i3] = [p[0], p[1], p[2]];
         let [w1, w2, w3] = [x[0], x[1], x[2]];

@@ -177,6 +177,7 @@ impl System for RollingDisk {
         (false, false)
     }
 
+    #[inline(always)]
     fn derivatives<S: Scalar>(_t: f64, x: &[S], u: &[S], p: &[S], dx: &mut [S]) {
         let (_, qdd) = solve(x, u, p);
         dx[..4].copy_from_slice(&x[4..8]);

@@ -140,6 +140,7 @@ impl System for RollingHoop {
         (false, false)
     }
 
+    #[inline(always)]
     fn derivatives<S: Scalar>(_t: f64, x: &[S], _u: &[S], p: &[S], dx: &mut [S]) {
         let (_, x_ddot, theta_ddot) = solve(p);
         dx[0] = x[2];

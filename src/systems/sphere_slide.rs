@@ -142,6 +142,7 @@ impl System for SphereSlide {
         (false, false)
     }
 
+    #[inline(always)]
     fn derivatives<S: Scalar>(_t: f64, x: &[S], _u: &[S], p: &[S], dx: &mut [S]) {
         dx[X] = x[VX];
         dx[H] = x[VH];

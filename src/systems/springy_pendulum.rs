@@ -146,6 +146,7 @@ impl System for SpringyPendulum {
         (false, false)
     }
 
+    #[inline(always)]
     fn derivatives<S: Scalar>(_t: f64, x: &[S], u: &[S], p: &[S], dx: &mut [S]) {
         let (m, c, r0, g) = (p[M], p[C], p[R0], p[G]);
         let (r, theta, r_dot, theta_dot) = (x[0], x[1], x[2], x[3]);

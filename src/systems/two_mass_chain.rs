@@ -76,6 +76,7 @@ impl System for TwoMassChain {
         (false, false)
     }
 
+    #[inline(always)]
     fn derivatives<S: Scalar>(_t: f64, x: &[S], u: &[S], p: &[S], dx: &mut [S]) {
         let [m1, m2, k1, k2, c2] = [p[0], p[1], p[2], p[3], p[4]];
         let coupling = k2 * (x[1] - x[0]) + c2 * (x[3] - x[2]);
@@ -85,6 +86,7 @@ impl System for TwoMassChain {
         dx[3] = -coupling / m2;
     }
 
+    #[inline(always)]
     fn extra_outputs<S: Scalar>(_t: f64, x: &[S], _u: &[S], p: &[S], y: &mut [S]) {
         let [m1, m2, k1, k2] = [p[0], p[1], p[2], p[3]];
         let stretch = x[1] - x[0];

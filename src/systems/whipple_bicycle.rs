@@ -361,6 +361,7 @@ impl System for WhippleBicycle {
         (false, false)
     }
 
+    #[inline(always)]
     fn derivatives<S: Scalar>(_t: f64, x: &[S], u: &[S], p: &[S], dx: &mut [S]) {
         let k = canonical(p);
         let [phi_dd, delta_dd] = accelerations(&k, p[G], p[V], x, u);
