@@ -502,6 +502,7 @@ impl<M: System> Instance<M> {
     }
 
     /// fmi2DoStep: from the held state at `current` to `current + h`.
+    #[inline]
     pub fn do_step(&mut self, current: f64, h: f64) -> Res<StepOutcome> {
         let t_end = self.check_step(current, h)?;
         let d = &self.data;
@@ -559,27 +560,17 @@ impl<M: System> Instance<M> {
     }
 
     /// The checks of fmi2DoStep before any work (state machine, arguments); the step's end.
+    #[inline]
     fn check_step(&self, current: f64, h: f64) -> Res<f64> {
         self.require(machine::DO_STEP, "fmi2DoStep")?;
-        if !(finite(h) && h > 0.0) {
-            return Err(format!(
-                "fmi2DoStep: communicationStepSize must be positive and finite, got {h}"
-            ));
-        }
-        let now = self.data.time;
+        let (now, t_end) = (self.data.time, current + h);
         let slack = 1e-9 * now.abs().max(1.0);
-        if !finite(current) || (current - now).abs() > slack {
-            return Err(format!(
-                "fmi2DoStep: currentCommunicationPoint {current} is not the FMU's time {now}"
-            ));
-        }
-        let t_end = current + h;
-        if let Some(stop) = self.data.stop_time {
-            if t_end > stop + 1e-9 * stop.abs().max(1.0) {
-                return Err(format!(
-                    "fmi2DoStep: the step ends at {t_end}, after stopTime {stop}"
-                ));
-            }
+        let beyond_stop = |stop: f64| t_end > stop + 1e-9 * stop.abs().max(1.0);
+        if !(finite(h) && h > 0.0 && finite(current))
+            || (current - now).abs() > slack
+            || self.data.stop_time.is_some_and(beyond_stop)
+        {
+            return Err(step_refused(current, h, now, self.data.stop_time));
         }
         Ok(t_end)
     }
@@ -1305,6 +1296,23 @@ fn advance_locating_events<M: System>(
         reason: format!("more than {MAX_EVENTS_PER_STEP} events in one communication step"),
         step_limit: false,
     })
+}
+
+/// Why fmi2DoStep refuses a step of `h` from `current` ([`Instance::check_step`]) when the
+/// FMU is at `now` and stops at `stop`.
+#[cold]
+fn step_refused(current: f64, h: f64, now: f64, stop: Option<f64>) -> String {
+    if !(finite(h) && h > 0.0) {
+        format!("fmi2DoStep: communicationStepSize must be positive and finite, got {h}")
+    } else if !finite(current) || (current - now).abs() > 1e-9 * now.abs().max(1.0) {
+        format!("fmi2DoStep: currentCommunicationPoint {current} is not the FMU's time {now}")
+    } else {
+        let stop = stop.unwrap_or(f64::NAN);
+        format!(
+            "fmi2DoStep: the step ends at {}, after stopTime {stop}",
+            current + h
+        )
+    }
 }
 
 /// Why `function` is refused in state `machine` (allowed in `mask`).
