@@ -75,6 +75,7 @@ fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
 
 /// Runs `body` on the instance behind `c`: NULL check, debug log, panic guard, error log,
 /// and fmi2OK raised to fmi2Warning when the body logged a warning.
+#[inline(always)] // (each FMI function has its own body: one call site per instance)
 fn call<E: Export>(
     c: Component,
     function: &str,

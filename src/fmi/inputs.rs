@@ -77,7 +77,10 @@ impl<'a> Inputs<'a> {
 #[inline]
 pub fn moving(der: &[Vec<f64>; 2]) -> bool {
     let [d1, d2] = der;
-    d1.iter().zip(d2).any(|(&a, &b)| a != 0.0 || b != 0.0)
+    if d1.len() != d2.len() {
+        return true; // (never: both hold one entry per input; the general path copes)
+    }
+    (0..d1.len()).any(|i| d1[i] != 0.0 || d2[i] != 0.0)
 }
 
 /// `u + u̇ s + ü s²/2`.

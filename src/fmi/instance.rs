@@ -531,8 +531,9 @@ impl<M: System> Instance<M> {
     /// nothing assembled. The general path's numbers, bit for bit (tested).
     #[inline(always)]
     fn fixed_step<const N: usize>(&mut self, current: f64, t_end: f64) -> StepOutcome {
+        // (No point ahead to drop: only the adaptive methods make one, and the method is
+        // fixed from fmi2ExitInitializationMode on; a restored FMU state brings its own.)
         let (d, work) = (&mut self.data, self.work.get_mut());
-        d.memory.drop_ahead();
         let (u, p) = (&d.u[..], &d.params[..]);
         let mut x: [f64; N] = d.x[..].try_into().expect("N states");
         let mut t = current;
@@ -588,9 +589,9 @@ impl<M: System> Instance<M> {
         let (u, p) = (&d.u, &d.params);
         let (mut t, x) = (current, copied(&mut work.x, &d.x));
         let result = if d.method == Method::Rk4 && M::event_indicator(t, x, u, p).is_none() {
-            // The fixed-step path, on one screen: no settings, no `dyn` (the right-hand side
-            // inlines into the stages), no problem to assemble. Moving inputs get a closure
-            // of their own, so held ones pay nothing for them.
+            // RK4 where `fixed_step` does not go (inputs that move, or a state larger than
+            // it keeps on the stack): no settings, no `dyn` (the right-hand side inlines
+            // into the stages), no problem to assemble.
             d.memory.drop_ahead();
             let plan = (d.solver_step, d.max_steps);
             let (stats, scratch) = (&mut d.memory.stats, &mut work.integrators);

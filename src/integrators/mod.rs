@@ -536,7 +536,7 @@ fn check_plan(settings: &Settings, t: f64, t_end: f64) -> Result<(), Failure> {
 
 /// The fixed-step plan from `t` to `t_end` with steps of `step`, `(t_end, step, number of
 /// steps)`, refused before any work when it needs more than `max_steps` steps.
-#[inline]
+#[inline(always)]
 pub fn fixed_plan(
     step: f64,
     max_steps: u64,
@@ -544,6 +544,9 @@ pub fn fixed_plan(
     t_end: f64,
 ) -> Result<(f64, f64, u64), Failure> {
     let planned = problem::step_count(t_end - t, step);
+    if planned == 1.0 && max_steps >= 1 {
+        return Ok((t_end, step, 1)); // (a doStep of one solver step: no count converted)
+    }
     if planned > max_steps as f64 {
         return Err(Failure::TooManyPlanned {
             t,

@@ -167,6 +167,7 @@ pub const SLIVER: f64 = 1e-10;
 /// Number of steps covering `span` with steps of `step`, as RK4 counts them: the last one
 /// shortened, or lengthened by at most a [`SLIVER`] of a step; one step if `step` is not
 /// positive and finite.
+#[inline]
 pub(crate) fn step_count(span: f64, step: f64) -> f64 {
     if !(step > 0.0 && finite(step)) {
         return 1.0;

@@ -95,46 +95,66 @@ where
     F: Rhs + ?Sized,
     B: AsMut<[f64]> + ?Sized,
 {
-    let (x, y) = (x.as_mut(), y.as_mut());
-    let (k1, k2, k3, k4) = (k1.as_mut(), k2.as_mut(), k3.as_mut(), k4.as_mut());
-    let t0 = *t;
-    let dim = x.len();
-    for i in 0..n {
-        let ta = *t;
-        let tb = if i + 1 == n {
-            t_end
-        } else {
-            t0 + (i as i64 + 1) as f64 * step // (i < n ≤ a step limit: exact through i64)
-        };
-        let h = tb - ta;
-        let tm = ta + 0.5 * h;
-
-        rhs.eval(ta, x, k1);
-        for j in 0..dim {
-            y[j] = x[j] + 0.5 * h * k1[j];
-        }
-        rhs.eval(tm, y, k2);
-        for j in 0..dim {
-            y[j] = x[j] + 0.5 * h * k2[j];
-        }
-        rhs.eval(tm, y, k3);
-        for j in 0..dim {
-            y[j] = x[j] + h * k3[j];
-        }
-        rhs.eval(tb, y, k4);
-        stats.rhs_evals += 4;
-        for j in 0..dim {
-            y[j] = x[j] + h / 6.0 * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j]);
-        }
-        // Every stage enters the new state with a nonzero weight, so a non-finite stage always
-        // makes it non-finite (inf - inf is NaN): checking the new state suffices.
-        if !all_finite(y) {
-            return Err(Failure::NonFinite { t: ta });
-        }
-        x.copy_from_slice(y);
-        *t = tb;
-        stats.steps += 1;
+    let x = x.as_mut();
+    let [k1, k2, k3, k4, y] = [
+        k1.as_mut(),
+        k2.as_mut(),
+        k3.as_mut(),
+        k4.as_mut(),
+        y.as_mut(),
+    ];
+    if n == 0 {
+        return Ok(());
     }
+    // Steps 1 … n−1 end at t0 + i·step, the last at t_end: the body twice, so that the
+    // doStep of one solver step runs no loop and computes no time it does not use.
+    let t0 = *t;
+    for i in 1..n {
+        let tb = t0 + i as i64 as f64 * step; // (i < n ≤ a step limit: exact through i64)
+        let stages = [&mut *k1, &mut *k2, &mut *k3, &mut *k4, &mut *y];
+        one_step(rhs, (t, x), tb, stats, stages)?;
+    }
+    one_step(rhs, (t, x), t_end, stats, [k1, k2, k3, k4, y])
+}
+
+/// One step from `*t` to `tb` in the buffers `[k1, k2, k3, k4, y]`.
+#[inline(always)]
+fn one_step<F: Rhs + ?Sized>(
+    rhs: &mut F,
+    (t, x): (&mut f64, &mut [f64]),
+    tb: f64,
+    stats: &mut Stats,
+    [k1, k2, k3, k4, y]: [&mut [f64]; 5],
+) -> Result<(), Failure> {
+    let ta = *t;
+    let h = tb - ta;
+    let tm = ta + 0.5 * h;
+    let dim = x.len();
+    rhs.eval(ta, x, k1);
+    for j in 0..dim {
+        y[j] = x[j] + 0.5 * h * k1[j];
+    }
+    rhs.eval(tm, y, k2);
+    for j in 0..dim {
+        y[j] = x[j] + 0.5 * h * k2[j];
+    }
+    rhs.eval(tm, y, k3);
+    for j in 0..dim {
+        y[j] = x[j] + h * k3[j];
+    }
+    rhs.eval(tb, y, k4);
+    stats.rhs_evals += 4;
+    for j in 0..dim {
+        y[j] = x[j] + h / 6.0 * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j]);
+    }
+    // Every stage enters the new state with a nonzero weight, so a non-finite stage always
+    // makes it non-finite (inf - inf is NaN): checking the new state suffices.
+    if !all_finite(y) {
+        return Err(Failure::NonFinite { t: ta });
+    }
+    x.copy_from_slice(y);
+    *t = tb;
+    stats.steps += 1;
     Ok(())
 }
 

@@ -85,8 +85,10 @@ pub trait Eom<const N: usize, const K: usize>: Generated {
 /// `(q̈, λ)` of `E` into slices: what a [`Lagrangian`](crate::model::lagrangian::Lagrangian)'s
 /// `generated_eom` hook (written by [`generated_eom!`](crate::generated_eom)) calls. `qdd`
 /// takes the N accelerations; `lambda` the first `lambda.len()` multipliers (empty when
-/// they are not wanted). No heap: the terms live on the stack.
-#[inline]
+/// they are not wanted). No heap: the terms live on the stack. (Always inlined, as
+/// `lagrangian::accelerations_into` is: results read back from memory right after a call
+/// stall store forwarding.)
+#[inline(always)]
 pub fn accelerations_into<E, S, const N: usize, const K: usize>(
     t: f64,
     q: &[S],
@@ -140,6 +142,7 @@ pub const fn same_name(a: &str, b: &str) -> bool {
 #[macro_export]
 macro_rules! generated_eom {
     ($eom:ty) => {
+        #[inline(always)]
         fn generated_eom<S: $crate::model::Scalar>(
             t: f64,
             q: &[S],
