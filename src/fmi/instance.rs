@@ -678,6 +678,7 @@ impl<M: System> Instance<M> {
             false,
         )
     }
+
     /// fmi2GetDirectionalDerivative: `dv_unknown = J · dv_known`, exact (dual numbers).
     /// Unknowns: state derivatives and outputs (an output that is a state gives the seed
     /// of that state); knowns: states and inputs (standard, 2.1.9).
@@ -1326,9 +1327,10 @@ fn not_allowed(machine: Machine, mask: u32, function: &str) -> String {
 }
 
 /// The end of a doStep from `current` to `t_end` that reached `t` with `result` and the
-/// state `x`: the new state if it and the outputs (written into `y`; inputs evaluated in
-/// `u_at` when they move, `held` when the caller knows they do not) are finite, else the last good one ([`failed_step`]), and the
-/// outcome. Inlined, so that the fixed-step path copies and checks a state of known length.
+/// state `x`: the new state if it and the outputs are finite, else the last good one
+/// ([`failed_step`]), and the outcome. The outputs are written into `y`, with the inputs
+/// evaluated in `u_at` when they move (`held`: the caller knows they do not). Inlined, so
+/// that the fixed-step path copies and checks a state of known length.
 #[inline(always)]
 fn settle_state<M: System>(
     d: &mut Snapshot,
