@@ -591,8 +591,7 @@ impl<M: System> Instance<M> {
         let result = if d.method == Method::Rk4 && M::event_indicator(t, x, u, p).is_none() {
             // RK4 where `fixed_step` does not go (inputs that move, or a state larger than
             // it keeps on the stack): no settings, no `dyn` (the right-hand side inlines
-            // into the stages), no problem to assemble.
-            d.memory.drop_ahead();
+            // into the stages), no problem to assemble (and no point ahead: see `fixed_step`).
             let plan = (d.solver_step, d.max_steps);
             let (stats, scratch) = (&mut d.memory.stats, &mut work.integrators);
             let inputs = Inputs::new(u, &d.u_der, current);
@@ -641,8 +640,7 @@ impl<M: System> Instance<M> {
     }
 
     /// The end of a doStep from `current` to `t_end` that reached `t` with `result` (the
-    /// state in `work.x`): the new state if it and the outputs are finite, else the last
-    /// good one, and the outcome. Moving inputs move to the time reached.
+    /// state in `work.x`): [`settle_state`], then moving inputs move to the time reached.
     fn settle(
         &mut self,
         current: f64,
@@ -650,33 +648,14 @@ impl<M: System> Instance<M> {
         t: f64,
         result: Result<(), Stop>,
     ) -> StepOutcome {
-        let outcome = self.settle_state(current, t_end, t, result);
-        let d = &mut self.data;
+        let (d, work) = (&mut self.data, self.work.get_mut());
+        let (reached, outputs) = ((t, &work.x[..], result), (&mut work.y, &mut work.u_at[0]));
+        let layout = &self.info.layout;
+        let outcome = settle_state::<M>(d, layout, (current, t_end), reached, outputs, false);
         if d.time != current && inputs::moving(&d.u_der) {
             inputs::advance(&mut d.u, &mut d.u_der, d.time - current);
         }
         outcome
-    }
-
-    /// [`Instance::settle`] but the inputs.
-    fn settle_state(
-        &mut self,
-        current: f64,
-        t_end: f64,
-        t: f64,
-        result: Result<(), Stop>,
-    ) -> StepOutcome {
-        let work = self.work.get_mut();
-        let (reached, outputs) = ((t, &work.x[..], result), (&mut work.y, &mut work.u_at[0]));
-        let layout = &self.info.layout;
-        settle_state::<M>(
-            &mut self.data,
-            layout,
-            (current, t_end),
-            reached,
-            outputs,
-            false,
-        )
     }
 
     /// fmi2GetDirectionalDerivative: `dv_unknown = J · dv_known`, exact (dual numbers).
