@@ -355,3 +355,40 @@ fn the_c_api_refuses_a_blob_with_values_no_setter_takes() {
     assert_eq!(fmi2DoStep(f.c, 0.1, 0.01, 1), Status::Ok);
     assert_eq!(unsafe { fmi2FreeFMUstate(f.c, &mut s) }, Status::Ok);
 }
+
+/// A blob's machine state does not change how its values are checked: ExactLinear on
+/// CompoundPendulum (never linear) is refused in StepFailed as in StepComplete, through
+/// fmi2SetFMUstate and through a serialized blob, and before initialisation too, where
+/// fmi2SetInteger refuses it (issue 24: a StepFailed blob at the start time with its machine
+/// state changed to Instantiated was accepted).
+#[test]
+fn a_refused_solver_is_refused_in_every_machine_state_after_initialisation() {
+    let mut inst = started::<systems::CompoundPendulum>(Method::Rk4);
+    let before_init = {
+        let info: &'static ModelInfo =
+            Box::leak(Box::new(ModelInfo::of::<systems::CompoundPendulum>()));
+        Instance::<systems::CompoundPendulum>::new(info, Logger::silent("fresh")).snapshot()
+    };
+    for machine in [
+        Machine::Instantiated,
+        Machine::InitializationMode,
+        Machine::StepComplete,
+        Machine::StepFailed,
+        Machine::Terminated,
+        Machine::Error,
+    ] {
+        let mut bad = if machine == Machine::Instantiated || machine == Machine::InitializationMode
+        {
+            before_init.clone()
+        } else {
+            inst.snapshot()
+        };
+        bad.method = Method::ExactLinear;
+        bad.machine = machine;
+        let e = inst.restore(&bad).unwrap_err();
+        assert!(e.contains("linear time-invariant"), "{machine:?}: {e}");
+        let blob = inst.serialize(&bad);
+        let e = inst.deserialize(&blob).unwrap_err();
+        assert!(e.contains("linear time-invariant"), "{machine:?}: {e}");
+    }
+}

@@ -23,12 +23,22 @@ use std::marker::PhantomData;
 struct Stop {
     reason: String,
     step_limit: bool,
+    /// The work bound of one doStep ([`DOSTEP_WORK`]) was spent.
+    work_limit: bool,
+}
+
+impl Stop {
+    /// A bound stopped it (steps or work), not the numerics.
+    fn bounded(&self) -> bool {
+        self.step_limit || self.work_limit
+    }
 }
 
 impl From<integrators::Failure> for Stop {
     fn from(f: integrators::Failure) -> Self {
         Stop {
             step_limit: f.is_step_limit(),
+            work_limit: f.is_work_limit(),
             reason: f.to_string(),
         }
     }
@@ -38,10 +48,18 @@ impl From<integrators::ImplicitFailure> for Stop {
     fn from(f: integrators::ImplicitFailure) -> Self {
         Stop {
             step_limit: f.is_step_limit(),
+            work_limit: f.is_work_limit(),
             reason: f.to_string(),
         }
     }
 }
+
+/// The work bound of one doStep, in state-component evaluations ([`integrators::Stats::work`]:
+/// an evaluation of f counts n, a Jacobian 6n²): deterministic, and about a second on the
+/// costliest systems here (measured in docs/methods.md, "How long a doStep may take").
+/// `solver_max_steps` bounds the steps; this bounds what they cost (a 16-state RADAU5 step
+/// with its Jacobian costs a hundred evaluations of f).
+pub const DOSTEP_WORK: u64 = 5_000_000;
 
 /// How a doStep ended when it did not fail on its arguments.
 #[derive(Debug, PartialEq)]
@@ -256,10 +274,20 @@ impl<M: System> Instance<M> {
         }
         let mut dx = vec![0.0; x.len()];
         M::derivatives(d.time, &x, &d.u, &d.params, &mut dx);
-        if let Some(i) = x.iter().chain(&dx).position(|v| !v.is_finite()) {
+        let mut y = vec![0.0; self.info.layout.n_outputs];
+        M::extra_outputs(d.time, &x, &d.u, &d.params, &mut y);
+        if let Some(i) = x.iter().chain(&dx).chain(&y).position(|v| !v.is_finite()) {
+            let n = x.len();
+            let name = if i < n {
+                self.state_name(i).to_string()
+            } else if i < 2 * n {
+                format!("der({})", self.state_name(i - n))
+            } else {
+                let vr = self.info.layout.vr_of_slot(VarKind::Output, i - 2 * n);
+                self.name(vr).to_string()
+            };
             return Err(format!(
-                "fmi2ExitInitializationMode: {} is not finite at the initial point (check the parameters and start values)",
-                if i < x.len() { self.state_name(i).to_string() } else { format!("der({})", self.state_name(i - x.len())) }
+                "fmi2ExitInitializationMode: {name} is not finite at the initial point (check the parameters and start values)"
             ));
         }
         if d.method.needs_linear_time_invariant() && !M::linear_time_invariant(&d.params) {
@@ -364,7 +392,31 @@ impl<M: System> Instance<M> {
                 VarKind::SolverMethod | VarKind::SolverMaxSteps => unreachable!("rejected above"),
             };
         }
+        if let Some(i) = values.iter().position(|v| !finite(*v)) {
+            return Err(self.not_finite("fmi2GetReal", vrs[i], values[i]));
+        }
         Ok(())
+    }
+
+    /// Why `function` cannot return `value` for `vr`: it is not finite at this configuration
+    /// (a dead centre, a singular constraint Jacobian, values set that do not fit together).
+    #[cold]
+    fn not_finite(&self, function: &str, vr: u32, value: f64) -> String {
+        format!(
+            "{function}: {} = {value} is not finite at {} (a singular configuration, or values set that do not fit together)",
+            self.name(vr),
+            self.configuration()
+        )
+    }
+
+    /// The time and the states, as a log line names a configuration.
+    fn configuration(&self) -> String {
+        let d = &self.data;
+        let states = (0..d.x.len())
+            .map(|i| format!("{} = {}", self.state_name(i), d.x[i]))
+            .collect::<Vec<_>>()
+            .join(", ");
+        format!("t = {}, {states}", d.time)
     }
 
     pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Res {
@@ -472,7 +524,6 @@ impl<M: System> Instance<M> {
         }
         let d = &self.data;
         check_method::<M>(method, &d.u, &d.params, true)
-            .and_then(|()| check_moving(method, &d.u_der))
             .map_err(|e| format!("fmi2SetInteger: {e}"))?;
         self.data.method = method;
         self.data.max_steps = max_steps;
@@ -521,9 +572,23 @@ impl<M: System> Instance<M> {
             }
             sized_for!(2 4 6 7 8);
         }
+        let work = self.stats().work(self.data.x.len());
         let (t, result) = self.integrate(current, t_end);
         self.report_stiffness();
+        if self.logger.debug_enabled() {
+            self.log_work(work);
+        }
         Ok(self.settle(current, t_end, t, result))
+    }
+
+    /// The work of the doStep that began with `before` done (logAll), for importers and
+    /// tests that check the bound by counting.
+    #[cold]
+    fn log_work(&self, before: u64) {
+        let done = self.stats().work(self.data.x.len()) - before;
+        self.logger.debug(&format!(
+            "fmi2DoStep: work {done} state-component evaluations (bound {DOSTEP_WORK})"
+        ));
     }
 
     /// The fixed-step doStep, on one screen: RK4 with held inputs and no event, the state's
@@ -586,6 +651,8 @@ impl<M: System> Instance<M> {
     fn integrate(&mut self, current: f64, t_end: f64) -> (f64, Result<(), Stop>) {
         let d = &mut self.data;
         let work = self.work.get_mut();
+        let stats = &mut d.memory.stats;
+        stats.work_limit = stats.work(d.x.len()).saturating_add(DOSTEP_WORK);
         let (u, p) = (&d.u, &d.params);
         let (mut t, x) = (current, copied(&mut work.x, &d.x));
         let result = if d.method == Method::Rk4 && M::event_indicator(t, x, u, p).is_none() {
@@ -620,6 +687,7 @@ impl<M: System> Instance<M> {
             let scratch = (&mut work.x0, &mut work.duals, &mut work.integrators);
             integrate_general::<M>(d, (&mut t, x), t_end, settings, scratch, &mut work.u_at)
         };
+        d.memory.stats.work_limit = 0;
         if result.is_ok() {
             M::project(t, &d.params, x);
         }
@@ -730,6 +798,11 @@ impl<M: System> Instance<M> {
                 _ => dg[slot.index],
             };
         }
+        if let Some(i) = dv_unknown.iter().position(|v| !finite(*v)) {
+            let (vr, v) = (unknowns[i], dv_unknown[i]);
+            drop(work);
+            return Err(self.not_finite(F, vr, v));
+        }
         Ok(())
     }
 
@@ -763,7 +836,6 @@ impl<M: System> Instance<M> {
             }
             der[order as usize - 1][slot.index] = value;
         }
-        check_moving(self.data.method, &der).map_err(|e| format!("{F}: {e}"))?;
         let bits = |d: &[Vec<f64>; 2]| d.iter().flatten().map(|v| v.to_bits()).collect::<Vec<_>>();
         if bits(&der) != bits(&self.data.u_der) {
             self.data.memory.drop_ahead();
@@ -903,7 +975,18 @@ impl<M: System> Instance<M> {
             };
             check_real(var, vr as u32, value)?;
         }
-        check_method::<M>(s.method, &s.u, &s.params, !before_init)?;
+        // Before initialisation the parameters may have changed after the method was set
+        // (fmi2SetInteger checked it against the values then): a method is accepted if the
+        // system takes it with the state's parameters or with its start values, so a state
+        // fmi2GetFMUstate made restores while a method no parameters make valid (ExactLinear
+        // on a pendulum) is refused in every machine state.
+        check_method::<M>(s.method, &s.u, &s.params, true).or_else(|e| {
+            let start = &self.initial.params;
+            match before_init && check_method::<M>(s.method, &s.u, start, true).is_ok() {
+                true => Ok(()),
+                false => Err(e),
+            }
+        })?;
         for (order, der) in s.u_der.iter().enumerate() {
             if let Some(v) = der.iter().find(|v| !v.is_finite()) {
                 return Err(format!(
@@ -912,7 +995,6 @@ impl<M: System> Instance<M> {
                 ));
             }
         }
-        check_moving(s.method, &s.u_der)?;
         check_experiment(Some(s.tolerance), s.start_time, s.stop_time)?;
         let (time, start) = (s.time, s.start_time);
         if before_init {
@@ -1083,18 +1165,6 @@ fn check_method<M: System>(method: Method, u: &[f64], p: &[f64], lti: bool) -> R
     Ok(())
 }
 
-/// Whether `method` can follow inputs that move over a step (input derivatives `der`):
-/// ExactLinear's propagator and RATTLE's mechanics hold the inputs constant.
-fn check_moving(method: Method, der: &[Vec<f64>; 2]) -> Res {
-    if inputs::moving(der) && (method.needs_linear_time_invariant() || method.needs_mechanics()) {
-        return Err(format!(
-            "solver {} holds the inputs constant over a step, and input derivatives are set (set them to 0 or choose another solver)",
-            method.name()
-        ));
-    }
-    Ok(())
-}
-
 /// Most events handled inside one doStep before it gives up (a chattering model).
 const MAX_EVENTS_PER_STEP: usize = 100;
 
@@ -1138,10 +1208,21 @@ fn integrate_general<M: System>(
     // ∂f/∂x column by column with dual numbers (exact), row-major for the methods.
     let mut jacobian =
         |t: f64, x: &[f64], jac: &mut [f64]| duals.jacobian::<M>(t, x, inputs.at(t, u_jac), p, jac);
-    let mut mechanics = if d.method.needs_mechanics() {
-        M::mechanics(u, p)
-    } else {
+    let mut mechanics = if !d.method.needs_mechanics() {
         None
+    } else if inputs.moving() {
+        M::mechanics(u, p).map(|held| {
+            let moving = MovingInputs::<M> {
+                held,
+                inputs,
+                p,
+                u: Vec::new(),
+                model: PhantomData,
+            };
+            Box::new(moving) as Box<dyn Mechanics>
+        })
+    } else {
+        M::mechanics(u, p)
     };
     let n = d.x.len();
     let mut problem = Problem {
@@ -1150,6 +1231,7 @@ fn integrate_general<M: System>(
         second_order: M::SECOND_ORDER.then_some(n / 2),
         // (the cast shortens the trait object's lifetime to the borrow's)
         mechanics: mechanics.as_deref_mut().map(|m| m as &mut dyn Mechanics),
+        inputs_move: inputs.moving(),
     };
     let memory = &mut d.memory;
     // Dense output runs past the communication point with this step's f: with moving
@@ -1218,19 +1300,27 @@ fn advance_locating_events<M: System>(
             Ok(()) => None,
             Err(e) => {
                 let stop = Stop::from(e);
-                if stop.step_limit {
+                if stop.bounded() {
                     return Err(stop);
                 }
                 Some(stop)
             }
         };
-        // Work already spent past the event; the bisection adds to it.
+        // Work already spent past the event; the bisection adds to it, and its
+        // re-integrations share the doStep's work bound.
+        let n = x0.len();
         let mut extra_evals = memory.stats.rhs_evals - m0.stats.rhs_evals;
+        let mut extra_work = memory.stats.work(n) - m0.stats.work(n);
         let mut rerun = |to: f64, extra: &mut u64| -> Result<(Vec<f64>, Memory), Stop> {
             let (mut tt, mut xx, mut mm) = (t0, x0.to_vec(), m0.clone());
+            if m0.stats.work_limit != 0 {
+                let left = m0.stats.work_limit.saturating_sub(extra_work);
+                mm.stats.work_limit = left.max(m0.stats.work(n) + 1);
+            }
             let result =
                 integrators::advance_in(problem, &mut tt, &mut xx, to, settings, &mut mm, work);
             *extra += mm.stats.rhs_evals - m0.stats.rhs_evals;
+            extra_work += mm.stats.work(n) - m0.stats.work(n);
             result.map(|()| (xx, mm)).map_err(Stop::from)
         };
         // The event lies in (lo, hi]: bisect on re-integrations from (t0, x0).
@@ -1242,7 +1332,7 @@ fn advance_locating_events<M: System>(
             }
             let past = match rerun(mid, &mut extra_evals) {
                 Ok((xm, _)) => crossed(g0, indicator(mid, &xm)),
-                Err(stop) if failed.is_some() && !stop.step_limit => true,
+                Err(stop) if failed.is_some() && !stop.bounded() => true,
                 Err(stop) => return Err(stop),
             };
             if past {
@@ -1267,6 +1357,7 @@ fn advance_locating_events<M: System>(
             return Err(Stop {
                 reason,
                 step_limit: false,
+                work_limit: false,
             });
         }
         if *t >= t_end {
@@ -1276,6 +1367,7 @@ fn advance_locating_events<M: System>(
     Err(Stop {
         reason: format!("more than {MAX_EVENTS_PER_STEP} events in one communication step"),
         step_limit: false,
+        work_limit: false,
     })
 }
 
@@ -1356,6 +1448,13 @@ fn failed_step(
         ));
     };
     let mut why = stop.reason;
+    if stop.work_limit {
+        let n = d.x.len() as u64;
+        why += &format!(
+            " (the bound on one doStep's work: {DOSTEP_WORK:e} state-component evaluations, where an evaluation of f counts n = {n} and a Jacobian {}; about half a second on the costliest systems here); shorten the communication step or choose a cheaper solver",
+            integrators::JACOBIAN_EVALS * n * n
+        );
+    }
     if stop.step_limit {
         let vr = layout.vr_of_slot(VarKind::SolverMaxSteps, 0);
         why += &format!(
@@ -1371,6 +1470,42 @@ fn failed_step(
         ))
     } else {
         StepOutcome::Discarded(format!("fmi2DoStep: {why}; state kept at t = {now}"))
+    }
+}
+
+/// RATTLE's mechanics under inputs that move over the step (input derivatives set): the
+/// generalised force at t is the system's with the inputs at t; the mass matrix and the
+/// constraints do not read inputs (a Lagrangian's T, V and g do not), so the held ones serve.
+/// (A mechanics per evaluation of the force: one allocation each, on this path only.)
+struct MovingInputs<'a, M> {
+    held: Box<dyn Mechanics + 'a>,
+    inputs: Inputs<'a>,
+    p: &'a [f64],
+    u: Vec<f64>,
+    model: PhantomData<M>,
+}
+
+impl<M: System> Mechanics for MovingInputs<'_, M> {
+    fn dims(&self) -> (usize, usize) {
+        self.held.dims()
+    }
+
+    fn mass_matrix(&mut self, q: &[f64], m: &mut [f64]) {
+        self.held.mass_matrix(q, m)
+    }
+
+    fn momentum_offset(&mut self, q: &[f64], b: &mut [f64]) {
+        self.held.momentum_offset(q, b)
+    }
+
+    fn force(&mut self, t: f64, q: &[f64], qd: &[f64], f: &mut [f64]) {
+        let u = self.inputs.at(t, &mut self.u);
+        let mut at_t = M::mechanics(u, self.p).expect("the held inputs had mechanics");
+        at_t.force(t, q, qd, f)
+    }
+
+    fn constraints(&mut self, q: &[f64], g: &mut [f64], jac: &mut [f64]) {
+        self.held.constraints(q, g, jac)
     }
 }
 

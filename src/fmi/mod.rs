@@ -19,7 +19,7 @@ mod machine;
 mod snapshot;
 
 pub use inputs::MAX_INPUT_DERIVATIVE_ORDER;
-pub use instance::{Instance, StepOutcome};
+pub use instance::{Instance, StepOutcome, DOSTEP_WORK};
 pub use logger::{CallbackFunctions, CallbackLogger, Logger};
 pub use machine::Machine;
 pub use snapshot::{Snapshot, SNAPSHOT_MAGIC, SNAPSHOT_VERSION};

@@ -18,8 +18,9 @@ pub const SNAPSHOT_MAGIC: [u8; 8] = *b"MBFMU\0ST";
 /// stiffness monitor. 3: adds RADAU5's loop state ([`radau5::Ahead`]). 4: adds DOP853's
 /// dense-output point ([`dop853::Ahead`]). 5: ends with a CRC-32 of the blob. 6: adds
 /// `solver_max_steps` after `solver_step`. 7: adds the inputs' first and second time
-/// derivatives (fmi2SetRealInputDerivatives) after the inputs.
-pub const SNAPSHOT_VERSION: u32 = 7;
+/// derivatives (fmi2SetRealInputDerivatives) after the inputs. 8: counts the Jacobians
+/// (doStep's work bound) after the rejected steps.
+pub const SNAPSHOT_VERSION: u32 = 8;
 
 /// Bytes of the checksum that ends a blob.
 const CRC_LEN: usize = 4;
@@ -239,7 +240,7 @@ impl Snapshot {
         f(&mut b, self.tolerance);
         f(&mut b, self.memory.h);
         let s = self.memory.stats;
-        for v in [s.rhs_evals, s.steps, s.rejected] {
+        for v in [s.rhs_evals, s.steps, s.rejected, s.jacobians] {
             b.extend_from_slice(&v.to_le_bytes());
         }
         let st = &self.memory.stiffness;
@@ -337,6 +338,8 @@ impl Snapshot {
             rhs_evals: r.u64()?,
             steps: r.u64()?,
             rejected: r.u64()?,
+            jacobians: r.u64()?,
+            work_limit: 0,
         };
         let (suspicious, calm) = (r.u32()?, r.u32()?);
         let (has_detected, detected) = (r.take(1)?[0], r.f64()?);

@@ -814,7 +814,7 @@ fn run(
     let mut attempts: u64 = 0;
 
     loop {
-        check_attempt(*t, h, attempts, settings.max_steps)?;
+        check_attempt((*t, h), (attempts, settings.max_steps), stats, x.len())?;
         attempts += 1;
         let (hs, t_new, landing) = goal.step_from(*t, h);
         let t0 = *t;

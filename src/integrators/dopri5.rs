@@ -474,7 +474,7 @@ fn run(
     let mut attempts: u64 = 0;
 
     loop {
-        check_attempt(*t, h, attempts, settings.max_steps)?;
+        check_attempt((*t, h), (attempts, settings.max_steps), stats, x.len())?;
         attempts += 1;
         // `h` stays the controller's proposal; `hs` is the step actually taken.
         let (hs, t_new, landing) = goal.step_from(*t, h);

@@ -67,6 +67,8 @@ pub struct Scratch {
     f0: Vec<f64>,
     ax: Vec<f64>,
     b: Vec<f64>,
+    /// The input polynomial's c₁ and c₂ (and scratch), see [`input_polynomial`].
+    c: Vec<f64>,
     expm: Expm,
 }
 
@@ -90,7 +92,7 @@ pub fn advance_in(
         });
     }
     let jac = zeroed(&mut w.jac, n * n);
-    problem.eval_jacobian("exact linear propagator", *t, x, jac);
+    problem.eval_jacobian("exact linear propagator", (*t, x), jac, stats);
     // A, column-major as nalgebra's `DMatrix::from_row_slice(n, n, jac)`.
     let a = zeroed(&mut w.a, n * n);
     for i in 0..n {
@@ -112,7 +114,11 @@ pub fn advance_in(
     for i in 0..n {
         b[i] = f0[i] - ax[i];
     }
-    let (a, b, expm) = (&*a, &*b, &mut w.expm);
+    // Inputs that move over the call (fmi2SetRealInputDerivatives) add a polynomial in
+    // s = t − t₀ to f, c₁ s + c₂ s²/2 ([`input_polynomial`]); held inputs add nothing.
+    let t0 = *t;
+    let moving = input_polynomial(problem, (t0, x, t_end - t0), stats, (&w.f0, &mut w.c))?;
+    let (a, b, c, expm) = (&*a, &*b, &w.c, &mut w.expm);
     let mut cached: Option<f64> = None;
     fixed_steps(
         "exact linear",
@@ -125,26 +131,75 @@ pub fn advance_in(
         |_, ta, tb, x, y| {
             let hs = tb - ta;
             if cached.is_none_or(|hc| hc.to_bits() != hs.to_bits()) {
-                // The propagator of `propagator(A, b, hs)`: e^{[[A, b], [0, 0]]·hs}.
-                expm.set(n + 1, |i, j| match (i < n, j < n) {
-                    (true, true) => a[j * n + i] * hs,
-                    (true, false) => b[i] * hs,
-                    _ => 0.0,
-                });
+                if moving {
+                    // e^{M hs} of z = (x, s²/2, s, 1): ẋ = A x + c₂ s²/2 + c₁ s + b, and the
+                    // polynomial's own chain d(s²/2)/dt = s, ds/dt = 1.
+                    expm.set(n + 3, |i, j| match (i < n, j < n) {
+                        (true, true) => a[j * n + i] * hs,
+                        (true, false) => [c[n + i], c[i], b[i]][j - n] * hs,
+                        (false, false) if j == i + 1 => hs,
+                        _ => 0.0,
+                    });
+                } else {
+                    // The propagator of `propagator(A, b, hs)`: e^{[[A, b], [0, 0]]·hs}.
+                    expm.set(n + 1, |i, j| match (i < n, j < n) {
+                        (true, true) => a[j * n + i] * hs,
+                        (true, false) => b[i] * hs,
+                        _ => 0.0,
+                    });
+                }
                 expm.exp();
                 cached = Some(hs);
             }
-            // x ← Φ x + γ, Φ = e[..n, ..n], γ = e[..n, n].
+            // x ← Φ x + γ, Φ = e[..n, ..n], γ = e[..n, n] (held inputs), or the columns of
+            // the polynomial at the step's start s = ta − t₀.
+            let s = ta - t0;
             for (i, yi) in y.iter_mut().enumerate() {
-                let mut s = expm.get(i, n);
+                let mut v = if moving {
+                    expm.get(i, n) * (0.5 * s * s) + expm.get(i, n + 1) * s + expm.get(i, n + 2)
+                } else {
+                    expm.get(i, n)
+                };
                 for (j, xj) in x.iter().enumerate() {
-                    s += expm.get(i, j) * xj;
+                    v += expm.get(i, j) * xj;
                 }
-                *yi = s;
+                *yi = v;
             }
             Ok(())
         },
     )
+}
+
+/// The input polynomial of a call over `span` from `(t0, x)`: f(t, x) − f(t₀, x) =
+/// c₁ (t − t₀) + c₂ (t − t₀)²/2 for an f affine in x and in inputs that move along a
+/// polynomial of degree ≤ 2 (zero for held inputs). Read off f at s = span and 2·span (two
+/// evaluations, counted) into `w.c` = (c₁, c₂): the differences are exact for such an f up
+/// to rounding, and their rounding, divided by span or span², enters the state multiplied
+/// by at least as high a power of the step. `Ok(false)`: the inputs are held
+/// ([`Problem::inputs_move`] false), nothing evaluated.
+fn input_polynomial(
+    problem: &mut Problem,
+    (t0, x, span): (f64, &[f64], f64),
+    stats: &mut Stats,
+    (f0, c): (&[f64], &mut Vec<f64>),
+) -> Result<bool, Failure> {
+    if !problem.inputs_move {
+        return Ok(false);
+    }
+    let n = x.len();
+    let c = zeroed(c, 4 * n);
+    let (c, g) = c.split_at_mut(2 * n);
+    let (g1, g2) = g.split_at_mut(n);
+    if !problem.eval(t0 + span, x, g1, stats) || !problem.eval(t0 + 2.0 * span, x, g2, stats) {
+        return Err(Failure::NonFinite { t: t0 });
+    }
+    for i in 0..n {
+        let (d1, d2) = (g1[i] - f0[i], g2[i] - f0[i]);
+        // d1 = c₁ S + c₂ S²/2, d2 = 2 c₁ S + 2 c₂ S².
+        c[i] = (4.0 * d1 - d2) / (2.0 * span);
+        c[n + i] = (d2 - 2.0 * d1) / (span * span);
+    }
+    Ok(true)
 }
 
 #[cfg(test)]

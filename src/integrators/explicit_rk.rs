@@ -146,12 +146,19 @@ pub(super) fn initial_step(
 }
 
 /// The loop guards of both codes before an attempt: give up after `max_steps` attempts in
-/// one call ([`Settings::max_steps`]), or when the proposal falls below the smallest usable
+/// one call ([`Settings::max_steps`]), when the call's work bound is spent
+/// ([`Stats::check_work`], `n` states), or when the proposal falls below the smallest usable
 /// step.
-pub(super) fn check_attempt(t: f64, h: f64, attempts: u64, max_steps: u64) -> Result<(), Failure> {
+pub(super) fn check_attempt(
+    (t, h): (f64, f64),
+    (attempts, max_steps): (u64, u64),
+    stats: &Stats,
+    n: usize,
+) -> Result<(), Failure> {
     if attempts >= max_steps {
         return Err(Failure::TooManySteps { t, steps: attempts });
     }
+    stats.check_work(t, n)?;
     if step_too_small(t, h) {
         return Err(Failure::StepTooSmall { t, h });
     }

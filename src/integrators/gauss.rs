@@ -293,7 +293,7 @@ fn collocation(
     let r = sized(&mut w.r, s * n);
     fixed_steps(tab.name, t, x, t_end, h, stats, y, |stats, ta, tb, x, y| {
         let hs = tb - ta;
-        problem.eval_jacobian(tab.name, ta, x, jac);
+        problem.eval_jacobian(tab.name, (ta, x), jac, stats);
         if newton.key != Some(tab.name) || newton.h.to_bits() != hs.to_bits() || newton.jac != *jac
         {
             let sn = s * n;

@@ -605,7 +605,7 @@ pub struct Settings {
 }
 
 /// Counters: noise-free measures of work. Part of the FMU state.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default)]
 pub struct Stats {
     /// Every evaluation of the right-hand side, including those of failed steps.
     pub rhs_evals: u64,
@@ -613,6 +613,49 @@ pub struct Stats {
     pub steps: u64,
     /// Rejected steps (error estimate above tolerance); always 0 for RK4.
     pub rejected: u64,
+    /// Evaluations of the exact Jacobian ∂f/∂x (the implicit methods and ExactLinear).
+    pub jacobians: u64,
+    /// Not a counter: the [`Stats::work`] at which the running call stops with
+    /// [`Failure::TooMuchWork`] (0: no bound). Set by the caller for one call (the FMU: one
+    /// doStep's work bound); not part of the FMU state, ignored by `==`.
+    pub work_limit: u64,
+}
+
+impl PartialEq for Stats {
+    fn eq(&self, other: &Self) -> bool {
+        let counters = |s: &Stats| (s.rhs_evals, s.steps, s.rejected, s.jacobians);
+        counters(self) == counters(other)
+    }
+}
+
+impl Eq for Stats {}
+
+/// What one evaluation of the exact Jacobian counts in [`Stats::work`], in evaluations of f:
+/// `JACOBIAN_EVALS · n`. Dual numbers evaluate f once per column at a few times its cost:
+/// 1.4–5.4 n evaluations of f measured on every system here (`mbfmu speed`,
+/// docs/bench/speed.csv, column jacobian_over_n_rhs).
+pub const JACOBIAN_EVALS: u64 = 6;
+
+impl Stats {
+    /// The work done so far by a problem of `n` states, in state-component evaluations: an
+    /// evaluation of f counts `n` (the cost of f grows at least with the states it
+    /// computes), a Jacobian `JACOBIAN_EVALS · n²`. Deterministic: counts, not time.
+    pub fn work(&self, n: usize) -> u64 {
+        let n = n as u64;
+        let jacobian = JACOBIAN_EVALS.saturating_mul(n).saturating_mul(n);
+        n.saturating_mul(self.rhs_evals)
+            .saturating_add(jacobian.saturating_mul(self.jacobians))
+    }
+
+    /// Fails with [`Failure::TooMuchWork`] at `t` once the work bound of this call is
+    /// reached (checked before each step or attempt).
+    #[inline]
+    pub fn check_work(&self, t: f64, n: usize) -> Result<(), Failure> {
+        if self.work_limit != 0 && self.work(n) >= self.work_limit {
+            return Err(Failure::TooMuchWork { t });
+        }
+        Ok(())
+    }
 }
 
 /// What an integrator carries from one call of `advance` to the next.
@@ -669,6 +712,9 @@ pub enum Failure {
         step: f64,
         max: u64,
     },
+    /// The call reached the work bound its caller set ([`Stats::work_limit`]) at `t`, the
+    /// last accepted time.
+    TooMuchWork { t: f64 },
 }
 
 impl Failure {
@@ -679,6 +725,11 @@ impl Failure {
             self,
             Failure::TooManySteps { .. } | Failure::TooManyPlanned { .. }
         )
+    }
+
+    /// Whether the call stopped at the work bound of [`Stats::work_limit`].
+    pub fn is_work_limit(&self) -> bool {
+        matches!(self, Failure::TooMuchWork { .. })
     }
 }
 
@@ -705,6 +756,9 @@ impl fmt::Display for Failure {
                 f,
                 "refused to plan {planned} fixed steps of {step:e} s from t = {t} s, more than the limit of {max}: took none"
             ),
+            Failure::TooMuchWork { t } => {
+                write!(f, "gave up at t = {t} s: the work bound was spent")
+            }
         }
     }
 }

@@ -51,6 +51,9 @@ pub struct Problem<'a> {
     pub second_order: Option<usize>,
     /// Mass matrix, generalized force and holonomic constraints (RATTLE).
     pub mechanics: Option<&'a mut dyn Mechanics>,
+    /// f reads inputs that move along a polynomial of degree ≤ 2 in t over the call
+    /// (fmi2SetRealInputDerivatives): ExactLinear then follows that polynomial exactly.
+    pub inputs_move: bool,
 }
 
 impl<'a> Problem<'a> {
@@ -61,6 +64,7 @@ impl<'a> Problem<'a> {
             jacobian: None,
             second_order: None,
             mechanics: None,
+            inputs_move: false,
         }
     }
 
@@ -71,8 +75,16 @@ impl<'a> Problem<'a> {
         dx.iter().all(|v| v.is_finite())
     }
 
-    /// The Jacobian at (t, x) into `jac` (row-major n×n); panics if the problem has none.
-    pub(crate) fn eval_jacobian(&mut self, method: &str, t: f64, x: &[f64], jac: &mut [f64]) {
+    /// The Jacobian at (t, x) into `jac` (row-major n×n), counted; panics if the problem
+    /// has none.
+    pub(crate) fn eval_jacobian(
+        &mut self,
+        method: &str,
+        (t, x): (f64, &[f64]),
+        jac: &mut [f64],
+        stats: &mut Stats,
+    ) {
+        stats.jacobians += 1;
         let jacobian = self
             .jacobian
             .as_mut()
@@ -111,6 +123,11 @@ impl ImplicitFailure {
     /// See [`Failure::is_step_limit`].
     pub fn is_step_limit(&self) -> bool {
         matches!(self, ImplicitFailure::Integration(f) if f.is_step_limit())
+    }
+
+    /// See [`Failure::is_work_limit`].
+    pub fn is_work_limit(&self) -> bool {
+        matches!(self, ImplicitFailure::Integration(f) if f.is_work_limit())
     }
 }
 
@@ -220,6 +237,7 @@ pub(crate) fn fixed_steps<E: From<Failure>>(
         } else {
             t0 + (i + 1) as f64 * step
         };
+        stats.check_work(ta, x.len())?;
         one_step(stats, ta, tb, x, y)?;
         if !all_finite(y) {
             return Err(Failure::NonFinite { t: ta }.into());

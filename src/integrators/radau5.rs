@@ -777,7 +777,7 @@ fn run(
             return Ok(());
         }
         if st.need_jac {
-            problem.eval_jacobian("RADAU5", st.t, &st.x, &mut st.jac);
+            problem.eval_jacobian("RADAU5", (st.t, &st.x), &mut st.jac, stats);
             st.need_jac = false;
             st.caljac = true;
             factors.valid = false;
@@ -803,6 +803,7 @@ fn run(
                 steps: attempts,
             });
         }
+        stats.check_work(st.t, st.x.len())?;
         let h = st.h;
         if h.is_nan() || h < MIN_STEP_ULPS * f64::EPSILON * st.t.abs().max(1.0) {
             return Err(Failure::StepTooSmall { t: st.t, h });
