@@ -49,7 +49,7 @@ fn double_pendulum_urdf() -> String {
     <inertial>
       <origin xyz="0 0 -{L2}"/>
       <mass value="{M2}"/>
-      <inertia ixx="{EPS}" iyy="{EPS}" izz="{EPS}"/>
+      <inertia ixx="{EPS}" ixy="0" ixz="0" iyy="{EPS}" iyz="0" izz="{EPS}"/>
     </inertial>
   </link>
   <joint name="shoulder" type="revolute">
@@ -488,13 +488,13 @@ fn dual_numbers_give_the_exact_derivative_of_aba() {
 fn urdf_with(body: &str) -> String {
     format!(
         r#"<robot name="r">
-  <link name="a"><inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1"/></inertial></link>
+  <link name="a"><inertial><mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>
   {body}
 </robot>"#
     )
 }
 
-const LINK_B: &str = r#"<link name="b"><inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1"/></inertial></link>"#;
+const LINK_B: &str = r#"<link name="b"><inertial><mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>"#;
 
 fn refusal(text: &str) -> String {
     match urdf::parse(text, "bad.urdf") {
@@ -603,33 +603,35 @@ fn bad_masses_and_inertias_are_refused() {
         ))
     };
     let m = refusal(&link(
-        r#"<mass value="-1"/><inertia ixx="1" iyy="1" izz="1"/>"#,
+        r#"<mass value="-1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/>"#,
     ));
     assert_says(&m, &[r#"link "bad""#, "mass -1"]);
     let m = refusal(&link(
-        r#"<mass value="1"/><inertia ixx="1" iyy="-1" izz="1"/>"#,
+        r#"<mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="-1" iyz="0" izz="1"/>"#,
     ));
     assert_says(&m, &[r#"link "bad""#, "not positive definite"]);
     let m = refusal(&link(
-        r#"<mass value="1"/><inertia ixx="1" ixy="2" iyy="1" izz="1"/>"#,
+        r#"<mass value="1"/><inertia ixx="1" ixy="2" ixz="0" iyy="1" iyz="0" izz="1"/>"#,
     ));
     assert_says(&m, &[r#"link "bad""#, "not positive definite"]);
     let m = refusal(&link(r#"<mass value="1"/>"#));
     assert_says(&m, &[r#"link "bad""#, "point mass needs a small inertia"]);
     let m = refusal(&link(
-        r#"<mass value="1"/><inertia ixx="1" iyy="1" izz="3"/>"#,
+        r#"<mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="3"/>"#,
     ));
     assert_says(&m, &[r#"link "bad""#, "triangle inequality"]);
     // A flat plate (I₁ + I₂ = I₃) printed with 5 digits is within the tolerance; a thin
     // rotated inertial frame is fine too.
     urdf::parse(
-        &link(r#"<mass value="1"/><inertia ixx="0.33333" iyy="0.66666" izz="1.0"/>"#),
+        &link(r#"<mass value="1"/><inertia ixx="0.33333" ixy="0" ixz="0" iyy="0.66666" iyz="0" izz="1.0"/>"#),
         "ok.urdf",
     )
     .unwrap();
-    urdf::parse(&link(r#"<origin rpy="0.3 0.2 0.1"/><mass value="1"/><inertia ixx="0.3" iyy="0.6" izz="0.8"/>"#), "ok.urdf").unwrap();
+    urdf::parse(&link(r#"<origin rpy="0.3 0.2 0.1"/><mass value="1"/><inertia ixx="0.3" ixy="0" ixz="0" iyy="0.6" iyz="0" izz="0.8"/>"#), "ok.urdf").unwrap();
     let m = refusal(&link(r#"<mass value="abc"/>"#));
     assert_says(&m, &[r#"link "bad""#, "not a finite number"]);
+    let m = refusal(&link(r#"<mass value="1"/><inertia ixx="1" izz="1"/>"#));
+    assert_says(&m, &[r#"link "bad""#, "<inertia> has no ixy"]);
 }
 
 #[test]
@@ -659,7 +661,7 @@ fn unexpanded_xacro_is_refused() {
 #[test]
 fn mimic_joints_are_refused() {
     let m = refusal(&urdf_with(&format!(
-        r#"{LINK_B}<link name="c"><inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1"/></inertial></link>
+        r#"{LINK_B}<link name="c"><inertial><mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>
   <joint name="j1" type="revolute"><parent link="a"/><child link="b"/></joint>
   <joint name="j2" type="revolute"><parent link="a"/><child link="c"/><mimic joint="j1"/></joint>"#
     )));

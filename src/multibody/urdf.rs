@@ -216,14 +216,28 @@ impl Parser<'_> {
                     inertial.0 = self.origin(&attrs, line)?;
                 }
                 (3, [_, "link", "inertial"], "mass") => {
+                    if get(&attrs, "value").is_none() {
+                        return self.fail(line, "<mass> has no value".into());
+                    }
                     inertial.1 = self.numbers(&attrs, "mass", "value", [0.0], line)?[0];
                 }
                 (3, [_, "link", "inertial"], "inertia") => {
+                    // All six are required, as by urdfdom (which drops the whole inertia
+                    // of a link missing one: a silent difference if we took 0).
                     let mut v = [0.0; 6];
                     for (k, key) in ["ixx", "ixy", "ixz", "iyy", "iyz", "izz"]
                         .iter()
                         .enumerate()
                     {
+                        if get(&attrs, key).is_none() {
+                            return self.fail(
+                                line,
+                                format!(
+                                    "<inertia> has no {key} (URDF needs all six of ixx ixy \
+                                     ixz iyy iyz izz)"
+                                ),
+                            );
+                        }
                         v[k] = self.numbers(&attrs, "inertia", key, [0.0], line)?[0];
                     }
                     let [xx, xy, xz, yy, yz, zz] = v;
