@@ -253,7 +253,9 @@ def bench(count: int = 200_000) -> None:
     example = build_example()
     with tempfile.TemporaryDirectory() as tmp:
         files = urdf_files(pathlib.Path(tmp))
-        for robot in ("ur5", "panda"):
+        # The double pendulum too: across nv = 2, 6, 9 the slope of pin.aba's time is its
+        # cost per joint, the intercept mostly the Python binding's overhead.
+        for robot in ("double_pendulum", "ur5", "panda"):
             rust = subprocess.run(
                 [str(example), str(files[robot]), "--bench", str(count * 5)],
                 capture_output=True, text=True, check=True,
