@@ -565,6 +565,18 @@ fn joint_types_are_checked() {
 }
 
 #[test]
+fn a_joint_without_parent_or_child_is_refused() {
+    let m = refusal(&urdf_with(&format!(
+        r#"{LINK_B}<joint name="j" type="revolute"><child link="b"/></joint>"#
+    )));
+    assert_says(&m, &[r#"joint "j""#, "has no <parent"]);
+    let m = refusal(&urdf_with(
+        r#"<joint name="k" type="fixed"><parent link="a"/></joint>"#,
+    ));
+    assert_says(&m, &["bad.urdf:3:", r#"joint "k""#, "has no <child"]);
+}
+
+#[test]
 fn two_parents_are_refused() {
     let m = refusal(&urdf_with(&format!(
         r#"{LINK_B}<link name="c"/>

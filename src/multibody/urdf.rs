@@ -290,6 +290,14 @@ impl Parser<'_> {
             }
             "joint" => {
                 if let Some(j) = self.joint.take() {
+                    for (role, link) in [("parent", &j.parent), ("child", &j.child)] {
+                        if link.is_empty() {
+                            let element = format!("joint \"{}\"", j.name);
+                            let line = self.lines.get(&element).copied().unwrap_or(0);
+                            let why = format!("has no <{role} link=\"…\"/>");
+                            return Err(Error::new(element, why).at_line(line));
+                        }
+                    }
                     self.mechanism.joints.push(j);
                 }
             }
