@@ -23,6 +23,7 @@ pub mod fmi;
 pub mod integrators;
 pub mod linearize;
 pub mod model;
+pub mod multibody;
 pub mod own_model;
 pub mod package;
 pub mod systems;

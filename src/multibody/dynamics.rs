@@ -1,0 +1,415 @@
+//! Rigid-body dynamics of a [`Model`] built from a validated [`Mechanism`], generic over
+//! the scalar ([`Scalar`]): forward kinematics, RNEA (inverse dynamics), CRBA (mass matrix),
+//! ABA (forward dynamics), energies and the poses of the ends of branches.
+//!
+//! The algorithms are Featherstone's (*Rigid Body Dynamics Algorithms*, 2008: RNEA table
+//! 5.1, CRBA table 6.2, ABA table 7.1), on the spatial algebra of [`super::spatial`]: body i
+//! has the frame of its joint (URDF: the child link frame is the joint frame), its parent
+//! λ(i) < i, and `i_X_λ(i) = X_J(q_i) X_T(i)` where `X_T` is the joint's fixed origin and
+//! `X_J` the rotation about (or translation along) its unit axis. Velocities and
+//! accelerations are spatial vectors in body coordinates; gravity enters as the base
+//! acceleration `a₀ = (0, −g)`.
+//!
+//! Coordinates: one per moving joint, the joint position (a continuous joint's is a plain
+//! angle, not (cos, sin)). Nothing compares or branches on scalar values (the structure is
+//! fixed by the model), so dual numbers give exact derivatives and a tracing scalar can
+//! record the whole computation as straight-line code.
+
+use super::mechanism::{Error, JointKind, Mechanism};
+use super::spatial::{
+    add, axis_angle, lift3, lift33, mat_mul, mat_vec, quat_from_matrix, quat_mul, scale, transpose,
+    ArticulatedInertia, Force, Motion, RigidInertia, Transform, M3, V3,
+};
+use crate::model::Scalar;
+
+/// How a moving joint moves.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Axis {
+    /// Rotation about the unit axis (revolute and continuous joints).
+    Rotation,
+    /// Translation along it.
+    Translation,
+}
+
+/// A frame whose pose is reported: the end of a branch of the original mechanism (possibly
+/// a body folded into another by a fixed joint).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tip {
+    pub name: String,
+    /// The moving body it is attached to (`None`: the fixed base).
+    pub body: Option<usize>,
+    /// Its placement in that body's frame.
+    pub rotation: M3<f64>,
+    pub translation: V3<f64>,
+    pub quaternion: [f64; 4],
+}
+
+/// A mechanism precomputed for the dynamics: flat arrays, one entry per moving joint (=
+/// per moving body, after fixed joints were merged), parents before children.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Model {
+    pub name: String,
+    /// The moving joints' names, in coordinate order.
+    pub joints: Vec<String>,
+    /// The merged bodies they move.
+    pub bodies: Vec<String>,
+    pub kinds: Vec<Axis>,
+    /// λ(i): the parent body (`None`: the base).
+    pub parent: Vec<Option<usize>>,
+    /// The joint origin in the parent frame: `x_parent = rotation · x_joint + translation`.
+    pub rotation: Vec<M3<f64>>,
+    pub translation: Vec<V3<f64>>,
+    /// The quaternion of `rotation` (w, x, y, z).
+    pub quaternion: Vec<[f64; 4]>,
+    /// Unit axis in the joint frame.
+    pub axis: Vec<V3<f64>>,
+    /// The motion subspace `S_i`: `(axis, 0)` or `(0, axis)`.
+    pub subspace: Vec<Motion<f64>>,
+    /// Spatial inertia of each body in its frame.
+    pub inertia: Vec<RigidInertia<f64>>,
+    /// Viscous damping per joint (ABA applies `τ − d q̇`; RNEA does not).
+    pub damping: Vec<f64>,
+    pub gravity: V3<f64>,
+    /// The ends of branches of the original mechanism, in its body order.
+    pub tips: Vec<Tip>,
+}
+
+impl Model {
+    /// Validates `mechanism`, merges its fixed joints and lays it out depth-first from the
+    /// root, children in declaration order.
+    pub fn new(mechanism: &Mechanism) -> Result<Model, Error> {
+        let merged = mechanism.merge_fixed()?;
+        let m = &merged.mechanism;
+        let tree = m.validate()?;
+        let mut model = Model {
+            name: m.name.clone(),
+            joints: Vec::new(),
+            bodies: Vec::new(),
+            kinds: Vec::new(),
+            parent: Vec::new(),
+            rotation: Vec::new(),
+            translation: Vec::new(),
+            quaternion: Vec::new(),
+            axis: Vec::new(),
+            subspace: Vec::new(),
+            inertia: Vec::new(),
+            damping: Vec::new(),
+            gravity: m.gravity,
+            tips: Vec::new(),
+        };
+        // Pre-order walk from the root, children in declaration order: (joint, parent).
+        let mut order: Vec<(usize, Option<usize>)> = Vec::new();
+        fn walk(
+            m: &Mechanism,
+            tree: &super::mechanism::Tree,
+            b: usize,
+            parent: Option<usize>,
+            order: &mut Vec<(usize, Option<usize>)>,
+        ) {
+            for &j in &tree.child_joints[b] {
+                order.push((j, parent));
+                let here = order.len() - 1;
+                let c = m.body_index(&m.joints[j].child).expect("validated");
+                walk(m, tree, c, Some(here), order);
+            }
+        }
+        walk(m, &tree, tree.root, None, &mut order);
+        for &(j, parent) in &order {
+            let joint = &m.joints[j];
+            let body = &m.bodies[m.body_index(&joint.child).expect("validated")];
+            let kind = match joint.kind {
+                JointKind::Revolute | JointKind::Continuous => Axis::Rotation,
+                JointKind::Prismatic => Axis::Translation,
+                JointKind::Fixed => unreachable!("merged"),
+            };
+            let z = [0.0; 3];
+            model.joints.push(joint.name.clone());
+            model.bodies.push(body.name.clone());
+            model.kinds.push(kind);
+            model.parent.push(parent);
+            model.rotation.push(joint.origin.rotation);
+            model.translation.push(joint.origin.xyz);
+            model
+                .quaternion
+                .push(quat_from_matrix(&joint.origin.rotation));
+            model.axis.push(joint.axis);
+            model.subspace.push(match kind {
+                Axis::Rotation => Motion {
+                    ang: joint.axis,
+                    lin: z,
+                },
+                Axis::Translation => Motion {
+                    ang: z,
+                    lin: joint.axis,
+                },
+            });
+            model
+                .inertia
+                .push(RigidInertia::from_com(body.mass, &body.com, &body.inertia));
+            model.damping.push(joint.damping);
+        }
+        for f in merged.frames.iter().filter(|f| f.leaf) {
+            let body = model.bodies.iter().position(|b| *b == f.body);
+            model.tips.push(Tip {
+                name: f.name.clone(),
+                body,
+                rotation: f.offset.rotation,
+                translation: f.offset.xyz,
+                quaternion: quat_from_matrix(&f.offset.rotation),
+            });
+        }
+        Ok(model)
+    }
+
+    /// The number of coordinates (= velocities = moving joints).
+    pub fn nq(&self) -> usize {
+        self.joints.len()
+    }
+
+    /// `i_X_λ(i)` at joint position `q`: `E = R_J(q)ᵀ R₀ᵀ`, `r = p₀ (+ R₀ a q, prismatic)`.
+    pub fn joint_transform<S: Scalar>(&self, i: usize, q: S) -> Transform<S> {
+        let r0: M3<S> = lift33(&self.rotation[i]);
+        let p0: V3<S> = lift3(&self.translation[i]);
+        match self.kinds[i] {
+            Axis::Rotation => {
+                let rj = axis_angle(&self.axis[i], q);
+                Transform {
+                    e: transpose(&mat_mul(&r0, &rj)),
+                    r: p0,
+                }
+            }
+            Axis::Translation => {
+                let along = mat_vec(&r0, &lift3(&self.axis[i]));
+                Transform {
+                    e: transpose(&r0),
+                    r: add(&p0, &scale(&along, q)),
+                }
+            }
+        }
+    }
+
+    fn transforms<S: Scalar>(&self, q: &[S]) -> Vec<Transform<S>> {
+        assert_eq!(q.len(), self.nq(), "q has {} entries, not nq", q.len());
+        (0..self.nq())
+            .map(|i| self.joint_transform(i, q[i]))
+            .collect()
+    }
+
+    fn base_acceleration<S: Scalar>(&self) -> Motion<S> {
+        Motion {
+            ang: [S::zero(); 3],
+            lin: lift3(&[-self.gravity[0], -self.gravity[1], -self.gravity[2]]),
+        }
+    }
+
+    /// The pose of every moving body in the base frame: `(R, p)` with
+    /// `x_base = R x_body + p`.
+    pub fn forward_kinematics<S: Scalar>(&self, q: &[S]) -> Vec<(M3<S>, V3<S>)> {
+        let xs = self.transforms(q);
+        let mut poses: Vec<(M3<S>, V3<S>)> = Vec::with_capacity(self.nq());
+        for (i, x) in xs.iter().enumerate() {
+            let r_local = transpose(&x.e);
+            let pose = match self.parent[i] {
+                None => (r_local, x.r),
+                Some(p) => {
+                    let (rp, pp) = &poses[p];
+                    (mat_mul(rp, &r_local), add(pp, &mat_vec(rp, &x.r)))
+                }
+            };
+            poses.push(pose);
+        }
+        poses
+    }
+
+    /// The position and unit quaternion `(w, x, y, z)` of every tip (end of a branch) in
+    /// the base frame, in [`Model::tips`] order. The quaternion is composed along the
+    /// chain (`q_parent ⊗ q_origin ⊗ (cos q/2, a sin q/2)`), which needs no branch; its
+    /// sign is whatever that product gives (consistent, not normalised to w ≥ 0).
+    pub fn tip_poses<S: Scalar>(&self, q: &[S]) -> Vec<(V3<S>, [S; 4])> {
+        let poses = self.forward_kinematics(q);
+        let mut quats: Vec<[S; 4]> = Vec::with_capacity(self.nq());
+        for (i, &qi) in q.iter().enumerate() {
+            let origin = self.quaternion[i].map(S::from);
+            let motion = match self.kinds[i] {
+                Axis::Rotation => {
+                    let half = qi * 0.5;
+                    let (s, c) = (half.sin(), half.cos());
+                    let a = self.axis[i];
+                    [c, s * a[0], s * a[1], s * a[2]]
+                }
+                Axis::Translation => [S::one(), S::zero(), S::zero(), S::zero()],
+            };
+            let local = quat_mul(&origin, &motion);
+            quats.push(match self.parent[i] {
+                None => local,
+                Some(p) => quat_mul(&quats[p], &local),
+            });
+        }
+        self.tips
+            .iter()
+            .map(|tip| {
+                let offset = lift3(&tip.translation);
+                let q_off = tip.quaternion.map(S::from);
+                match tip.body {
+                    None => (offset, q_off),
+                    Some(b) => {
+                        let (r, p) = &poses[b];
+                        (add(p, &mat_vec(r, &offset)), quat_mul(&quats[b], &q_off))
+                    }
+                }
+            })
+            .collect()
+    }
+
+    /// Body velocities `v_i` (body coordinates) and the transforms.
+    fn velocities<S: Scalar>(&self, q: &[S], qd: &[S]) -> (Vec<Transform<S>>, Vec<Motion<S>>) {
+        let xs = self.transforms(q);
+        let mut v: Vec<Motion<S>> = Vec::with_capacity(self.nq());
+        for i in 0..self.nq() {
+            let vj = Motion::from_axis(&self.subspace[i], qd[i]);
+            v.push(match self.parent[i] {
+                None => vj,
+                Some(p) => xs[i].motion(&v[p]).add(&vj),
+            });
+        }
+        (xs, v)
+    }
+
+    /// Inverse dynamics (RNEA): the joint forces `τ` that give accelerations `qdd` at
+    /// `(q, qd)` under gravity. Damping is not included (`τ` is what acts on the bodies).
+    pub fn rnea<S: Scalar>(&self, q: &[S], qd: &[S], qdd: &[S]) -> Vec<S> {
+        let n = self.nq();
+        let (xs, v) = self.velocities(q, qd);
+        let a0 = self.base_acceleration::<S>();
+        let mut a: Vec<Motion<S>> = Vec::with_capacity(n);
+        let mut f: Vec<Force<S>> = Vec::with_capacity(n);
+        for i in 0..n {
+            let ai = match self.parent[i] {
+                None => xs[i].motion(&a0),
+                Some(p) => xs[i].motion(&a[p]),
+            }
+            .add(&Motion::from_axis(&self.subspace[i], qdd[i]))
+            .add(&v[i].cross_motion(&Motion::from_axis(&self.subspace[i], qd[i])));
+            let inertia = RigidInertia::<S>::lift(&self.inertia[i]);
+            f.push(
+                inertia
+                    .apply(&ai)
+                    .add(&v[i].cross_force(&inertia.apply(&v[i]))),
+            );
+            a.push(ai);
+        }
+        let mut tau = vec![S::zero(); n];
+        for i in (0..n).rev() {
+            tau[i] = f[i].along(&self.subspace[i]);
+            if let Some(p) = self.parent[i] {
+                let back = xs[i].force_back(&f[i]);
+                f[p] = f[p].add(&back);
+            }
+        }
+        tau
+    }
+
+    /// The joint-space mass matrix `M(q)` (CRBA), row-major, symmetric.
+    pub fn crba<S: Scalar>(&self, q: &[S]) -> Vec<Vec<S>> {
+        let n = self.nq();
+        let xs = self.transforms(q);
+        let mut ic: Vec<RigidInertia<S>> = self.inertia.iter().map(RigidInertia::lift).collect();
+        for i in (0..n).rev() {
+            if let Some(p) = self.parent[i] {
+                let back = ic[i].back(&xs[i]);
+                ic[p] = ic[p].add(&back);
+            }
+        }
+        let mut m = vec![vec![S::zero(); n]; n];
+        for i in 0..n {
+            let mut f = ic[i].apply(&Motion::from_axis(&self.subspace[i], S::one()));
+            m[i][i] = f.along(&self.subspace[i]);
+            let mut j = i;
+            while let Some(p) = self.parent[j] {
+                f = xs[j].force_back(&f);
+                j = p;
+                m[i][j] = f.along(&self.subspace[j]);
+                m[j][i] = m[i][j];
+            }
+        }
+        m
+    }
+
+    /// Forward dynamics (ABA): `q̈` from `(q, q̇, τ)` under gravity, with the joints'
+    /// viscous damping applied as `τ − d q̇`.
+    pub fn aba<S: Scalar>(&self, q: &[S], qd: &[S], tau: &[S]) -> Vec<S> {
+        let n = self.nq();
+        assert_eq!(tau.len(), n, "tau has {} entries, not nq", tau.len());
+        let (xs, v) = self.velocities(q, qd);
+        let mut c: Vec<Motion<S>> = Vec::with_capacity(n);
+        let mut ia: Vec<ArticulatedInertia<S>> = Vec::with_capacity(n);
+        let mut pa: Vec<Force<S>> = Vec::with_capacity(n);
+        for i in 0..n {
+            c.push(v[i].cross_motion(&Motion::from_axis(&self.subspace[i], qd[i])));
+            let inertia = RigidInertia::<S>::lift(&self.inertia[i]);
+            ia.push(ArticulatedInertia::from_rigid(&inertia));
+            pa.push(v[i].cross_force(&inertia.apply(&v[i])));
+        }
+        let mut u_vec: Vec<Force<S>> = vec![Force::zero(); n];
+        let mut d_inv = vec![S::zero(); n];
+        let mut u = vec![S::zero(); n];
+        for i in (0..n).rev() {
+            let s = &self.subspace[i];
+            let ui = ia[i].apply(&Motion::from_axis(s, S::one()));
+            let di_inv = ui.along(s).recip();
+            let force = tau[i] - qd[i] * self.damping[i];
+            u[i] = force - pa[i].along(s);
+            if let Some(p) = self.parent[i] {
+                let ia_child = ia[i].minus_outer(&ui, di_inv);
+                let pa_child = pa[i]
+                    .add(&ia_child.apply(&c[i]))
+                    .add(&ui.scale(u[i] * di_inv));
+                ia[p] = ia[p].add(&ia_child.back(&xs[i]));
+                pa[p] = pa[p].add(&xs[i].force_back(&pa_child));
+            }
+            u_vec[i] = ui;
+            d_inv[i] = di_inv;
+        }
+        let a0 = self.base_acceleration::<S>();
+        let mut a: Vec<Motion<S>> = Vec::with_capacity(n);
+        let mut qdd = vec![S::zero(); n];
+        for i in 0..n {
+            let ap = match self.parent[i] {
+                None => xs[i].motion(&a0),
+                Some(p) => xs[i].motion(&a[p]),
+            }
+            .add(&c[i]);
+            qdd[i] = (u[i] - ap.dot(&u_vec[i])) * d_inv[i];
+            a.push(ap.add(&Motion::from_axis(&self.subspace[i], qdd[i])));
+        }
+        qdd
+    }
+
+    /// Kinetic energy `½ Σ v_iᵀ I_i v_i`.
+    pub fn kinetic_energy<S: Scalar>(&self, q: &[S], qd: &[S]) -> S {
+        let (_, v) = self.velocities(q, qd);
+        let mut t = S::zero();
+        for (vi, inertia) in v.iter().zip(&self.inertia) {
+            t += vi.dot(&RigidInertia::<S>::lift(inertia).apply(vi)) * 0.5;
+        }
+        t
+    }
+
+    /// Potential energy `−Σ m_i g · c_i` of the moving bodies (c_i the centre of mass in
+    /// the base frame): zero with every centre of mass at the base origin; the fixed base
+    /// (and what is folded into it) is left out, being constant.
+    pub fn potential_energy<S: Scalar>(&self, q: &[S]) -> S {
+        let poses = self.forward_kinematics(q);
+        let g: V3<S> = lift3(&self.gravity);
+        let mut v = S::zero();
+        for ((r, p), inertia) in poses.iter().zip(&self.inertia) {
+            // m c_world = R h + m p.
+            let mc = add(
+                &mat_vec(r, &lift3(&inertia.h)),
+                &scale(p, S::from(inertia.m)),
+            );
+            v -= mc[0] * g[0] + mc[1] * g[1] + mc[2] * g[2];
+        }
+        v
+    }
+}

@@ -1,0 +1,721 @@
+//! A mechanism as data: rigid bodies joined in a tree by revolute, continuous, prismatic
+//! and fixed joints, with URDF's conventions (a joint's child frame is its joint frame; a
+//! joint's origin places that frame in the parent body's frame).
+//!
+//! Written by hand with the builder ([`Mechanism::new`] … [`Mechanism::revolute`] …) or read
+//! from a URDF file ([`super::urdf`]); [`Mechanism::validate`] checks it,
+//! [`Mechanism::merge_fixed`] folds fixed joints away for the dynamics.
+
+use super::spatial::{add, mat_mul, mat_vec, outer, scale, sub, transpose, M3, V3};
+use std::fmt;
+
+/// A rigid body (a URDF link).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Body {
+    pub name: String,
+    /// kg; 0 for a massless frame.
+    pub mass: f64,
+    /// The centre of mass in the body frame (m).
+    pub com: [f64; 3],
+    /// The inertia about the centre of mass, in body-frame axes (kg m²).
+    pub inertia: [[f64; 3]; 3],
+}
+
+impl Body {
+    /// A massless body (a frame): what URDF calls a link with no `<inertial>`.
+    pub fn massless(name: &str) -> Self {
+        Body {
+            name: name.to_string(),
+            mass: 0.0,
+            com: [0.0; 3],
+            inertia: [[0.0; 3]; 3],
+        }
+    }
+
+    /// A body of `mass` with its centre of mass at the frame origin and no inertia yet
+    /// (set one with [`Body::inertia_diag`] or [`Body::inertia`]).
+    pub fn new(name: &str, mass: f64) -> Self {
+        Body {
+            mass,
+            ..Body::massless(name)
+        }
+    }
+
+    pub fn com(mut self, com: [f64; 3]) -> Self {
+        self.com = com;
+        self
+    }
+
+    /// Principal moments about the centre of mass along the body axes.
+    pub fn inertia_diag(mut self, d: [f64; 3]) -> Self {
+        self.inertia = [[d[0], 0.0, 0.0], [0.0, d[1], 0.0], [0.0, 0.0, d[2]]];
+        self
+    }
+
+    pub fn inertia(mut self, i: [[f64; 3]; 3]) -> Self {
+        self.inertia = i;
+        self
+    }
+}
+
+/// How a joint moves.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum JointKind {
+    /// A rotation about the axis (limits are data only: not enforced).
+    Revolute,
+    /// A rotation about the axis without limits; its coordinate is a plain angle.
+    Continuous,
+    /// A translation along the axis.
+    Prismatic,
+    /// No motion: the child is folded into the parent ([`Mechanism::merge_fixed`]).
+    Fixed,
+}
+
+impl JointKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            JointKind::Revolute => "revolute",
+            JointKind::Continuous => "continuous",
+            JointKind::Prismatic => "prismatic",
+            JointKind::Fixed => "fixed",
+        }
+    }
+}
+
+/// A rigid placement: `x_parent = rotation · x_child + xyz`. Written as URDF's xyz + rpy
+/// ([`Origin::new`]); kept as a matrix so that placements compose exactly (merged fixed
+/// joints).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Origin {
+    pub xyz: [f64; 3],
+    pub rotation: [[f64; 3]; 3],
+}
+
+impl Origin {
+    pub const IDENTITY: Origin = Origin {
+        xyz: [0.0; 3],
+        rotation: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+    };
+
+    /// URDF's `<origin xyz rpy>`: fixed-axis roll, pitch, yaw, `R = Rz(y) Ry(p) Rx(r)`.
+    pub fn new(xyz: [f64; 3], rpy: [f64; 3]) -> Self {
+        let (sr, cr) = rpy[0].sin_cos();
+        let (sp, cp) = rpy[1].sin_cos();
+        let (sy, cy) = rpy[2].sin_cos();
+        Origin {
+            xyz,
+            rotation: [
+                [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                [-sp, cp * sr, cp * cr],
+            ],
+        }
+    }
+
+    /// A translation only.
+    pub fn xyz(xyz: [f64; 3]) -> Self {
+        Origin {
+            xyz,
+            ..Origin::IDENTITY
+        }
+    }
+
+    /// The roll, pitch, yaw of the rotation (pitch in [−π/2, π/2]; at ±π/2 roll is 0).
+    pub fn rpy(&self) -> [f64; 3] {
+        let r = &self.rotation;
+        let pitch = (-r[2][0]).clamp(-1.0, 1.0).asin();
+        if r[2][0].abs() > 1.0 - 1e-12 {
+            [0.0, pitch, (-r[0][1]).atan2(r[1][1])]
+        } else {
+            [r[2][1].atan2(r[2][2]), pitch, r[1][0].atan2(r[0][0])]
+        }
+    }
+
+    /// `self ∘ inner`: the placement of a frame given by `inner` in a frame placed by `self`.
+    pub fn then(&self, inner: &Origin) -> Origin {
+        Origin {
+            xyz: add(&mat_vec(&self.rotation, &inner.xyz), &self.xyz),
+            rotation: mat_mul(&self.rotation, &inner.rotation),
+        }
+    }
+}
+
+/// Optional joint limits, as URDF's `<limit>` (data only: the dynamics does not enforce
+/// them).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Limit {
+    pub lower: Option<f64>,
+    pub upper: Option<f64>,
+    pub effort: Option<f64>,
+    pub velocity: Option<f64>,
+}
+
+/// A joint between a parent and a child body.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Joint {
+    pub name: String,
+    pub kind: JointKind,
+    pub parent: String,
+    pub child: String,
+    /// The joint (= child) frame in the parent frame at zero joint position.
+    pub origin: Origin,
+    /// Unit axis in the joint frame (normalised by the builder and the URDF reader).
+    pub axis: [f64; 3],
+    /// Viscous damping: `τ_damp = −damping · q̇` (N m s/rad or N s/m).
+    pub damping: f64,
+    /// Coulomb friction (read and kept; not modelled by the dynamics yet).
+    pub friction: f64,
+    pub limit: Limit,
+}
+
+impl Joint {
+    pub fn new(name: &str, kind: JointKind, parent: &str, child: &str, origin: Origin) -> Self {
+        Joint {
+            name: name.to_string(),
+            kind,
+            parent: parent.to_string(),
+            child: child.to_string(),
+            origin,
+            axis: [1.0, 0.0, 0.0],
+            damping: 0.0,
+            friction: 0.0,
+            limit: Limit::default(),
+        }
+    }
+
+    /// Sets the axis, normalised (a zero or non-finite axis is kept as given, and
+    /// [`Mechanism::validate`] refuses it).
+    pub fn axis(mut self, axis: [f64; 3]) -> Self {
+        let n = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
+        self.axis = if n > 0.0 && n.is_finite() {
+            [axis[0] / n, axis[1] / n, axis[2] / n]
+        } else {
+            axis
+        };
+        self
+    }
+
+    pub fn damping(mut self, damping: f64) -> Self {
+        self.damping = damping;
+        self
+    }
+
+    pub fn friction(mut self, friction: f64) -> Self {
+        self.friction = friction;
+        self
+    }
+
+    pub fn limit(mut self, limit: Limit) -> Self {
+        self.limit = limit;
+        self
+    }
+
+    /// Whether the joint has a coordinate.
+    pub fn moves(&self) -> bool {
+        self.kind != JointKind::Fixed
+    }
+}
+
+/// What is wrong with a mechanism (or its URDF file): one line naming the element.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Error {
+    /// The file it was read from, if any.
+    pub file: Option<String>,
+    /// The line of that file where the element is.
+    pub line: Option<usize>,
+    /// The element, as `joint "elbow"` or `link "forearm"` (empty: the whole file).
+    pub element: String,
+    pub reason: String,
+}
+
+impl Error {
+    pub fn new(element: String, reason: String) -> Self {
+        Error {
+            file: None,
+            line: None,
+            element,
+            reason,
+        }
+    }
+
+    pub fn joint(name: &str, reason: String) -> Self {
+        Error::new(format!("joint \"{name}\""), reason)
+    }
+
+    pub fn link(name: &str, reason: String) -> Self {
+        Error::new(format!("link \"{name}\""), reason)
+    }
+
+    pub fn in_file(mut self, file: &str) -> Self {
+        self.file = Some(file.to_string());
+        self
+    }
+
+    pub fn at_line(mut self, line: usize) -> Self {
+        self.line = Some(line);
+        self
+    }
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match (&self.file, self.line) {
+            (Some(file), Some(line)) => write!(f, "{file}:{line}: ")?,
+            (Some(file), None) => write!(f, "{file}: ")?,
+            (None, Some(line)) => write!(f, "line {line}: ")?,
+            (None, None) => {}
+        }
+        if self.element.is_empty() {
+            write!(f, "{}", self.reason)
+        } else {
+            write!(f, "{}: {}", self.element, self.reason)
+        }
+    }
+}
+
+impl std::error::Error for Error {}
+
+/// A tree of bodies and joints hanging from one fixed root body.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mechanism {
+    pub name: String,
+    pub bodies: Vec<Body>,
+    pub joints: Vec<Joint>,
+    /// m/s², in the root frame.
+    pub gravity: [f64; 3],
+}
+
+/// The tree structure of a valid mechanism, by index.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tree {
+    pub root: usize,
+    /// The joint whose child each body is (`None` for the root).
+    pub parent_joint: Vec<Option<usize>>,
+    /// The joints whose parent each body is, in declaration order.
+    pub child_joints: Vec<Vec<usize>>,
+}
+
+/// A frame rigidly attached to a body of a merged mechanism: an original body's frame,
+/// folded or not.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Frame {
+    /// The original body's name.
+    pub name: String,
+    /// The body of the merged mechanism it is attached to.
+    pub body: String,
+    /// Its placement in that body's frame (identity if it was not folded).
+    pub offset: Origin,
+    /// Whether the original body had no children (an end of a branch).
+    pub leaf: bool,
+}
+
+/// A mechanism with its fixed joints folded away, and where the original bodies went.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Merged {
+    pub mechanism: Mechanism,
+    /// Every original body, in the original order.
+    pub frames: Vec<Frame>,
+}
+
+/// Relative tolerance of the inertia checks. URDF files print inertias with 4 to 6
+/// significant digits (CAD exporters), so a flat plate, whose principal moments satisfy
+/// `I₁ + I₂ = I₃` exactly, arrives breaking the triangle inequality by rounding, ~1e-5 of
+/// its trace; 1e-4 of the trace is physically nothing and lets such files through.
+pub const INERTIA_RTOL: f64 = 1e-4;
+
+impl Mechanism {
+    /// An empty mechanism with gravity `[0, 0, −9.81]`.
+    pub fn new(name: &str) -> Self {
+        Mechanism {
+            name: name.to_string(),
+            bodies: Vec::new(),
+            joints: Vec::new(),
+            gravity: [0.0, 0.0, -9.81],
+        }
+    }
+
+    pub fn gravity(mut self, g: [f64; 3]) -> Self {
+        self.gravity = g;
+        self
+    }
+
+    pub fn body(mut self, body: Body) -> Self {
+        self.bodies.push(body);
+        self
+    }
+
+    pub fn joint(mut self, joint: Joint) -> Self {
+        self.joints.push(joint);
+        self
+    }
+
+    /// A revolute joint about `axis` (in the joint frame).
+    pub fn revolute(self, name: &str, parent: &str, child: &str, o: Origin, axis: V3<f64>) -> Self {
+        self.joint(Joint::new(name, JointKind::Revolute, parent, child, o).axis(axis))
+    }
+
+    /// A continuous (unlimited revolute) joint about `axis`.
+    pub fn continuous(
+        self,
+        name: &str,
+        parent: &str,
+        child: &str,
+        o: Origin,
+        axis: V3<f64>,
+    ) -> Self {
+        self.joint(Joint::new(name, JointKind::Continuous, parent, child, o).axis(axis))
+    }
+
+    /// A prismatic joint along `axis`.
+    pub fn prismatic(
+        self,
+        name: &str,
+        parent: &str,
+        child: &str,
+        o: Origin,
+        axis: V3<f64>,
+    ) -> Self {
+        self.joint(Joint::new(name, JointKind::Prismatic, parent, child, o).axis(axis))
+    }
+
+    /// A fixed joint.
+    pub fn fixed(self, name: &str, parent: &str, child: &str, o: Origin) -> Self {
+        self.joint(Joint::new(name, JointKind::Fixed, parent, child, o))
+    }
+
+    /// The index of the body named `name`.
+    pub fn body_index(&self, name: &str) -> Option<usize> {
+        self.bodies.iter().position(|b| b.name == name)
+    }
+
+    /// Checks that the mechanism is a tree from one root with physical bodies, and returns
+    /// that tree.
+    pub fn validate(&self) -> Result<Tree, Error> {
+        let n = self.bodies.len();
+        if n == 0 {
+            return Err(Error::new(
+                format!("robot \"{}\"", self.name),
+                "has no links".into(),
+            ));
+        }
+        if !self.gravity.iter().all(|g| g.is_finite()) {
+            return Err(Error::new(
+                format!("robot \"{}\"", self.name),
+                format!("gravity {:?} is not finite", self.gravity),
+            ));
+        }
+        for (k, b) in self.bodies.iter().enumerate() {
+            if self.bodies[..k].iter().any(|o| o.name == b.name) {
+                return Err(Error::link(&b.name, "is declared twice".into()));
+            }
+            check_body(b)?;
+        }
+        let mut parent_joint: Vec<Option<usize>> = vec![None; n];
+        let mut child_joints = vec![Vec::new(); n];
+        for (k, j) in self.joints.iter().enumerate() {
+            if self.joints[..k].iter().any(|o| o.name == j.name) {
+                return Err(Error::joint(&j.name, "is declared twice".into()));
+            }
+            let find = |role: &str, link: &str| {
+                self.body_index(link).ok_or_else(|| {
+                    Error::joint(&j.name, format!("{role} link \"{link}\" does not exist"))
+                })
+            };
+            let p = find("parent", &j.parent)?;
+            let c = find("child", &j.child)?;
+            if p == c {
+                return Err(Error::joint(
+                    &j.name,
+                    format!("joins link \"{}\" to itself", j.parent),
+                ));
+            }
+            if let Some(other) = parent_joint[c] {
+                return Err(Error::link(
+                    &j.child,
+                    format!(
+                        "has two parents: joints \"{}\" and \"{}\"",
+                        self.joints[other].name, j.name
+                    ),
+                ));
+            }
+            check_joint(j)?;
+            parent_joint[c] = Some(k);
+            child_joints[p].push(k);
+        }
+        // Each body has at most one parent, so following parents from any body either ends
+        // at a root or runs into a cycle.
+        for start in 0..n {
+            let mut seen = vec![false; n];
+            let mut b = start;
+            while let Some(j) = parent_joint[b] {
+                if seen[b] {
+                    let mut names = Vec::new();
+                    let first = b;
+                    loop {
+                        let j = parent_joint[b].expect("on the cycle");
+                        names.push(format!("\"{}\"", self.joints[j].name));
+                        b = self.body_index(&self.joints[j].parent).expect("checked");
+                        if b == first {
+                            break;
+                        }
+                    }
+                    names.reverse();
+                    return Err(Error::link(
+                        &self.bodies[first].name,
+                        format!("is on a cycle of joints {}", names.join(" → ")),
+                    ));
+                }
+                seen[b] = true;
+                b = self.body_index(&self.joints[j].parent).expect("checked");
+            }
+        }
+        let roots: Vec<usize> = (0..n).filter(|&b| parent_joint[b].is_none()).collect();
+        if roots.len() > 1 {
+            let names: Vec<String> = roots
+                .iter()
+                .map(|&b| format!("\"{}\"", self.bodies[b].name))
+                .collect();
+            return Err(Error::new(
+                format!("robot \"{}\"", self.name),
+                format!(
+                    "has {} root links ({}): one tree from one fixed root is needed",
+                    roots.len(),
+                    names.join(", ")
+                ),
+            ));
+        }
+        let tree = Tree {
+            root: roots[0],
+            parent_joint,
+            child_joints,
+        };
+        self.check_singular(&tree)?;
+        Ok(tree)
+    }
+
+    /// A moving joint that carries no mass (prismatic) or neither mass nor rotational
+    /// inertia (revolute) gives the mass matrix a zero row: refused. This is the structural
+    /// check (it covers a massless leaf on a moving joint); configurations where two
+    /// joints' motions coincide (coaxial joints with only a massless link between them)
+    /// are not detected.
+    fn check_singular(&self, tree: &Tree) -> Result<(), Error> {
+        for j in &self.joints {
+            if !j.moves() {
+                continue;
+            }
+            let child = self.body_index(&j.child).expect("validated");
+            let mut stack = vec![child];
+            let (mut mass, mut inertia) = (0.0, 0.0);
+            let mut names = Vec::new();
+            while let Some(b) = stack.pop() {
+                let body = &self.bodies[b];
+                names.push(format!("\"{}\"", body.name));
+                mass += body.mass;
+                inertia += body.inertia[0][0] + body.inertia[1][1] + body.inertia[2][2];
+                for &k in &tree.child_joints[b] {
+                    stack.push(self.body_index(&self.joints[k].child).expect("validated"));
+                }
+            }
+            let carries = match j.kind {
+                JointKind::Prismatic => mass > 0.0,
+                _ => mass > 0.0 || inertia > 0.0,
+            };
+            if !carries {
+                return Err(Error::joint(
+                    &j.name,
+                    format!(
+                        "moves only massless links ({}): the mass matrix would be singular",
+                        names.join(", ")
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Folds every body attached by a fixed joint into its parent (mass, centre of mass and
+    /// inertia combined, the parallel-axis theorem), re-attaching its children with the
+    /// composed origins. The result has moving joints only; `frames` says where each
+    /// original body went.
+    pub fn merge_fixed(&self) -> Result<Merged, Error> {
+        let tree = self.validate()?;
+        // For every original body: the body it ends up in and its offset there.
+        let n = self.bodies.len();
+        let mut host = vec![0usize; n];
+        let mut offset = vec![Origin::IDENTITY; n];
+        let mut order = vec![tree.root];
+        host[tree.root] = tree.root;
+        let mut k = 0;
+        while k < order.len() {
+            let b = order[k];
+            k += 1;
+            for &j in &tree.child_joints[b] {
+                let joint = &self.joints[j];
+                let c = self.body_index(&joint.child).expect("validated");
+                if joint.moves() {
+                    host[c] = c;
+                } else {
+                    host[c] = host[b];
+                    offset[c] = offset[b].then(&joint.origin);
+                }
+                order.push(c);
+            }
+        }
+        let mut bodies: Vec<Body> = Vec::new();
+        let mut slot = vec![usize::MAX; n];
+        for &b in &order {
+            if host[b] == b {
+                slot[b] = bodies.len();
+                bodies.push(Body::massless(&self.bodies[b].name));
+            }
+        }
+        // Combine: total mass, centre of mass, inertia about it (parallel axes).
+        for (h, merged) in bodies.iter_mut().enumerate() {
+            let parts: Vec<(f64, V3<f64>, M3<f64>)> = (0..n)
+                .filter(|&b| slot[host[b]] == h)
+                .map(|b| {
+                    let body = &self.bodies[b];
+                    let o = &offset[b];
+                    let r = &o.rotation;
+                    let com = add(&mat_vec(r, &body.com), &o.xyz);
+                    let i = mat_mul(&mat_mul(r, &body.inertia), &transpose(r));
+                    (body.mass, com, i)
+                })
+                .collect();
+            let mass: f64 = parts.iter().map(|p| p.0).sum();
+            let com = if mass > 0.0 {
+                let s = parts
+                    .iter()
+                    .fold([0.0; 3], |s, p| add(&s, &scale(&p.1, p.0)));
+                scale(&s, 1.0 / mass)
+            } else {
+                [0.0; 3]
+            };
+            let mut inertia = [[0.0; 3]; 3];
+            for (m, c, i) in &parts {
+                let d = sub(c, &com);
+                let dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+                let ddt = outer(&d, &d, *m);
+                for r in 0..3 {
+                    for s in 0..3 {
+                        let eye = if r == s { dd } else { 0.0 };
+                        inertia[r][s] += i[r][s] + m * eye - ddt[r][s];
+                    }
+                }
+            }
+            merged.mass = mass;
+            merged.com = com;
+            merged.inertia = inertia;
+        }
+        let mut joints = Vec::new();
+        for &b in &order {
+            for &j in &tree.child_joints[b] {
+                let joint = &self.joints[j];
+                if joint.moves() {
+                    let mut moved = joint.clone();
+                    moved.parent = self.bodies[host[b]].name.clone();
+                    moved.origin = offset[b].then(&joint.origin);
+                    joints.push(moved);
+                }
+            }
+        }
+        let frames = (0..n)
+            .map(|b| Frame {
+                name: self.bodies[b].name.clone(),
+                body: self.bodies[host[b]].name.clone(),
+                offset: offset[b],
+                leaf: tree.child_joints[b].is_empty(),
+            })
+            .collect();
+        Ok(Merged {
+            mechanism: Mechanism {
+                name: self.name.clone(),
+                bodies,
+                joints,
+                gravity: self.gravity,
+            },
+            frames,
+        })
+    }
+}
+
+fn check_body(b: &Body) -> Result<(), Error> {
+    let err = |why: String| Err(Error::link(&b.name, why));
+    if !b.mass.is_finite() || b.mass < 0.0 {
+        return err(format!("mass {} is not a finite number ≥ 0", b.mass));
+    }
+    if !b.com.iter().all(|c| c.is_finite()) {
+        return err(format!("centre of mass {:?} is not finite", b.com));
+    }
+    let i = &b.inertia;
+    if !i.iter().flatten().all(|x| x.is_finite()) {
+        return err("inertia is not finite".into());
+    }
+    let trace = i[0][0] + i[1][1] + i[2][2];
+    let all_zero = i.iter().flatten().all(|&x| x == 0.0);
+    if b.mass == 0.0 && all_zero {
+        return Ok(());
+    }
+    let sym_tol = 1e-9 * trace.abs();
+    for (r, s) in [(0, 1), (0, 2), (1, 2)] {
+        if (i[r][s] - i[s][r]).abs() > sym_tol {
+            return err(format!(
+                "inertia is not symmetric (I[{r}][{s}] = {}, I[{s}][{r}] = {})",
+                i[r][s], i[s][r]
+            ));
+        }
+    }
+    let m = nalgebra::Matrix3::from_fn(|r, s| 0.5 * (i[r][s] + i[s][r]));
+    let mut e: Vec<f64> = m.symmetric_eigenvalues().iter().copied().collect();
+    e.sort_by(f64::total_cmp);
+    if e[0] <= 0.0 {
+        let hint = if b.mass > 0.0 && all_zero {
+            " (a point mass needs a small inertia too)"
+        } else {
+            ""
+        };
+        return err(format!(
+            "inertia is not positive definite (principal moments {:.6e}, {:.6e}, {:.6e}){hint}",
+            e[0], e[1], e[2]
+        ));
+    }
+    if e[0] + e[1] < e[2] - INERTIA_RTOL * trace {
+        return err(format!(
+            "inertia breaks the triangle inequality: principal moments {:.6e} + {:.6e} < {:.6e}",
+            e[0], e[1], e[2]
+        ));
+    }
+    Ok(())
+}
+
+fn check_joint(j: &Joint) -> Result<(), Error> {
+    let err = |why: String| Err(Error::joint(&j.name, why));
+    let o = &j.origin;
+    if !o
+        .xyz
+        .iter()
+        .chain(o.rotation.iter().flatten())
+        .all(|x| x.is_finite())
+    {
+        return err("origin is not finite".into());
+    }
+    if j.moves() {
+        let n = (j.axis[0] * j.axis[0] + j.axis[1] * j.axis[1] + j.axis[2] * j.axis[2]).sqrt();
+        if !(n.is_finite() && (n - 1.0).abs() < 1e-9) {
+            return err(format!(
+                "axis {:?} is not a unit vector (a zero axis has no direction)",
+                j.axis
+            ));
+        }
+    }
+    if !(j.damping.is_finite() && j.damping >= 0.0) {
+        return err(format!("damping {} is not a finite number ≥ 0", j.damping));
+    }
+    if !(j.friction.is_finite() && j.friction >= 0.0) {
+        return err(format!(
+            "friction {} is not a finite number ≥ 0",
+            j.friction
+        ));
+    }
+    Ok(())
+}

@@ -1,0 +1,775 @@
+//! Unit tests of the multibody layer: closed forms, the algorithms against each other,
+//! energy conservation, the fixed-joint merge, and every refusal of a bad URDF.
+
+use super::mechanism::{Body, Joint, JointKind, Mechanism, Origin};
+use super::urdf;
+use super::Model;
+use nalgebra::{DMatrix, DVector};
+use num_dual::Dual64;
+
+/// A small deterministic generator (xorshift64*), uniform in [lo, hi).
+struct Rng(u64);
+
+impl Rng {
+    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        let u = (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64;
+        lo + (hi - lo) * u
+    }
+
+    fn vec(&mut self, n: usize, lo: f64, hi: f64) -> Vec<f64> {
+        (0..n).map(|_| self.uniform(lo, hi)).collect()
+    }
+}
+
+const M1: f64 = 1.3;
+const M2: f64 = 0.7;
+const L1: f64 = 0.9;
+const L2: f64 = 0.6;
+/// The bobs' own (small) moment of inertia about y: "point-ish" masses, but a positive
+/// definite inertia as validation requires.
+const EPS: f64 = 1e-4;
+
+fn double_pendulum_urdf() -> String {
+    format!(
+        r#"<?xml version="1.0"?>
+<robot name="double_pendulum">
+  <link name="base"/>
+  <link name="upper">
+    <inertial>
+      <origin xyz="0 0 -{L1}" rpy="0 0 0"/>
+      <mass value="{M1}"/>
+      <inertia ixx="{EPS}" ixy="0" ixz="0" iyy="{EPS}" iyz="0" izz="{EPS}"/>
+    </inertial>
+    <visual><geometry><sphere radius="0.05"/></geometry></visual>
+  </link>
+  <link name="lower">
+    <inertial>
+      <origin xyz="0 0 -{L2}"/>
+      <mass value="{M2}"/>
+      <inertia ixx="{EPS}" ixy="0" ixz="0" iyy="{EPS}" iyz="0" izz="{EPS}"/>
+    </inertial>
+  </link>
+  <joint name="shoulder" type="revolute">
+    <parent link="base"/>
+    <child link="upper"/>
+    <axis xyz="0 2 0"/>
+    <limit lower="-3" upper="3" effort="10" velocity="5"/>
+  </joint>
+  <joint name="elbow" type="continuous">
+    <parent link="upper"/>
+    <child link="lower"/>
+    <origin xyz="0 0 -{L1}"/>
+    <axis xyz="0 1 0"/>
+  </joint>
+  <transmission name="t"><joint name="shoulder"/></transmission>
+</robot>
+"#
+    )
+}
+
+/// The double pendulum's closed form: `M q̈ + h + G = τ` with angles about y from hanging
+/// down (the bobs at `(−l sin θ, 0, −l cos θ)`).
+fn double_pendulum_closed_form(q: &[f64], qd: &[f64]) -> ([[f64; 2]; 2], [f64; 2]) {
+    let g = 9.81;
+    let (s2, c2) = q[1].sin_cos();
+    let m11 = M1 * L1 * L1 + EPS + M2 * (L1 * L1 + L2 * L2 + 2.0 * L1 * L2 * c2) + EPS;
+    let m12 = M2 * (L2 * L2 + L1 * L2 * c2) + EPS;
+    let m22 = M2 * L2 * L2 + EPS;
+    let h1 = -M2 * L1 * L2 * s2 * (2.0 * qd[0] * qd[1] + qd[1] * qd[1]);
+    let h2 = M2 * L1 * L2 * s2 * qd[0] * qd[0];
+    let s1 = q[0].sin();
+    let s12 = (q[0] + q[1]).sin();
+    let g1 = g * (M1 * L1 * s1 + M2 * (L1 * s1 + L2 * s12));
+    let g2 = g * M2 * L2 * s12;
+    ([[m11, m12], [m12, m22]], [h1 + g1, h2 + g2])
+}
+
+#[test]
+fn double_pendulum_matches_its_closed_form() {
+    let mech = urdf::parse(&double_pendulum_urdf(), "double_pendulum.urdf").unwrap();
+    assert_eq!(mech.name, "double_pendulum");
+    assert_eq!(
+        mech.joints[0].axis,
+        [0.0, 1.0, 0.0],
+        "the axis is normalised"
+    );
+    assert_eq!(mech.joints[0].limit.upper, Some(3.0));
+    let model = Model::new(&mech).unwrap();
+    assert_eq!(model.joints, ["shoulder", "elbow"]);
+    let mut rng = Rng(7);
+    for _ in 0..50 {
+        let q = rng.vec(2, -3.0, 3.0);
+        let qd = rng.vec(2, -2.0, 2.0);
+        let tau = rng.vec(2, -5.0, 5.0);
+        let (m, bias) = double_pendulum_closed_form(&q, &qd);
+        let mm = model.crba(&q);
+        for r in 0..2 {
+            for c in 0..2 {
+                assert!((mm[r][c] - m[r][c]).abs() < 1e-13, "M[{r}][{c}]");
+            }
+        }
+        // q̈ = M⁻¹ (τ − h − G), 2×2 by Cramer's rule.
+        let (b1, b2) = (tau[0] - bias[0], tau[1] - bias[1]);
+        let det = m[0][0] * m[1][1] - m[0][1] * m[1][0];
+        let expect = [
+            (m[1][1] * b1 - m[0][1] * b2) / det,
+            (m[0][0] * b2 - m[1][0] * b1) / det,
+        ];
+        let qdd = model.aba(&q, &qd, &tau);
+        for k in 0..2 {
+            assert!(
+                (qdd[k] - expect[k]).abs() < 1e-10 * expect[k].abs().max(1.0),
+                "q̈[{k}] {} vs {}",
+                qdd[k],
+                expect[k]
+            );
+        }
+        let rnea = model.rnea(&q, &qd, &[0.0, 0.0]);
+        for k in 0..2 {
+            assert!((rnea[k] - bias[k]).abs() < 1e-12, "bias[{k}]");
+        }
+        // Energies and the tip.
+        let t = model.kinetic_energy(&q, &qd);
+        let t_expect = 0.5
+            * (m[0][0] * qd[0] * qd[0] + 2.0 * m[0][1] * qd[0] * qd[1] + m[1][1] * qd[1] * qd[1]);
+        assert!((t - t_expect).abs() < 1e-12);
+        let v_expect =
+            -9.81 * (M1 * L1 * q[0].cos() + M2 * (L1 * q[0].cos() + L2 * (q[0] + q[1]).cos()));
+        assert!((model.potential_energy(&q) - v_expect).abs() < 1e-12);
+    }
+    let tips = model.tip_poses(&[0.3, -0.4]);
+    assert_eq!(model.tips.len(), 1);
+    assert_eq!(model.tips[0].name, "lower");
+    let (p, quat) = tips[0];
+    assert!((p[0] - (-L1 * 0.3f64.sin())).abs() < 1e-15 && p[1].abs() < 1e-15);
+    // Rotation by −0.1 about y.
+    let half = -0.05f64;
+    let expect = [half.cos(), 0.0, half.sin(), 0.0];
+    for k in 0..4 {
+        assert!((quat[k] - expect[k]).abs() < 1e-15);
+    }
+}
+
+/// A branched mechanism with every joint kind, offsets, tilted origins and full inertias.
+fn branched() -> Mechanism {
+    let inertia = |a: f64, b: f64, c: f64, d: f64| [[a, d, 0.0], [d, b, -d], [0.0, -d, c]];
+    Mechanism::new("tree")
+        .body(Body::new("base", 5.0).inertia_diag([1.0, 1.0, 1.0]))
+        .body(
+            Body::new("torso", 2.0)
+                .com([0.0, 0.05, 0.3])
+                .inertia(inertia(0.2, 0.25, 0.1, 0.01)),
+        )
+        .body(
+            Body::new("arm", 1.0)
+                .com([0.2, 0.0, 0.0])
+                .inertia(inertia(0.01, 0.05, 0.05, 0.002)),
+        )
+        .body(Body::new("slider", 0.5).inertia_diag([0.01, 0.01, 0.01]))
+        .body(Body::massless("flange"))
+        .body(
+            Body::new("hand", 0.3)
+                .com([0.0, 0.0, 0.05])
+                .inertia_diag([0.002, 0.002, 0.001]),
+        )
+        .body(
+            Body::new("leg", 1.5)
+                .com([0.0, 0.0, -0.4])
+                .inertia(inertia(0.1, 0.1, 0.02, -0.003)),
+        )
+        .revolute(
+            "waist",
+            "base",
+            "torso",
+            Origin::new([0.0, 0.0, 0.5], [0.1, -0.2, 0.3]),
+            [0.0, 0.0, 1.0],
+        )
+        .revolute(
+            "shoulder",
+            "torso",
+            "arm",
+            Origin::new([0.1, 0.2, 0.6], [0.5, 0.0, -0.4]),
+            [1.0, 1.0, 0.0],
+        )
+        .prismatic(
+            "slide",
+            "arm",
+            "slider",
+            Origin::new([0.4, 0.0, 0.0], [0.0, 0.3, 0.0]),
+            [0.3, 0.0, 1.0],
+        )
+        .fixed(
+            "mount",
+            "slider",
+            "flange",
+            Origin::new([0.0, 0.1, 0.05], [0.2, 0.3, -0.1]),
+        )
+        .continuous(
+            "wrist",
+            "flange",
+            "hand",
+            Origin::new([0.05, 0.0, 0.0], [0.0, 0.0, 0.7]),
+            [0.0, 1.0, 0.0],
+        )
+        .joint(
+            Joint::new(
+                "hip",
+                JointKind::Revolute,
+                "torso",
+                "leg",
+                Origin::new([0.0, -0.1, 0.0], [-0.3, 0.2, 0.1]),
+            )
+            .axis([0.2, 1.0, 0.1])
+            .damping(0.4),
+        )
+}
+
+#[test]
+fn aba_equals_crba_solve_of_rnea() {
+    let model = Model::new(&branched()).unwrap();
+    assert_eq!(model.joints, ["waist", "shoulder", "slide", "wrist", "hip"]);
+    assert_eq!(model.parent, [None, Some(0), Some(1), Some(2), Some(0)]);
+    let n = model.nq();
+    let mut rng = Rng(42);
+    for _ in 0..100 {
+        let q = rng.vec(n, -3.0, 3.0);
+        let qd = rng.vec(n, -3.0, 3.0);
+        let tau = rng.vec(n, -10.0, 10.0);
+        let m = model.crba(&q);
+        let mm = DMatrix::from_fn(n, n, |r, c| m[r][c]);
+        assert_eq!(mm, mm.transpose(), "M is symmetric");
+        assert!(mm.clone().cholesky().is_some(), "M is positive definite");
+        let bias = model.rnea(&q, &qd, &vec![0.0; n]);
+        let rhs = DVector::from_fn(n, |k, _| tau[k] - model.damping[k] * qd[k] - bias[k]);
+        let expect = mm.lu().solve(&rhs).unwrap();
+        let qdd = model.aba(&q, &qd, &tau);
+        for k in 0..n {
+            assert!(
+                (qdd[k] - expect[k]).abs() < 1e-11 * expect[k].abs().max(1.0),
+                "q̈[{k}] {} vs {}",
+                qdd[k],
+                expect[k]
+            );
+        }
+        // And RNEA inverts ABA.
+        let back = model.rnea(&q, &qd, &qdd);
+        for k in 0..n {
+            let want = tau[k] - model.damping[k] * qd[k];
+            assert!((back[k] - want).abs() < 1e-10 * want.abs().max(1.0));
+        }
+    }
+}
+
+fn energy(model: &Model, x: &[f64]) -> f64 {
+    let n = model.nq();
+    model.kinetic_energy(&x[..n], &x[n..]) + model.potential_energy(&x[..n])
+}
+
+fn rk4_step(model: &Model, x: &[f64], h: f64) -> Vec<f64> {
+    let n = model.nq();
+    let zero = vec![0.0; n];
+    let f = |x: &[f64]| -> Vec<f64> {
+        let mut dx = x[n..].to_vec();
+        dx.extend(model.aba(&x[..n], &x[n..], &zero));
+        dx
+    };
+    let axpy =
+        |a: f64, k: &[f64]| -> Vec<f64> { x.iter().zip(k).map(|(x, k)| x + a * k).collect() };
+    let k1 = f(x);
+    let k2 = f(&axpy(h / 2.0, &k1));
+    let k3 = f(&axpy(h / 2.0, &k2));
+    let k4 = f(&axpy(h, &k3));
+    (0..2 * n)
+        .map(|i| x[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]))
+        .collect()
+}
+
+#[test]
+fn energy_is_conserved_without_damping() {
+    let mut mech = branched();
+    for j in &mut mech.joints {
+        j.damping = 0.0;
+    }
+    let model = Model::new(&mech).unwrap();
+    let n = model.nq();
+    let mut x: Vec<f64> = Rng(3).vec(2 * n, -1.0, 1.0);
+    let e0 = energy(&model, &x);
+    let mut drift: f64 = 0.0;
+    for _ in 0..1000 {
+        x = rk4_step(&model, &x, 1e-3);
+        drift = drift.max((energy(&model, &x) - e0).abs());
+    }
+    // RK4 at h = 1 ms over 1 s: the energy error is O(h⁴), far below this.
+    assert!(drift < 1e-7 * e0.abs().max(1.0), "drift {drift:e} of {e0}");
+    // With damping, energy only decreases (no input).
+    let damped = Model::new(&branched()).unwrap();
+    let mut x: Vec<f64> = Rng(3).vec(2 * n, -1.0, 1.0);
+    let mut e = energy(&damped, &x);
+    for _ in 0..200 {
+        x = rk4_step(&damped, &x, 1e-3);
+        let e1 = energy(&damped, &x);
+        assert!(e1 <= e + 1e-9);
+        e = e1;
+    }
+}
+
+#[test]
+fn fixed_joint_merge_equals_one_combined_body() {
+    // link1 with a bob fixed below it (offset, turned 90° about z, com off its origin).
+    let bob = Body::new("bob", 2.0)
+        .com([0.1, 0.0, 0.0])
+        .inertia_diag([0.1, 0.2, 0.3]);
+    let link = Body::new("link1", 1.0)
+        .com([0.0, 0.0, -0.5])
+        .inertia_diag([0.01, 0.02, 0.03]);
+    let o = Origin::new([0.0, 0.0, -1.0], [0.0, 0.0, std::f64::consts::FRAC_PI_2]);
+    let pendulum = |m: Mechanism| {
+        m.body(Body::massless("base"))
+            .revolute(
+                "j1",
+                "base",
+                "link1",
+                Origin::new([0.0, 0.0, 1.0], [0.3, 0.0, 0.0]),
+                [0.0, 1.0, 0.0],
+            )
+            .body(
+                Body::new("link2", 0.5)
+                    .com([0.0, 0.0, -0.3])
+                    .inertia_diag([0.01, 0.01, 0.001]),
+            )
+    };
+    let split = pendulum(Mechanism::new("split"))
+        .body(link.clone())
+        .body(bob)
+        .fixed("weld", "link1", "bob", o)
+        .revolute(
+            "j2",
+            "bob",
+            "link2",
+            Origin::xyz([0.0, 0.2, 0.0]),
+            [1.0, 0.0, 0.0],
+        );
+    // By hand: the bob's com in link1 is (0, 0.1, −1), its inertia diag(0.2, 0.1, 0.3) in
+    // link1 axes; the total com is (1·(0,0,−0.5) + 2·(0,0.1,−1))/3.
+    let com = [0.0, 0.2 / 3.0, -2.5 / 3.0];
+    let parts = [
+        (1.0, [0.0, 0.0, -0.5], [0.01, 0.02, 0.03]),
+        (2.0, [0.0, 0.1, -1.0], [0.2, 0.1, 0.3]),
+    ];
+    let mut inertia = [[0.0; 3]; 3];
+    for (m, c, d) in parts {
+        let r: Vec<f64> = (0..3).map(|k| c[k] - com[k]).collect();
+        let rr = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+        for a in 0..3 {
+            for b in 0..3 {
+                let diag = if a == b { d[a] + m * rr } else { 0.0 };
+                inertia[a][b] += diag - m * r[a] * r[b];
+            }
+        }
+    }
+    // The child joint's origin composed with the weld by hand: Rz(90°)·(0, 0.2, 0) = (−0.2, 0, 0).
+    let combined = pendulum(Mechanism::new("combined"))
+        .body(Body::new("link1", 3.0).com(com).inertia(inertia))
+        .revolute(
+            "j2",
+            "link1",
+            "link2",
+            Origin::new([-0.2, 0.0, -1.0], [0.0, 0.0, std::f64::consts::FRAC_PI_2]),
+            [1.0, 0.0, 0.0],
+        );
+    let merged = split.merge_fixed().unwrap();
+    assert_eq!(merged.mechanism.bodies.len(), 3);
+    let b = &merged.mechanism.bodies[1];
+    assert_eq!(b.name, "link1");
+    assert!((b.mass - 3.0).abs() < 1e-15);
+    let bob_frame = merged.frames.iter().find(|f| f.name == "bob").unwrap();
+    assert_eq!((bob_frame.body.as_str(), bob_frame.leaf), ("link1", false));
+    let (a, b) = (Model::new(&split).unwrap(), Model::new(&combined).unwrap());
+    let mut rng = Rng(11);
+    for _ in 0..20 {
+        let q = rng.vec(2, -3.0, 3.0);
+        let qd = rng.vec(2, -3.0, 3.0);
+        let tau = rng.vec(2, -3.0, 3.0);
+        let (qa, qb) = (a.aba(&q, &qd, &tau), b.aba(&q, &qd, &tau));
+        let (ma, mb) = (a.crba(&q), b.crba(&q));
+        for r in 0..2 {
+            assert!((qa[r] - qb[r]).abs() < 1e-12 * qa[r].abs().max(1.0));
+            for c in 0..2 {
+                assert!((ma[r][c] - mb[r][c]).abs() < 1e-13);
+            }
+        }
+        let (ea, eb) = (
+            energy(&a, &[q.clone(), qd.clone()].concat()),
+            energy(&b, &[q, qd].concat()),
+        );
+        assert!((ea - eb).abs() < 1e-12);
+    }
+}
+
+#[test]
+fn a_merged_leaf_keeps_its_frame() {
+    // The tool is welded to the arm: its pose is still reported.
+    let m = Mechanism::new("arm")
+        .body(Body::massless("base"))
+        .body(
+            Body::new("link", 1.0)
+                .com([0.5, 0.0, 0.0])
+                .inertia_diag([0.01, 0.1, 0.1]),
+        )
+        .body(Body::massless("tool"))
+        .revolute("j", "base", "link", Origin::IDENTITY, [0.0, 0.0, 1.0])
+        .fixed(
+            "tcp",
+            "link",
+            "tool",
+            Origin::new([1.0, 0.0, 0.0], [0.0, 0.0, 0.5]),
+        );
+    let model = Model::new(&m).unwrap();
+    assert_eq!(model.nq(), 1);
+    assert_eq!(model.tips[0].name, "tool");
+    let (p, quat) = model.tip_poses(&[0.25])[0];
+    assert!((p[0] - 0.25f64.cos()).abs() < 1e-15 && (p[1] - 0.25f64.sin()).abs() < 1e-15);
+    let expect = [0.375f64.cos(), 0.0, 0.0, 0.375f64.sin()];
+    for k in 0..4 {
+        assert!((quat[k] - expect[k]).abs() < 1e-15);
+    }
+}
+
+#[test]
+fn dual_numbers_give_the_exact_derivative_of_aba() {
+    let model = Model::new(&branched()).unwrap();
+    let n = model.nq();
+    let mut rng = Rng(5);
+    let (q, qd, tau) = (
+        rng.vec(n, -2.0, 2.0),
+        rng.vec(n, -2.0, 2.0),
+        rng.vec(n, -2.0, 2.0),
+    );
+    for k in 0..n {
+        let qk: Vec<Dual64> = (0..n)
+            .map(|i| {
+                let d = Dual64::from(q[i]);
+                if i == k {
+                    d.derivative()
+                } else {
+                    d
+                }
+            })
+            .collect();
+        let lift = |v: &[f64]| v.iter().map(|&x| Dual64::from(x)).collect::<Vec<_>>();
+        let exact = model.aba(&qk, &lift(&qd), &lift(&tau));
+        let h = 1e-6;
+        let mut plus = q.clone();
+        plus[k] += h;
+        let mut minus = q.clone();
+        minus[k] -= h;
+        let (a, b) = (model.aba(&plus, &qd, &tau), model.aba(&minus, &qd, &tau));
+        for i in 0..n {
+            let fd = (a[i] - b[i]) / (2.0 * h);
+            assert!(
+                (exact[i].eps - fd).abs() < 1e-6 * fd.abs().max(1.0),
+                "∂q̈{i}/∂q{k}"
+            );
+            assert_eq!(exact[i].re, model.aba(&q, &qd, &tau)[i]);
+        }
+    }
+}
+
+// --- refusals -------------------------------------------------------------------------
+
+/// A URDF with two links, `a` (massive) and `b`, and `body` in between.
+fn urdf_with(body: &str) -> String {
+    format!(
+        r#"<robot name="r">
+  <link name="a"><inertial><mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>
+  {body}
+</robot>"#
+    )
+}
+
+const LINK_B: &str = r#"<link name="b"><inertial><mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>"#;
+
+fn refusal(text: &str) -> String {
+    match urdf::parse(text, "bad.urdf") {
+        Ok(_) => panic!("accepted:\n{text}"),
+        Err(e) => {
+            let line = e.to_string();
+            assert!(!line.contains('\n'), "one line: {line}");
+            assert!(line.starts_with("bad.urdf"), "names the file: {line}");
+            line
+        }
+    }
+}
+
+fn assert_says(message: &str, parts: &[&str]) {
+    for p in parts {
+        assert!(message.contains(p), "{message:?} should contain {p:?}");
+    }
+}
+
+#[test]
+fn missing_link_is_named() {
+    let m = refusal(&urdf_with(
+        r#"<joint name="elbow" type="revolute"><parent link="a"/><child link="forearm"/></joint>"#,
+    ));
+    assert_eq!(
+        m,
+        r#"bad.urdf:3: joint "elbow": child link "forearm" does not exist"#
+    );
+}
+
+#[test]
+fn malformed_xml_is_refused() {
+    let m = refusal(r#"<robot name="r"><link name="a"></robot>"#);
+    assert_says(&m, &["malformed XML"]);
+    let m = refusal(r#"<robot name="r"><link name="a">"#);
+    assert_says(&m, &["malformed XML"]);
+    let m = refusal(r#"<robot name="r"><link name="a" mass=1/></robot>"#);
+    assert_says(&m, &["malformed XML"]);
+}
+
+#[test]
+fn a_file_that_is_not_a_robot_is_refused() {
+    assert_says(
+        &refusal(r#"<sdf version="1.6"><model/></sdf>"#),
+        &["not a URDF robot", "<sdf>"],
+    );
+    assert_says(&refusal("<!-- nothing -->"), &["not a URDF robot"]);
+}
+
+#[test]
+fn joint_types_are_checked() {
+    let joint = |t: &str| {
+        urdf_with(&format!(
+            r#"{LINK_B}<joint name="j" type="{t}"><parent link="a"/><child link="b"/></joint>"#
+        ))
+    };
+    assert_says(
+        &refusal(&joint("spherical")),
+        &[r#"joint "j""#, "unknown type \"spherical\""],
+    );
+    assert_says(
+        &refusal(&joint("floating")),
+        &[r#"joint "j""#, "\"floating\" is not supported"],
+    );
+    assert_says(
+        &refusal(&joint("planar")),
+        &[r#"joint "j""#, "\"planar\" is not supported"],
+    );
+    for ok in ["revolute", "continuous", "prismatic", "fixed"] {
+        urdf::parse(&joint(ok), "ok.urdf").unwrap();
+    }
+}
+
+#[test]
+fn a_joint_without_parent_or_child_is_refused() {
+    let m = refusal(&urdf_with(&format!(
+        r#"{LINK_B}<joint name="j" type="revolute"><child link="b"/></joint>"#
+    )));
+    assert_says(&m, &[r#"joint "j""#, "has no <parent"]);
+    let m = refusal(&urdf_with(
+        r#"<joint name="k" type="fixed"><parent link="a"/></joint>"#,
+    ));
+    assert_says(&m, &["bad.urdf:3:", r#"joint "k""#, "has no <child"]);
+}
+
+#[test]
+fn two_parents_are_refused() {
+    let m = refusal(&urdf_with(&format!(
+        r#"{LINK_B}<link name="c"/>
+  <joint name="j1" type="fixed"><parent link="a"/><child link="b"/></joint>
+  <joint name="j2" type="fixed"><parent link="c"/><child link="b"/></joint>"#
+    )));
+    assert_says(&m, &[r#"link "b""#, r#"two parents: joints "j1" and "j2""#]);
+}
+
+#[test]
+fn cycles_are_refused() {
+    let m = refusal(&urdf_with(&format!(
+        r#"{LINK_B}<link name="c"/><link name="root"/>
+  <joint name="j0" type="fixed"><parent link="root"/><child link="a"/></joint>
+  <joint name="j1" type="revolute"><parent link="c"/><child link="b"/></joint>
+  <joint name="j2" type="fixed"><parent link="b"/><child link="c"/></joint>"#
+    )));
+    assert_says(&m, &["cycle", r#""j1""#, r#""j2""#]);
+}
+
+#[test]
+fn several_roots_are_refused() {
+    let m = refusal(&urdf_with(LINK_B));
+    assert_says(&m, &[r#"robot "r""#, "2 root links", r#""a""#, r#""b""#]);
+}
+
+#[test]
+fn bad_masses_and_inertias_are_refused() {
+    let link = |inertial: &str| {
+        urdf_with(&format!(
+            r#"<link name="bad"><inertial>{inertial}</inertial></link><joint name="j" type="revolute"><parent link="a"/><child link="bad"/></joint>"#
+        ))
+    };
+    let m = refusal(&link(
+        r#"<mass value="-1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/>"#,
+    ));
+    assert_says(&m, &[r#"link "bad""#, "mass -1"]);
+    let m = refusal(&link(
+        r#"<mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="-1" iyz="0" izz="1"/>"#,
+    ));
+    assert_says(&m, &[r#"link "bad""#, "not positive definite"]);
+    let m = refusal(&link(
+        r#"<mass value="1"/><inertia ixx="1" ixy="2" ixz="0" iyy="1" iyz="0" izz="1"/>"#,
+    ));
+    assert_says(&m, &[r#"link "bad""#, "not positive definite"]);
+    let m = refusal(&link(r#"<mass value="1"/>"#));
+    assert_says(&m, &[r#"link "bad""#, "point mass needs a small inertia"]);
+    let m = refusal(&link(
+        r#"<mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="3"/>"#,
+    ));
+    assert_says(&m, &[r#"link "bad""#, "triangle inequality"]);
+    // A flat plate (I₁ + I₂ = I₃) printed with 5 digits is within the tolerance; a thin
+    // rotated inertial frame is fine too.
+    urdf::parse(
+        &link(r#"<mass value="1"/><inertia ixx="0.33333" ixy="0" ixz="0" iyy="0.66666" iyz="0" izz="1.0"/>"#),
+        "ok.urdf",
+    )
+    .unwrap();
+    urdf::parse(&link(r#"<origin rpy="0.3 0.2 0.1"/><mass value="1"/><inertia ixx="0.3" ixy="0" ixz="0" iyy="0.6" iyz="0" izz="0.8"/>"#), "ok.urdf").unwrap();
+    let m = refusal(&link(r#"<mass value="abc"/>"#));
+    assert_says(&m, &[r#"link "bad""#, "not a finite number"]);
+    let m = refusal(&link(r#"<mass value="1"/><inertia ixx="1" izz="1"/>"#));
+    assert_says(&m, &[r#"link "bad""#, "<inertia> has no ixy"]);
+}
+
+#[test]
+fn massless_end_on_a_moving_joint_is_refused() {
+    let m = refusal(&urdf_with(
+        r#"<link name="tip"/><joint name="wrist" type="revolute"><parent link="a"/><child link="tip"/></joint>"#,
+    ));
+    assert_says(&m, &[r#"joint "wrist""#, r#""tip""#, "singular"]);
+    // The same link welded on is fine.
+    urdf::parse(
+        &urdf_with(r#"<link name="tip"/><joint name="wrist" type="fixed"><parent link="a"/><child link="tip"/></joint>"#),
+        "ok.urdf",
+    )
+    .unwrap();
+}
+
+#[test]
+fn unexpanded_xacro_is_refused() {
+    let m = refusal(&urdf_with(r#"<xacro:property name="l" value="1"/>"#));
+    assert_says(&m, &["unexpanded xacro", "<xacro:property>"]);
+    let m = refusal(&urdf_with(&format!(
+        r#"{LINK_B}<joint name="j" type="revolute"><parent link="a"/><child link="b"/><origin xyz="0 0 ${{l}}"/></joint>"#
+    )));
+    assert_says(&m, &[r#"joint "j""#, "unexpanded xacro", "${l}"]);
+}
+
+#[test]
+fn mimic_joints_are_refused() {
+    let m = refusal(&urdf_with(&format!(
+        r#"{LINK_B}<link name="c"><inertial><mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>
+  <joint name="j1" type="revolute"><parent link="a"/><child link="b"/></joint>
+  <joint name="j2" type="revolute"><parent link="a"/><child link="c"/><mimic joint="j1"/></joint>"#
+    )));
+    assert_says(&m, &[r#"joint "j2""#, "mimic", r#""j1""#, "not supported"]);
+}
+
+#[test]
+fn builder_errors_name_the_element() {
+    let m = Mechanism::new("arm")
+        .body(Body::new("base", 1.0).inertia_diag([1.0; 3]))
+        .body(Body::new("link", 1.0).inertia_diag([1.0; 3]))
+        .revolute("j", "base", "link", Origin::IDENTITY, [0.0, 0.0, 0.0]);
+    assert_says(
+        &m.validate().unwrap_err().to_string(),
+        &[r#"joint "j""#, "axis"],
+    );
+    let m = Mechanism::new("arm").body(Body::new("base", 1.0).inertia_diag([1.0; 3]));
+    let m = m.revolute(
+        "elbow",
+        "base",
+        "forearm",
+        Origin::IDENTITY,
+        [0.0, 0.0, 1.0],
+    );
+    assert_eq!(
+        m.validate().unwrap_err().to_string(),
+        r#"joint "elbow": child link "forearm" does not exist"#
+    );
+}
+
+#[test]
+fn origin_rpy_round_trips() {
+    let o = Origin::new([1.0, 2.0, 3.0], [0.3, -0.7, 2.5]);
+    let rpy = o.rpy();
+    for (a, b) in rpy.iter().zip([0.3, -0.7, 2.5]) {
+        assert!((a - b).abs() < 1e-14);
+    }
+    // URDF: R = Rz(y) Ry(p) Rx(r), so a pure yaw of 90° takes x to y.
+    let yaw = Origin::new([0.0; 3], [0.0, 0.0, std::f64::consts::FRAC_PI_2]);
+    assert!((yaw.rotation[1][0] - 1.0).abs() < 1e-15);
+}
+
+#[test]
+fn articulated_and_rigid_inertia_transform_alike() {
+    use super::spatial::{ArticulatedInertia, RigidInertia, Transform};
+    let r = RigidInertia::from_com(
+        1.7,
+        &[0.1, -0.2, 0.3],
+        &[[0.3, 0.01, 0.02], [0.01, 0.4, -0.03], [0.02, -0.03, 0.5]],
+    );
+    let o = Origin::new([0.4, -0.5, 0.6], [0.3, 0.2, -0.1]);
+    let x = Transform {
+        e: super::spatial::transpose(&o.rotation),
+        r: o.xyz,
+    };
+    let a = ArticulatedInertia::from_rigid(&r).back(&x);
+    let b = ArticulatedInertia::from_rigid(&r.back(&x));
+    for (p, q) in [(a.a, b.a), (a.b, b.b), (a.c, b.c)] {
+        for i in 0..3 {
+            for j in 0..3 {
+                assert!((p[i][j] - q[i][j]).abs() < 1e-14);
+            }
+        }
+    }
+}
+
+#[test]
+fn aba_traces_into_a_branch_free_graph() {
+    use crate::model::symbolic::{record, Arg, Expr};
+    let model = Model::new(&branched()).unwrap();
+    let n = model.nq();
+    let (roots, graph) = record(|| {
+        let q = Expr::inputs(Arg::Q, n);
+        let qd = Expr::inputs(Arg::Qd, n);
+        let tau = Expr::inputs(Arg::U, n);
+        let qdd = model.aba(&q, &qd, &tau);
+        let mut roots: Vec<u32> = qdd.iter().map(|e| e.id()).collect();
+        roots.push(model.kinetic_energy(&q, &qd).id());
+        roots.push(model.potential_energy(&q).id());
+        roots
+    });
+    assert!(
+        graph.branches.is_empty(),
+        "looked at values: {:?}",
+        graph.branches
+    );
+    let mut rng = Rng(9);
+    for _ in 0..10 {
+        let (q, qd, tau) = (
+            rng.vec(n, -3.0, 3.0),
+            rng.vec(n, -3.0, 3.0),
+            rng.vec(n, -9.0, 9.0),
+        );
+        let traced = graph.eval(&roots, [&q, &qd, &tau, &[], &[]]);
+        let mut direct = model.aba(&q, &qd, &tau);
+        direct.push(model.kinetic_energy(&q, &qd));
+        direct.push(model.potential_energy(&q));
+        for (a, b) in traced.iter().zip(&direct) {
+            assert!((a - b).abs() < 1e-11 * b.abs().max(1.0), "{a} vs {b}");
+        }
+    }
+    eprintln!("ABA + energies of a 5-joint tree: {} nodes", graph.len());
+}
