@@ -1,9 +1,11 @@
 //! The systems' equation lines (`System::EQUATIONS`, Unicode text: `I_O θ̈ + m g l sin θ = τ`)
 //! as HTML with their mathematics in MathML, which browsers typeset natively: a dotted
 //! letter becomes `<mover>` (the dot a glyph of its own, so no font can lose or misplace
-//! it), `x1`, `I_O`, `mT` subscripts, `²` superscripts, `½` fractions, `√(…)` roots.
-//! The prose around the formulas stays text. One source for the code's documentation and
-//! the page: nothing is written twice.
+//! it), `x1`, `I_O`, `mT` subscripts, `²` and `ᵀ` superscripts (on a subscripted name both
+//! in one `<msubsup>`: `a_z²`), `½` fractions, `√(…)` roots; a name with a lower-case run of
+//! three letters (`WhippleBicycle`) stays one token. The prose around the formulas stays
+//! text, with its hyphens (`λ-method`) and apostrophes (`benchmark's`). One source for the
+//! code's documentation and the page: nothing is written twice.
 
 /// Function names set upright.
 const FUNCTIONS: &[&str] = &[
@@ -34,8 +36,34 @@ fn is_mark(c: char) -> bool {
     ('\u{0300}'..='\u{036f}').contains(&c)
 }
 
+/// A superscript character as the MathML of its exponent (`ᵀ` is a letter to Unicode, but
+/// a superscript here, never part of a name).
+fn superscript_char(c: char) -> Option<&'static str> {
+    Some(match c {
+        '²' => "<mn>2</mn>",
+        '³' => "<mn>3</mn>",
+        'ᵀ' => "<mi mathvariant=\"normal\">T</mi>",
+        _ => return None,
+    })
+}
+
 fn is_word_char(c: char) -> bool {
-    c.is_alphabetic() || c.is_ascii_digit() || c == '_' || is_mark(c) || c == '′'
+    (c.is_alphabetic() || c.is_ascii_digit() || c == '_' || is_mark(c) || c == '′')
+        && superscript_char(c).is_none()
+}
+
+/// `base` with the exponent `sup` (MathML): a subscripted base takes it beside its
+/// subscript (`<msubsup>`), so `a_z²` reads as the square of a_z, not a_z's subscript
+/// squared or a bracket's square after it.
+pub(super) fn superscript(base: &str, sup: &str) -> String {
+    match base
+        .strip_prefix("<msub>")
+        .and_then(|b| b.strip_suffix("</msub>"))
+    {
+        // identifier() makes `<msub>` of exactly base and subscript.
+        Some(inner) if !inner.contains("<msub>") => format!("<msubsup>{inner}{sup}</msubsup>"),
+        _ => format!("<msup>{base}{sup}</msup>"),
+    }
 }
 
 /// A precomposed Latin letter with a dot or two above (ẋ, ẍ, ṙ, ż) as its letter and the
@@ -132,7 +160,13 @@ fn tokens(line: &str) -> Vec<Tok> {
             out.push(Tok::Number(chars[start..i].iter().collect()));
         } else if is_word_char(c) {
             let start = i;
-            while i < chars.len() && is_word_char(chars[i]) {
+            // An apostrophe between letters is inside the word: benchmark's.
+            while i < chars.len()
+                && (is_word_char(chars[i])
+                    || (chars[i] == '\''
+                        && chars[i - 1].is_alphabetic()
+                        && chars.get(i + 1).is_some_and(|d| d.is_alphabetic())))
+            {
                 i += 1;
             }
             out.push(Tok::Word(chars[start..i].iter().collect()));
@@ -186,10 +220,27 @@ fn is_mathy(t: &Tok) -> bool {
     }
 }
 
-/// An identifier: a base letter (with its marks and primes) and a subscript of the rest.
+/// Whether a word is a name of its own rather than a letter with a subscript: it holds a
+/// run of three lower-case letters (WhippleBicycle, Table; not IBxx, vx0, ωn, θ̇R).
+fn is_name(word: &str) -> bool {
+    let mut run = 0;
+    for c in word.chars() {
+        run = if c.is_lowercase() { run + 1 } else { 0 };
+        if run >= 3 {
+            return true;
+        }
+    }
+    false
+}
+
+/// An identifier: a base letter (with its marks and primes) and a subscript of the rest
+/// (`I_O`: what follows the underscore), or a name as one token.
 pub(super) fn identifier(word: &str) -> String {
     if FUNCTIONS.contains(&word) {
         return format!("<mi mathvariant=\"normal\">{}</mi>", escape(word));
+    }
+    if !word.contains('_') && is_name(word) {
+        return format!("<mi>{}</mi>", escape(word));
     }
     let (base, sub) = match word.split_once('_') {
         Some((b, s)) => (b.to_string(), s.to_string()),
@@ -252,13 +303,7 @@ fn elements(toks: &[Tok]) -> String {
             Tok::Word(w) => items.push(identifier(w)),
             Tok::Number(n) => items.push(format!("<mn>{n}</mn>")),
             Tok::Sym(c) => {
-                let sup = match c {
-                    '²' => Some("<mn>2</mn>"),
-                    '³' => Some("<mn>3</mn>"),
-                    'ᵀ' => Some("<mi mathvariant=\"normal\">T</mi>"),
-                    '⁻' => None,
-                    _ => None,
-                };
+                let sup = superscript_char(*c);
                 let frac = match c {
                     '½' => Some(("1", "2")),
                     '⅓' => Some(("1", "3")),
@@ -269,12 +314,10 @@ fn elements(toks: &[Tok]) -> String {
                 };
                 if let Some(s) = sup {
                     let base = items.pop().unwrap_or_else(|| "<mrow/>".into());
-                    items.push(format!("<msup>{base}{s}</msup>"));
+                    items.push(superscript(&base, s));
                 } else if *c == '⁻' && toks.get(i + 1) == Some(&Tok::Sym('¹')) {
                     let base = items.pop().unwrap_or_else(|| "<mrow/>".into());
-                    items.push(format!(
-                        "<msup>{base}<mrow><mo>−</mo><mn>1</mn></mrow></msup>"
-                    ));
+                    items.push(superscript(&base, "<mrow><mo>−</mo><mn>1</mn></mrow>"));
                     i += 1;
                 } else if let Some((n, d)) = frac {
                     items.push(format!("<mfrac><mn>{n}</mn><mn>{d}</mn></mfrac>"));
@@ -343,18 +386,23 @@ fn text(toks: &[Tok]) -> String {
 pub fn line_html(line: &str) -> String {
     let toks = tokens(line);
     let n = toks.len();
-    // Math tokens: words that are symbols, numbers, symbols other than sentence punctuation;
-    // spaces join a run.
-    let is_math = |t: &Tok| match t {
+    // Math tokens: words that are symbols, numbers, symbols other than sentence punctuation
+    // and a hyphen joining a word of prose (λ-method); spaces join a run.
+    let is_math = |k: usize| match &toks[k] {
         Tok::Word(w) => !is_prose(w),
         Tok::Number(_) => true,
         Tok::Space => false,
+        Tok::Sym('-') => {
+            !(k > 0
+                && toks[k - 1] != Tok::Space
+                && matches!(toks.get(k + 1), Some(Tok::Word(w)) if is_prose(w)))
+        }
         Tok::Sym(c) => !matches!(c, ',' | ';' | ':' | '.' | '!' | '?' | '"' | '\''),
     };
     let mut out = String::new();
     let mut i = 0;
     while i < n {
-        if !is_math(&toks[i]) {
+        if !is_math(i) {
             out.push_str(&text(&toks[i..i + 1]));
             i += 1;
             continue;
@@ -364,7 +412,7 @@ pub fn line_html(line: &str) -> String {
         let mut end = i;
         while j < n {
             match &toks[j] {
-                t if is_math(t) => end = j + 1,
+                _ if is_math(j) => end = j + 1,
                 Tok::Space => {}
                 // A comma inside brackets belongs to the formula: (x, y).
                 Tok::Sym(',') if depth_at(&toks[i..j]) > 0 => {}
@@ -372,21 +420,17 @@ pub fn line_html(line: &str) -> String {
             }
             j += 1;
         }
-        let (mut a, mut b) = (i, end);
-        // Leave unmatched brackets at either end to the prose.
-        loop {
-            let run = &toks[a..b];
-            if run.first().is_some_and(is_open) && depth_at(run) > 0 {
-                out.push_str(&text(&toks[a..a + 1]));
-                a += 1;
-            } else if b > a
-                && ((is_close(&toks[b - 1]) && min_depth(&toks[a..b]) < 0) || is_open(&toks[b - 1]))
-            {
-                b -= 1;
-            } else {
-                break;
+        // An unmatched bracket goes to the prose and the formula ends before it (`= 0 (a:
+        // front axle)`); what follows it is looked at again.
+        if let Some(cut) = unmatched(&toks[i..end]) {
+            if cut == 0 {
+                out.push_str(&text(&toks[i..i + 1]));
+                i += 1;
+                continue;
             }
+            end = i + cut;
         }
+        let (a, mut b) = (i, end);
         while b > a && toks[b - 1] == Tok::Space {
             b -= 1;
         }
@@ -398,11 +442,25 @@ pub fn line_html(line: &str) -> String {
         } else {
             out.push_str(&text(run));
         }
-        // What the trimming left out at the end goes on as text.
-        out.push_str(&text(&toks[b.max(a)..end]));
-        i = end.max(i + 1);
+        // The spaces trimmed at the end go on as text.
+        out.push_str(&text(&toks[b..end]));
+        i = end;
     }
     out
+}
+
+/// The position of the first unmatched bracket in `toks`: a close without its open, or an
+/// open not closed within `toks`.
+fn unmatched(toks: &[Tok]) -> Option<usize> {
+    let mut open = Vec::new();
+    for (k, t) in toks.iter().enumerate() {
+        if is_open(t) {
+            open.push(k);
+        } else if is_close(t) && open.pop().is_none() {
+            return Some(k);
+        }
+    }
+    open.first().copied()
 }
 
 /// Bracket depth at the end of `toks`.
@@ -410,17 +468,6 @@ fn depth_at(toks: &[Tok]) -> i32 {
     toks.iter()
         .map(|t| i32::from(is_open(t)) - i32::from(is_close(t)))
         .sum()
-}
-
-/// The lowest bracket depth reached in `toks`.
-fn min_depth(toks: &[Tok]) -> i32 {
-    let mut d = 0;
-    let mut m = 0;
-    for t in toks {
-        d += i32::from(is_open(t)) - i32::from(is_close(t));
-        m = m.min(d);
-    }
-    m
 }
 
 #[cfg(test)]
@@ -460,5 +507,96 @@ mod tests {
         assert!(h.ends_with("(torque at O)"), "{h}");
         let h = line_html("period 4 √(I_O/(m g l)) K(sin(θ0/2))");
         assert!(h.contains("<msqrt>"), "{h}");
+    }
+
+    #[test]
+    fn a_name_in_a_formula_stays_one_token() {
+        let h = line_html("M q̈ + v C1 q̇ + (g K0 + v² K2) q = f (WhippleBicycle): self-stable");
+        assert!(h.contains("<mi>WhippleBicycle</mi>"), "{h}");
+        assert!(!h.contains("hippleBicycle</mi></msub>"), "{h}");
+        // Genuine subscripts stay subscripts: digits, capitals, short lower-case tails.
+        assert!(h.contains("<msub><mi>C</mi><mn>1</mn></msub>"), "{h}");
+        assert_eq!(identifier("r_1"), "<msub><mi>r</mi><mn>1</mn></msub>");
+        assert_eq!(identifier("rR"), "<msub><mi>r</mi><mi>R</mi></msub>");
+        assert_eq!(identifier("IBxx"), "<msub><mi>I</mi><mi>Bxx</mi></msub>");
+        assert_eq!(identifier("vx0"), "<msub><mi>v</mi><mi>x0</mi></msub>");
+        assert_eq!(identifier("ωn"), "<msub><mi>ω</mi><mi>n</mi></msub>");
+        assert_eq!(
+            identifier("theta_dot"),
+            "<msub><mi>theta</mi><mi>dot</mi></msub>"
+        );
+        assert_eq!(identifier("Table1"), "<mi>Table1</mi>");
+    }
+
+    #[test]
+    fn a_superscript_binds_to_the_subscripted_name_before_it() {
+        // Inside a root: the square is a_z's, beside its subscript, and inside the root.
+        let h = line_html("z(C_F) + rF √(1 − a_z²) = 0");
+        assert!(
+            h.contains("<msqrt><mn>1</mn><mo>−</mo><msubsup><mi>a</mi><mi>z</mi><mn>2</mn></msubsup></msqrt>"),
+            "{h}"
+        );
+        let h = line_html("E = ½ m x_dot²");
+        assert!(
+            h.contains("<msubsup><mi>x</mi><mi>dot</mi><mn>2</mn></msubsup>"),
+            "{h}"
+        );
+        let h = line_html("ẋ1² + θ̇R²");
+        assert!(
+            h.contains(
+                "<msubsup><mover><mi>x</mi><mo>˙</mo></mover><mn>1</mn><mn>2</mn></msubsup>"
+            ),
+            "{h}"
+        );
+        assert!(
+            h.contains(
+                "<msubsup><mover><mi>θ</mi><mo>˙</mo></mover><mi>R</mi><mn>2</mn></msubsup>"
+            ),
+            "{h}"
+        );
+        // No subscript: a plain power; a root of a sum.
+        let h = line_html("r = √(a² + b²)");
+        assert!(
+            h.contains("<msqrt><msup><mi>a</mi><mn>2</mn></msup><mo>+</mo><msup><mi>b</mi><mn>2</mn></msup></msqrt>"),
+            "{h}"
+        );
+        // ᵀ is a superscript, not a subscript letter of the name.
+        let h = line_html("M q̈ + Gᵀ λ = Q");
+        assert!(
+            h.contains("<msup><mi>G</mi><mi mathvariant=\"normal\">T</mi></msup>"),
+            "{h}"
+        );
+        let h = line_html("R_B⁻¹");
+        assert!(
+            h.contains("<msubsup><mi>R</mi><mi>B</mi><mrow><mo>−</mo>"),
+            "{h}"
+        );
+    }
+
+    #[test]
+    fn prose_keeps_its_hyphens_apostrophes_and_unmatched_brackets() {
+        let h = line_html("constraints differentiated to acceleration level (λ-method); the state");
+        assert!(
+            h.contains("(<math><mrow><mi>λ</mi></mrow></math>-method);"),
+            "{h}"
+        );
+        let h = line_html("it reproduces the benchmark's M q̈ = f");
+        assert!(
+            h.contains("the benchmark&apos;s <math><mrow><mi>M</mi>"),
+            "{h}"
+        );
+        // A minus between symbols stays a minus.
+        assert!(line_html("a-b").contains("<mo>−</mo>"));
+        let h = line_html("z(C_F) + rF √(1 − a_z²) = 0 (a: front axle); it fixes θ");
+        assert!(
+            h.contains("<mn>0</mn></mrow></math> (a: front axle); it fixes "),
+            "{h}"
+        );
+        assert_eq!(h.matches("<math>").count(), 2, "{h}");
+        let h = line_html("T = Σ ½ m |v|² + ½ ωᵀ I ω over the four bodies");
+        assert!(
+            h.contains("<msup><mi>ω</mi><mi mathvariant=\"normal\">T</mi></msup>"),
+            "{h}"
+        );
     }
 }

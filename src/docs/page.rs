@@ -8,6 +8,7 @@ use super::mathml::line_html;
 use super::reference::{Reference, LS_REF_DIR, REFERENCE_CSV};
 use super::run::{simulate, RunSettings, Trajectory};
 use super::svg::{chart, Series};
+use super::{rough, written};
 use crate::integrators::Method;
 use crate::linearize::Linearization;
 use crate::model::{Layout, Scene, System, VarKind};
@@ -209,9 +210,9 @@ fn scene_section<M: System>(scene: &Scene, files: &mut Vec<(String, String)>) ->
             .iter()
             .map(|&j| {
                 format!(
-                    "{} within {:.1e} of its scale",
+                    "{} within {} of its scale",
                     escape(&traj.names[j]),
-                    traj.range(j) / traj.scale(j)
+                    rough(traj.range(j) / traj.scale(j))
                 )
             })
             .collect();
@@ -359,14 +360,14 @@ pub fn page<M: System>(
         let start = if initial == Some("calculated") {
             "—".to_string()
         } else {
-            format!("{}", var.start)
+            written(var.start)
         };
         let range = match (var.min, var.max) {
             (None, None) => String::new(),
             (min, max) => format!(
                 "[{}, {}]",
-                min.map_or("−∞".into(), |v| format!("{v}")),
-                max.map_or("∞".into(), |v| format!("{v}"))
+                min.map_or("−∞".into(), written),
+                max.map_or("∞".into(), written)
             ),
         };
         h.push_str(&table_row(&[

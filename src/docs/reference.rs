@@ -11,6 +11,7 @@
 //! communication step, and show no difference), and stated in the manifest: the difference
 //! is the larger of the two runs' errors, an upper estimate of the reference's.
 
+use super::rough;
 use super::run::{simulate, RunSettings, Trajectory};
 use crate::integrators::Method;
 use crate::model::{Layout, System};
@@ -133,10 +134,11 @@ impl Reference {
         let (stop, tol, step) = self.experiment;
         let (worst, column) = self.worst();
         format!(
-            "Reference result of {model}'s default experiment (start 0 s, stop {stop} s, tolerance {tol:e}, communication step {step} s, the modelDescription's start values): time and every output at every communication point. Computed independently of the default solver ({}) with {}. Estimated error against {}: at most {worst:.1e} of each column's scale, the largest of its range, its largest magnitude and its nominal (largest in {column}).",
+            "Reference result of {model}'s default experiment (start 0 s, stop {stop} s, tolerance {tol:e}, communication step {step} s, the modelDescription's start values): time and every output at every communication point. Computed independently of the default solver ({}) with {}. Estimated error against {}: at most {} of each column's scale, the largest of its range, its largest magnitude and its nominal (largest in {column}).",
             default_method().name(),
             self.how,
             self.check,
+            rough(worst),
         )
     }
 

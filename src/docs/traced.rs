@@ -4,7 +4,8 @@
 //! flattened with their numbers in front and repeated factors as powers, sums with their
 //! signs; an expression too long to read (the bicycle's) is left out, the page says so.
 
-use super::mathml::identifier;
+use super::mathml::{identifier, superscript};
+use super::written;
 use crate::model::symbolic::{Arg, Fun, Graph, Id, Node};
 
 /// Leaves of an expanded expression beyond which it is not typeset.
@@ -65,7 +66,7 @@ fn number(v: f64) -> String {
     if v == 0.25 {
         return "<mfrac><mn>1</mn><mn>4</mn></mfrac>".into();
     }
-    format!("<mn>{v}</mn>")
+    format!("<mn>{}</mn>", written(v))
 }
 
 impl Render<'_> {
@@ -159,7 +160,7 @@ impl Render<'_> {
             let base = self.atom(f);
             s.push_str(&match p {
                 1 => base,
-                p => format!("<msup>{base}<mn>{p}</mn></msup>"),
+                p => superscript(&base, &format!("<mn>{p}</mn>")),
             });
         }
         format!("<mrow>{s}</mrow>")
@@ -172,14 +173,8 @@ impl Render<'_> {
             Node::Const(bits) => number(f64::from_bits(bits)),
             Node::Fun(f, a) => self.function(f, a),
             Node::Div(a, b) => format!("<mfrac>{}{}</mfrac>", self.sum(a), self.sum(b)),
-            Node::Powi(a, n) => format!("<msup>{}<mn>{n}</mn></msup>", self.atom(a)),
-            Node::Powf(a, bits) => {
-                format!(
-                    "<msup>{}{}</msup>",
-                    self.atom(a),
-                    number(f64::from_bits(bits))
-                )
-            }
+            Node::Powi(a, n) => superscript(&self.atom(a), &format!("<mn>{n}</mn>")),
+            Node::Powf(a, bits) => superscript(&self.atom(a), &number(f64::from_bits(bits))),
             Node::Mul(..) => self.sum(id),
             _ => format!("<mrow><mo>(</mo>{}<mo>)</mo></mrow>", self.sum(id)),
         }

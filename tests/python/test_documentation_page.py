@@ -131,6 +131,69 @@ def test_the_page_renders_offline_with_its_mathematics_plots_and_solvers(name, t
 # The measuring run and the screenshot lay the page out in the same window.
 WINDOW = "--window-size=1000,1400"
 
+TYPESET = """
+<script>
+window.addEventListener('load', () => {
+  const box = e => { const b = e.getBoundingClientRect(); return [b.left, b.top, b.right, b.bottom]; };
+  const eq = document.querySelector('ul.eq');
+  const r = {
+    tokens: [...eq.querySelectorAll('mi, mtext')].map(e => e.textContent),
+    roots: [...eq.querySelectorAll('msqrt')].map(root => ({
+      text: root.textContent,
+      box: box(root),
+      scripts: [...root.querySelectorAll('msubsup, msup')].map(s => ({
+        tag: s.localName,
+        parts: [...s.children].map(c => c.textContent),
+        sup: box(s.lastElementChild),
+      })),
+    })),
+    ranges: [...document.querySelector('#variables ~ table').rows]
+      .map(tr => [...tr.cells].map(c => c.innerText)),
+  };
+  const pre = document.createElement('pre');
+  pre.id = 'mbfmu-typeset';
+  pre.textContent = JSON.stringify(r);
+  document.body.appendChild(pre);
+});
+</script>
+"""
+
+
+def test_the_bicycle_page_typesets_names_roots_and_numbers_as_written(tmp_path):
+    """NonlinearBicycle's page, laid out by Chromium: `f (WhippleBicycle)` keeps the name as
+    one token (not W with the subscript "hippleBicycle"); in the contact constraint
+    `√(1 − a_z²)` the square is a_z's (one <msubsup> of a, z and 2) and is drawn inside the
+    root; the ranges read `1e-12`, not `0.000000000001`."""
+    with zipfile.ZipFile(fs.fmu_file("NonlinearBicycle")) as z:
+        z.extractall(tmp_path / "fmu")
+    page = tmp_path / "fmu" / "documentation" / "index.html"
+    html = page.read_text(encoding="utf-8")
+    measured = page.with_name("typeset.html")
+    measured.write_text(html.replace("</body>", TYPESET + "</body>"), encoding="utf-8")
+    dom = run_chromium(tmp_path, "--virtual-time-budget=10000", WINDOW, "--hide-scrollbars",
+                       "--dump-dom", measured.as_uri())
+    m = re.search(r'<pre id="mbfmu-typeset">(.*?)</pre>', dom, re.S)
+    assert m, "the measuring script did not run"
+    r = json.loads(m.group(1).replace("&lt;", "<").replace("&gt;", ">").replace("&amp;", "&"))
+
+    assert "WhippleBicycle" in r["tokens"], r["tokens"]
+    assert not [t for t in r["tokens"] if "hippleBicycle" in t and t != "WhippleBicycle"]
+
+    [contact] = [root for root in r["roots"] if "az2" in root["text"]]
+    squares = [s for s in contact["scripts"]
+               if s["tag"] == "msubsup" and s["parts"] == ["a", "z", "2"]]
+    assert len(squares) == 1, f"a_z² is not one <msubsup> of a, z and 2: {contact}"
+    [square] = squares
+    left, top, right, bottom = contact["box"]
+    s_left, s_top, s_right, s_bottom = square["sup"]
+    assert left <= s_left and s_right <= right + 0.5 and top - 0.5 <= s_top, (contact, square)
+
+    header, *rows = r["ranges"]
+    column = header.index("range")
+    ranges = [row[column] for row in rows if row[column]]
+    assert "[1e-12, ∞]" in ranges, ranges
+    assert not [x for x in ranges if "0.000000000001" in x or "e9" in x], ranges
+
 
 def assert_dots_stand_above_their_letters(shot: pathlib.Path, dotted) -> None:
     """In the screenshot, each dotted letter (a <mover>'s box, those inside the picture) shows

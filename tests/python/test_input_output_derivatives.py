@@ -5,12 +5,15 @@
 - Input derivatives followed exactly: a ramp and a parabola given as value + derivatives
   match the forced oscillator's exact response inside one long doStep.
 - fmpy's simulate_fmu(..., set_input_derivatives=True) on a piecewise-linear input table
-  is exact to the tolerance with any output interval (held inputs are not).
+  is exact to the tolerance with any output interval (held inputs are not), once
+  mbfmu.fmpy_input_derivatives_fix() has fixed fmpy 0.3.32's buffer; the README's recipe,
+  run as it stands there.
 """
 
 from __future__ import annotations
 
 import math
+import re
 from ctypes import c_double, c_int, c_uint
 
 import numpy as np
@@ -139,13 +142,13 @@ def _table():
     return np.array(rows, dtype=[("time", np.float64), ("F", np.float64)])
 
 
-def _piecewise_exact(times, m=1.0, k=100.0, c=2.0):
-    """x at `times` for the KNOTS force from rest at t = 0: exact per linear segment."""
+def _piecewise_exact(times, m=1.0, k=100.0, c=2.0, knots=KNOTS):
+    """x at `times` for the `knots` force from rest at t = 0: exact per linear segment."""
     a = np.zeros((4, 4))
     a[0, 1] = 1.0
     a[1, :3] = [-k / m, -c / m, 1.0 / m]
     a[2, 3] = 1.0
-    knots = [(t, f) for t, f in KNOTS if t >= 0.0]
+    knots = [(t, f) for t, f in knots if t >= 0.0]
     out, state, t_state = [], np.zeros(2), 0.0
     seg = 0
     for t in times:
@@ -165,20 +168,62 @@ def _piecewise_exact(times, m=1.0, k=100.0, c=2.0):
 @pytest.fixture
 def fmpy_derivative_buffers(monkeypatch):
     """fmpy 0.3.32 sizes its input-derivative buffer for 9 inputs (`(value_type * 9)()` in
-    Input.__init__), so `derivatives[:] = d` raises for any other count: give each group of
-    continuous inputs a buffer of its own size (what fmpy means to do)."""
+    Input.__init__), so `derivatives[:] = d` raises for any other count:
+    mbfmu.fmpy_input_derivatives_fix() gives each group of continuous inputs a buffer of its
+    own size (what fmpy means to do). Undone after the test (monkeypatch restores the
+    original Input.__init__)."""
     import fmpy.simulation as sim
 
-    original = sim.Input.__init__
+    import mbfmu
 
-    def init(self, *args, **kwargs):
-        original(self, *args, **kwargs)
-        self.continuous = [
-            info._replace(derivatives=(type(info.values)._type_ * len(info.vrs))())
-            for info in self.continuous
-        ]
+    monkeypatch.setattr(sim.Input, "__init__", sim.Input.__init__)
+    assert mbfmu.fmpy_input_derivatives_fix()
+    assert not mbfmu.fmpy_input_derivatives_fix(), "a second call patches nothing"
 
-    monkeypatch.setattr(sim.Input, "__init__", init)
+
+def _readme_recipe() -> str:
+    """The README's fmpy input-derivative example (its ```python block that calls the fix)."""
+    text = (fs.REPO / "README.md").read_text(encoding="utf-8")
+    blocks = re.findall(r"```python\n(.*?)```", text, re.S)
+    [block] = [b for b in blocks if "fmpy_input_derivatives_fix" in b]
+    return block
+
+
+def test_fmpy_as_pinned_needs_the_fix(msd):
+    """fmpy 0.3.32 (tests/requirements.txt) without the fix: the README's ValueError. When a
+    new fmpy passes, the README's paragraph about the fix can go."""
+    common = dict(start_values={"x": 0.0, "v": 0.0}, stop_time=0.5, output_interval=0.1,
+                  input=_table(), output=["x"])
+    with pytest.raises(ValueError, match="Can only assign sequence of same size"):
+        simulate_fmu(msd.unzipdir, model_description=msd.md, set_input_derivatives=True,
+                     **common)
+
+
+def test_the_readme_recipe_follows_the_input_to_1e12(monkeypatch):
+    """The README's block as it stands, on MassSpringDamper (m = 1 kg, k = 100 N/m): every
+    output within 1e-12 m of the exact response (measured 1.8e-13); held, off by 1e-2 m."""
+    import fmpy.simulation as sim
+
+    monkeypatch.setattr(sim.Input, "__init__", sim.Input.__init__)
+    code = _readme_recipe()
+    assert '"target/fmu/MassSpringDamper.fmu"' in code
+    code = code.replace('"target/fmu/MassSpringDamper.fmu"',
+                        repr(str(fs.fmu_file("MassSpringDamper"))))
+    fs.ensure_logger()
+    scope: dict = {}
+    exec(compile(code, "README.md", "exec"), scope)
+    r, table = scope["r"], scope["F"]
+    knots = [(-1.0, -5.0), (0.0, 0.0), (0.3, 1.5), (0.8, -0.5), (2.0, -0.5)]
+    assert np.allclose(np.interp([-1, 0, 0.3, 0.8, 2], table["time"], table["F"]),
+                       [f for _, f in knots])
+    err = np.max(np.abs(r["x"] - _piecewise_exact(r["time"], knots=knots)))
+    print(f"METRIC README recipe: error {err:.1e} m")
+    assert len(r["time"]) >= 9 and err < 1e-12
+    held = simulate_fmu(str(fs.fmu_file("MassSpringDamper")), input=table,
+                        start_values={"x": 0, "v": 0, "c": 2}, relative_tolerance=1e-12,
+                        stop_time=2, output_interval=0.25, output=["x"])
+    err_held = np.max(np.abs(held["x"] - _piecewise_exact(held["time"], knots=knots)))
+    assert 5e-3 < err_held < 2e-2, err_held
 
 
 @pytest.mark.parametrize("interval", [0.07, 0.25, 0.5])
