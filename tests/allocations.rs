@@ -303,8 +303,8 @@ fn mass_spring_damper() {
     check::<MassSpringDamper>(("damped", &[]), &ALL_BUT_RATTLE, (1e-3, 4.0), false);
 }
 
-/// Input derivatives set: every method that follows a moving input (not ExactLinear, whose
-/// propagator holds it).
+/// Input derivatives set: every method but ExactLinear (its input polynomial is tested in
+/// tests/input_output_derivatives.rs).
 #[test]
 fn mass_spring_damper_with_input_derivatives() {
     let methods = &ALL_BUT_RATTLE[..10];

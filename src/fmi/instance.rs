@@ -55,8 +55,9 @@ impl From<integrators::ImplicitFailure> for Stop {
 }
 
 /// The work bound of one doStep, in state-component evaluations ([`integrators::Stats::work`]:
-/// an evaluation of f counts n, a Jacobian 6n²): deterministic, and about a second on the
-/// costliest systems here (measured in docs/methods.md, "How long a doStep may take").
+/// an evaluation of f counts n, a Jacobian 6n²): deterministic, and at most about half a
+/// second on the costliest system here (measured in docs/methods.md, "How long a doStep may
+/// take").
 /// `solver_max_steps` bounds the steps; this bounds what they cost (a 16-state RADAU5 step
 /// with its Jacobian costs a hundred evaluations of f).
 pub const DOSTEP_WORK: u64 = 5_000_000;
@@ -1013,6 +1014,16 @@ impl<M: System> Instance<M> {
             return Err(format!(
                 "the time {time} is outside the experiment [{start}, {}]",
                 s.stop_time.unwrap_or(f64::INFINITY)
+            ));
+        }
+        // The outputs an importer reads next must be finite, as after any doStep.
+        let mut y = vec![0.0; layout.n_outputs];
+        M::extra_outputs(time, &s.x, &s.u, &s.params, &mut y);
+        if let Some(i) = y.iter().position(|v| !v.is_finite()) {
+            let vr = layout.vr_of_slot(VarKind::Output, i);
+            return Err(format!(
+                "the output {} is not finite in this state",
+                layout.vars[vr as usize].1.name
             ));
         }
         let m = &s.memory;
