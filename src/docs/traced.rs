@@ -181,7 +181,14 @@ impl Render<'_> {
     }
 
     fn function(&self, f: Fun, a: Id) -> String {
-        let arg = self.atom(a);
+        // A function of a function is written with parentheses, sin(arcsin x), not
+        // sin arcsin x.
+        let arg = match self.graph.node(a) {
+            Node::Fun(g, _) if !matches!(g, Fun::Sqrt | Fun::Recip | Fun::Abs) => {
+                format!("<mrow><mo>(</mo>{}<mo>)</mo></mrow>", self.atom(a))
+            }
+            _ => self.atom(a),
+        };
         match f {
             Fun::Sqrt => format!("<msqrt>{}</msqrt>", self.sum(a)),
             Fun::Recip => format!("<mfrac><mn>1</mn>{}</mfrac>", self.sum(a)),
@@ -190,6 +197,9 @@ impl Render<'_> {
                 "<mrow><mi>{}</mi><mo>&#x2061;</mo>{arg}</mrow>",
                 match f {
                     Fun::Ln => "ln",
+                    Fun::Asin => "arcsin",
+                    Fun::Acos => "arccos",
+                    Fun::Atan => "arctan",
                     f => f.method(),
                 }
             ),
@@ -231,5 +241,26 @@ pub fn dotted(name: &str) -> String {
     match chars.next() {
         Some(first) => format!("{first}\u{0307}{}", chars.as_str()),
         None => String::new(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::symbolic::{record, Expr};
+    use num_dual::DualNum;
+
+    /// SliderCrank's V holds sin(asin(l₁ sin θ / l₂)): the inner function is parenthesised
+    /// and named as people write it (its page read "sin asin").
+    #[test]
+    fn a_function_of_a_function_has_parentheses() {
+        let (root, graph) = record(|| Expr::input(Arg::Q, 0).asin().sin().id());
+        let name = |_: Arg, _: u32| "x".to_string();
+        let math = equation("V", &graph, root, &name).unwrap();
+        assert!(math.contains("<mi>arcsin</mi>"), "{math}");
+        assert!(
+            math.contains("<mo>&#x2061;</mo><mrow><mo>(</mo><mrow><mi>arcsin</mi>"),
+            "{math}"
+        );
     }
 }
