@@ -329,6 +329,34 @@ fn runs_generated<L: Lagrangian>() -> bool {
     L::generated_eom(0.0, &q, &qd, &u, &p, &mut qdd, &mut lambda)
 }
 
+/// [`respond`] for a declared mechanism (`export_fmu!(mechanism …)`): it also answers
+/// `symbolic` with `runs`, the one line `mbfmu build` prints about what the FMU runs (a
+/// mechanism is not traced from its Lagrangian: its q̈ is the articulated-body algorithm),
+/// and `mechanism` with `debug`, the `{:?}` of the mechanism it was built from (every
+/// number in its shortest exact form), which `mbfmu build --urdf` compares with the URDF's.
+pub fn respond_mechanism<D: crate::multibody::fmu::Declared>(request: &str) -> String {
+    use crate::multibody::fmu::Robot;
+    let asked = protocol::decode(request)
+        .ok()
+        .and_then(|r| protocol::value(&r, "request").map(str::to_string));
+    let mut records = vec![("abi".to_string(), ABI.to_string())];
+    match asked.as_deref() {
+        Some("symbolic") => {
+            let n = D::model().nq();
+            let (z, mut qdd) = (vec![0.0; n], vec![0.0; n]);
+            let how = if D::generated_aba(&z, &z, &z, &mut qdd) {
+                "straight-line code generated for this mechanism"
+            } else {
+                "the articulated-body algorithm (Featherstone) on its model"
+            };
+            records.push(("runs".into(), format!("runs {how}: {n} joints, q̈ in O(n)")));
+        }
+        Some("mechanism") => records.push(("debug".into(), format!("{:?}", D::mechanism()))),
+        _ => return respond::<Robot<D>>(request),
+    }
+    protocol::encode(&records)
+}
+
 /// The response of `M` to one request: what `mbfmu_describe` returns.
 pub fn respond<M: System>(request: &str) -> String {
     let mut records = vec![("abi".to_string(), ABI.to_string())];

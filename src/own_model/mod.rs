@@ -250,6 +250,10 @@ pub fn build_generated(manifest: &Path, quiet: bool) -> Result<(PathBuf, String)
         Ok(records) => records,
         Err(why) => return Ok((library, format!("runs on automatic differentiation: {why}"))),
     };
+    // A mechanism (`export_fmu!(mechanism …)`) says what it runs; nothing to generate.
+    if let Some(runs) = protocol::value(&records, "runs") {
+        return Ok((library, runs.to_string()));
+    }
     let get = |key: &str| {
         protocol::value(&records, key)
             .unwrap_or_default()
