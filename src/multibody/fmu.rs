@@ -486,6 +486,16 @@ pub fn unmodelled(mechanism: &Mechanism) -> Vec<String> {
 /// A declared mechanism as a [`Lagrangian`] (hence a `System` and an FMU).
 pub struct Robot<D>(PhantomData<D>);
 
+/// The declaration a [`Robot`] is made from (what `export_fmu!(mechanism …)`'s describe
+/// answer reaches through the model type).
+pub trait OfMechanism: Lagrangian {
+    type Declared: Declared;
+}
+
+impl<D: Declared> OfMechanism for Robot<D> {
+    type Declared = D;
+}
+
 impl<D: Declared> Lagrangian for Robot<D> {
     const NAME: &'static str = D::NAME;
     const DESCRIPTION: &'static str = D::DESCRIPTION;

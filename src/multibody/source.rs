@@ -41,16 +41,23 @@ fn origin(o: &Origin) -> String {
     }
     // The roll, pitch and yaw recovered, rounded to the fewest significant digits that
     // rebuild the rotation bit for bit (a URDF's "0.1" comes back as 0.09999999999999999).
+    // The pitch by atan2 of the column's parts, accurate next to ±π/2 too (an asin is not:
+    // URDF exporters write 1.570796325 for a quarter turn), then `Origin::rpy`'s.
+    let r = &o.rotation;
+    let pitch = (-r[2][0]).atan2(r[0][0].hypot(r[1][0]));
+    let near = [r[2][1].atan2(r[2][2]), pitch, r[1][0].atan2(r[0][0])];
     let rpy = o.rpy();
-    for digits in 1..=17 {
-        let round = |x: f64| -> f64 {
-            format!("{x:.*e}", digits - 1)
-                .parse()
-                .expect("a formatted number")
-        };
-        let candidate = rpy.map(round);
-        if same(&Origin::new(o.xyz, candidate), o) {
-            return format!("Origin::new({}, {})", v3(&o.xyz), v3(&candidate));
+    for guess in [near, rpy] {
+        for digits in 1..=17 {
+            let round = |x: f64| -> f64 {
+                format!("{x:.*e}", digits - 1)
+                    .parse()
+                    .expect("a formatted number")
+            };
+            let candidate = guess.map(round);
+            if same(&Origin::new(o.xyz, candidate), o) {
+                return format!("Origin::new({}, {})", v3(&o.xyz), v3(&candidate));
+            }
         }
     }
     format!(

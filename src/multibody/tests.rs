@@ -960,3 +960,27 @@ fn the_builder_source_spells_every_value_exactly() {
     );
     assert!(tree.contains(".damping(0.4)"));
 }
+
+/// A quarter turn as exporters write it (1.570796325, not π/2): the pitch next to ±π/2 is
+/// recovered by atan2 and printed as written, not as the matrix.
+#[test]
+fn the_builder_source_keeps_rpy_next_to_a_quarter_turn() {
+    for rpy in [
+        [0.0, 1.570796325, 0.0],
+        [0.3, -1.5707963, 0.2],
+        [3.14159265, 0.0, -1.5707963],
+    ] {
+        let m = Mechanism::new("q")
+            .body(Body::massless("a"))
+            .body(Body::new("b", 1.0).inertia_diag([1.0, 1.0, 1.0]))
+            .revolute("j", "a", "b", Origin::new([0.0; 3], rpy), [0.0, 0.0, 1.0]);
+        let src = super::source::builder(&m);
+        assert!(
+            src.contains(&format!(
+                "Origin::new([0.0, 0.0, 0.0], [{:?}, {:?}, {:?}])",
+                rpy[0], rpy[1], rpy[2]
+            )),
+            "{src}"
+        );
+    }
+}
