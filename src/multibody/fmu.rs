@@ -43,14 +43,14 @@ pub const DESCRIPTION: &str =
 macro_rules! mechanism_equations {
     ($($note:expr),* $(,)?) => {
         &[
-            "q: one coordinate per moving joint, named as the joint (rad; m for a prismatic joint; a continuous joint's is a plain angle, not wrapped); q̇ = J_dot",
+            "q: one coordinate per moving joint, named as the joint (rad, or m for a prismatic joint; a continuous joint's is a plain angle, not wrapped), and its velocity q̇",
             "Bodies in a tree from a fixed base; fixed joints fold their child into the parent (mass, centre of mass and inertia combined)",
             "T = ½ Σ vᵢᵀ Iᵢ vᵢ (spatial velocities and inertias), V = −Σ mᵢ g·cᵢ over the moving bodies, L = T − V",
-            "Generalised forces: Q = τ − d q̇ (τ = tau_J, the input; d the joint's viscous damping)",
+            "Generalised forces: Q = τ − d q̇, with τ the joint's input (a torque, or a force for a prismatic joint) and d its viscous damping",
             "M(q) q̈ = Q + ∂L/∂q − (∂²L/∂q̇∂q) q̇, solved by the articulated-body algorithm (Featherstone, Rigid Body Dynamics Algorithms, table 7.1): O(n), no mass matrix formed",
-            "E = T + V; LINK_x, LINK_y, LINK_z and LINK_q0…LINK_q3 (w, x, y, z): the pose of the end of each branch in the base frame",
-            "Joint position limits (URDF <limit lower upper>): the model has no end stops; a joint reaching one ends the doStep with fmi2Discard at that instant and a log line (parameter limit_events = 0 switches this off)",
-            "Not modelled: Coulomb friction (URDF <dynamics friction>), velocity limits (<limit velocity>), end stops, mimic joints (refused), a floating base (refused); effort limits are the inputs' min and max",
+            "E = T + V; for the end of each branch, its position and orientation quaternion (w, x, y, z) in the base frame",
+            "Joint position limits: the model has no end stops; a joint reaching one ends the doStep with fmi2Discard at that instant, saying which joint and limit (a parameter switches this off)",
+            "Not modelled: Coulomb friction, velocity limits, end stops; mimic joints and a floating base are refused; effort limits are the ranges of the inputs",
             $($note,)*
         ]
     };
@@ -437,10 +437,45 @@ fn scenes(
     vec![released, stepped]
 }
 
-/// What the mechanism's URDF data say and the model does not hold, one line each (build
-/// warnings, and notes on the page): Coulomb friction, velocity limits, limits that raise
+/// What the mechanism's URDF data say and the model does not hold, one line each naming
+/// the joints (the build warnings): Coulomb friction, velocity limits, limits that raise
 /// no event (lower ≥ upper, or on a continuous joint).
 pub fn unmodelled(mechanism: &Mechanism) -> Vec<String> {
+    unmodelled_by_joint(mechanism)
+        .into_iter()
+        .map(|(what, joints, source)| format!("{what}: joints {} ({source})", joints.join(", ")))
+        .collect()
+}
+
+/// [`unmodelled`] counted, for the documentation page (whose equation lines typeset
+/// names with `_` as subscripts): "Coulomb friction of 2 joints is not modelled".
+pub fn unmodelled_notes(mechanism: &Mechanism) -> Vec<String> {
+    unmodelled_by_joint(mechanism)
+        .into_iter()
+        .map(|(what, joints, _)| {
+            let n = joints.len();
+            let what = what.replacen(
+                " is ",
+                &format!(" of {n} joint{} is ", if n == 1 { "" } else { "s" }),
+                1,
+            );
+            let what = what.replacen(
+                " are ",
+                &format!(" of {n} joint{} are ", if n == 1 { "" } else { "s" }),
+                1,
+            );
+            let mut c = what.chars();
+            let first = c
+                .next()
+                .map(|f| f.to_uppercase().collect::<String>())
+                .unwrap_or_default();
+            format!("{first}{} (the build warning names them)", c.as_str())
+        })
+        .collect()
+}
+
+/// (what, the joints with their values, the URDF element it comes from).
+fn unmodelled_by_joint(mechanism: &Mechanism) -> Vec<(&'static str, Vec<String>, &'static str)> {
     let list = |pick: &dyn Fn(&super::Joint) -> Option<f64>| {
         mechanism
             .joints
@@ -452,16 +487,18 @@ pub fn unmodelled(mechanism: &Mechanism) -> Vec<String> {
     let mut lines = Vec::new();
     let friction = list(&|j| (j.friction > 0.0).then_some(j.friction));
     if !friction.is_empty() {
-        lines.push(format!(
-            "Coulomb friction is not modelled: joints {} (URDF <dynamics friction>)",
-            friction.join(", ")
+        lines.push((
+            "Coulomb friction is not modelled",
+            friction,
+            "URDF <dynamics friction>",
         ));
     }
     let velocity = list(&|j| j.limit.velocity.filter(|v| *v > 0.0));
     if !velocity.is_empty() {
-        lines.push(format!(
-            "velocity limits are not enforced: joints {} (URDF <limit velocity>)",
-            velocity.join(", ")
+        lines.push((
+            "velocity limits are not enforced",
+            velocity,
+            "URDF <limit velocity>",
         ));
     }
     let no_event: Vec<String> = mechanism
@@ -475,9 +512,10 @@ pub fn unmodelled(mechanism: &Mechanism) -> Vec<String> {
         .map(|j| format!("\"{}\"", j.name))
         .collect();
     if !no_event.is_empty() {
-        lines.push(format!(
-            "position limits that raise no event (continuous joint, or lower ≥ upper): joints {}",
-            no_event.join(", ")
+        lines.push((
+            "position limits that raise no event (continuous joint, or lower ≥ upper) are ignored",
+            no_event,
+            "URDF <limit lower upper>",
         ));
     }
     lines

@@ -915,6 +915,14 @@ fn the_unmodelled_is_named() {
     assert_eq!(lines.len(), 2, "{lines:?}");
     assert!(lines[0].contains("Coulomb friction") && lines[0].contains("\"waist\" (0.2)"));
     assert!(lines[1].contains("velocity limits") && lines[1].contains("\"hip\" (2.0)"));
+    let notes = super::fmu::unmodelled_notes(&limited());
+    assert_eq!(
+        notes,
+        [
+            "Coulomb friction of 1 joint is not modelled (the build warning names them)",
+            "Velocity limits of 1 joint are not enforced (the build warning names them)"
+        ]
+    );
 }
 
 #[test]

@@ -210,14 +210,9 @@ pub fn write_mechanism_crate(
             dir.display()
         ));
     }
-    let notes: Vec<String> = fmu::unmodelled(mechanism)
+    let notes: Vec<String> = fmu::unmodelled_notes(mechanism)
         .iter()
-        .map(|line| {
-            format!(
-                "{:?}",
-                format!("{}{}", line[..1].to_uppercase(), &line[1..])
-            )
-        })
+        .map(|line| format!("{line:?}"))
         .collect();
     let fill = |t: &str| {
         t.replace("{{NAME}}", name)

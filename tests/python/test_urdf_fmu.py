@@ -310,7 +310,7 @@ def test_names_units_and_ranges_are_the_urdfs(robot):
     assert v["limit_events"].causality == "parameter"
     # The build said what it does not model.
     doc = zipfile.ZipFile(b.fmu).read("documentation/index.html").decode()
-    assert "Velocity limits are not enforced" in doc and "Coulomb friction" in doc
+    assert "Velocity limits of 6 joints are not enforced" in doc and "Coulomb friction" in doc
     # The crate it wrote builds as a crate of one's own, and says what it runs.
     crate = cli().parent.parent / "urdf" / "ur5"
     env = {**build_env(), "CARGO_TARGET_DIR": str(cli().parent.parent / "urdf-target")}
