@@ -624,6 +624,29 @@ fn bad_masses_and_inertias_are_refused() {
     assert_says(&m, &[r#"link "bad""#, "not positive definite"]);
     let m = refusal(&link(r#"<mass value="1"/>"#));
     assert_says(&m, &[r#"link "bad""#, "point mass needs a small inertia"]);
+    // On a fixed joint a point mass is folded into its parent (a sensor's mass, as in
+    // Talos's URDF): allowed, and the merged body is checked instead.
+    let folded = |b_inertial: &str| {
+        urdf_with(&format!(
+            r#"<link name="b">{b_inertial}</link>
+            <link name="sensor"><inertial><origin xyz="0.1 0 0"/><mass value="0.1"/><inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/></inertial></link>
+            <joint name="j" type="revolute"><parent link="a"/><child link="b"/></joint>
+            <joint name="f" type="fixed"><parent link="b"/><child link="sensor"/></joint>"#
+        ))
+    };
+    let ok = urdf::parse(
+        &folded(r#"<inertial><mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial>"#),
+        "ok.urdf",
+    )
+    .unwrap();
+    let merged = Model::new(&ok).unwrap();
+    assert_eq!(merged.inertia[0].m, 1.1);
+    // Folded into a massless link, it is still a point mass on a moving joint: refused
+    // after the merge, naming the merged link (whose inertia about its centre of mass is
+    // zero up to rounding).
+    let bare = urdf::parse(&folded(""), "bare.urdf").unwrap();
+    let e = Model::new(&bare).unwrap_err().to_string();
+    assert_says(&e, &[r#"link "b""#, "inertia is not positive definite"]);
     let m = refusal(&link(
         r#"<mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="3"/>"#,
     ));
