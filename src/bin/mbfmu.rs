@@ -36,7 +36,7 @@ enum Cmd {
         #[arg(long)]
         json: bool,
     },
-    /// Compile FMUs (release) and package them: in-tree models, or a crate of your own
+    /// Compile FMUs (release) and package them: in-tree models, a crate of your own, or a URDF
     Build(BuildArgs),
     /// Write modelDescription/<Model>.xml of every in-tree model (committed, reviewed)
     Xml {
@@ -56,7 +56,7 @@ enum Cmd {
     Speed(SpeedArgs),
     /// Work-precision runs of every scene and method into docs/bench/*.csv
     Bench(BenchArgs),
-    /// Start a model of your own: a crate with a commented Lagrangian template (a pendulum)
+    /// Start a model of your own: a crate with a commented Lagrangian template (a pendulum), or a URDF's bodies and joints (--from-urdf)
     New(NewArgs),
     /// Write the FMI Cross-Check vendor tree (fmus/2.0/cs/<platform>/mbfmu/<version>/) of built FMUs
     Crosscheck(CrosscheckArgs),
@@ -109,7 +109,18 @@ struct BuildArgs {
     /// A model crate of your own (`mbfmu new`): its Cargo.toml or its folder
     #[arg(long, value_name = "PATH", conflicts_with_all = ["all", "models"])]
     manifest_path: Option<PathBuf>,
-    /// Where to write the .fmu files [default: target/fmu, of this tree or of the crate]
+    /// A robot's URDF: its links and joints become an FMU (NAME.fmu). The file is read and
+    /// checked first (a bad one: one line, no file written); a crate declaring the same
+    /// bodies and joints is written under target/urdf/NAME and compiled (all such crates
+    /// share target/urdf-target, so mbfmu compiles once for every robot)
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["all", "models", "manifest_path"])]
+    urdf: Option<PathBuf>,
+    /// With --urdf: the FMU's modelIdentifier [default: the robot's name, other characters
+    /// than letters, digits and _ made _]
+    #[arg(long, value_name = "NAME", requires = "urdf")]
+    name: Option<String>,
+    /// Where to write the .fmu files [default: target/fmu, of this tree (in-tree models,
+    /// --urdf) or of the crate (--manifest-path)]
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
 }
@@ -213,6 +224,10 @@ struct NewArgs {
     /// The crate's folder [default: ./NAME]
     #[arg(long, value_name = "DIR")]
     dir: Option<PathBuf>,
+    /// Instead of the pendulum template: the bodies and joints of this URDF, as Rust
+    /// builder calls in src/lib.rs for you to edit
+    #[arg(long, value_name = "FILE")]
+    from_urdf: Option<PathBuf>,
 }
 
 fn positive(text: &str) -> Result<usize, String> {
@@ -274,6 +289,9 @@ fn select(names: &[String], all: bool) -> Result<Vec<Entry>, String> {
 /// Packages from the compiled cdylibs alone (their `mbfmu_describe`): the in-tree models
 /// and a user's crate take the same path.
 fn build(args: BuildArgs) -> Result<(), String> {
+    if let Some(urdf) = &args.urdf {
+        return build_urdf(urdf, args.name.as_deref(), args.out);
+    }
     if let Some(path) = args.manifest_path {
         let manifest = mbfmu::own_model::manifest(&path)?;
         let (library, runs) = mbfmu::own_model::build_generated(&manifest, false)?;
@@ -320,6 +338,91 @@ fn build(args: BuildArgs) -> Result<(), String> {
         bar.inc(1);
     }
     bar.finish_and_clear();
+    Ok(())
+}
+
+/// A URDF read and checked into a mechanism, and the modelIdentifier it will have; any
+/// error is one line naming the file and the element.
+fn read_urdf(
+    urdf: &Path,
+    name: Option<&str>,
+) -> Result<(mbfmu::multibody::Mechanism, String), String> {
+    use mbfmu::multibody::{fmu::Built, urdf as reader};
+    let file = urdf.display().to_string();
+    let mechanism = reader::load(urdf).map_err(|e| e.to_string())?;
+    // What the FMU needs beyond a valid tree: variable names that do not clash.
+    Built::new(mechanism.clone()).map_err(|e| e.in_file(&file).to_string())?;
+    let name = match name {
+        Some(n) => n.to_string(),
+        None => mbfmu::own_model::identifier_from(&mechanism.name),
+    };
+    if !package::is_model_identifier(&name) {
+        return Err(format!(
+            "{file}: {name:?} cannot name the FMU: use letters, digits and _, starting with a letter (--name)"
+        ));
+    }
+    Ok((mechanism, name))
+}
+
+/// The file's absolute path, as the crates written from it name it.
+fn absolute(path: &Path) -> String {
+    std::path::absolute(path)
+        .unwrap_or_else(|_| path.to_path_buf())
+        .display()
+        .to_string()
+}
+
+/// `mbfmu build --urdf FILE [--name NAME] [--out DIR]`: reads and checks the URDF, writes the
+/// crate declaring its bodies and joints under target/urdf/NAME, compiles it into the
+/// shared target/urdf-target, checks that the compiled mechanism is the URDF's, and
+/// packages NAME.fmu (written under a temporary name, then renamed: never a partial file).
+fn build_urdf(urdf: &Path, name: Option<&str>, out: Option<PathBuf>) -> Result<(), String> {
+    use mbfmu::own_model::{self, MechanismSource};
+    let started = std::time::Instant::now();
+    let file = urdf.display().to_string();
+    let (mechanism, name) = read_urdf(urdf, name)?;
+    for line in mbfmu::multibody::fmu::unmodelled(&mechanism) {
+        eprintln!("warning: {file}: {line}");
+    }
+    let dir = target_dir().join("urdf").join(&name);
+    let absolute = absolute(urdf);
+    let command = format!("build --urdf {absolute}");
+    let from = MechanismSource {
+        source: &absolute,
+        command: &command,
+    };
+    own_model::write_mechanism_crate(&name, &dir, &workspace_root(), &mechanism, &from, true)?;
+    let manifest = own_model::manifest(&dir)?;
+    let shared = target_dir().join("urdf-target");
+    let library = own_model::build_cdylib_in(&manifest, false, Some(&shared))?;
+    let compiled =
+        ModelLibrary::open(&library)?.call(&protocol::encode(&[("request", "mechanism")]))?;
+    if protocol::value(&compiled, "debug") != Some(format!("{mechanism:?}").as_str()) {
+        return Err(format!(
+            "{file}: the compiled mechanism ({}) differs from the URDF's: a bug of mbfmu's source printer",
+            dir.display()
+        ));
+    }
+    let out = out.unwrap_or_else(|| target_dir().join("fmu"));
+    let partial = out.join(format!(".{name}.fmu.partial-{}", std::process::id()));
+    let packaged = package::package_library(&library, &partial).and_then(|fmu| {
+        let fmu_path = out.join(format!("{name}.fmu"));
+        std::fs::rename(&fmu, &fmu_path)
+            .map_err(|e| format!("{}: {e}", fmu_path.display()))
+            .map(|()| fmu_path)
+    });
+    let _ = std::fs::remove_dir_all(&partial);
+    let fmu = packaged?;
+    let size = std::fs::metadata(&fmu).map(|m| m.len()).unwrap_or(0);
+    println!(
+        "wrote {} ({} joints, {:.1} MB, {:.0} s)",
+        fmu.display(),
+        mbfmu::multibody::Model::new(&mechanism)
+            .map(|m| m.nq())
+            .unwrap_or(0),
+        size as f64 / 1e6,
+        started.elapsed().as_secs_f64()
+    );
     Ok(())
 }
 
@@ -641,7 +744,32 @@ fn bench(args: BenchArgs) -> Result<(), String> {
 
 fn new(args: NewArgs) -> Result<(), String> {
     let dir = args.dir.unwrap_or_else(|| PathBuf::from(&args.name));
-    mbfmu::own_model::write_template(&args.name, &dir, &workspace_root())?;
+    match &args.from_urdf {
+        Some(urdf) => {
+            let (mechanism, name) = read_urdf(urdf, Some(&args.name))?;
+            let file = urdf.display().to_string();
+            let source = absolute(urdf);
+            let command = format!("new {name} --from-urdf {source}");
+            let from = mbfmu::own_model::MechanismSource {
+                source: &source,
+                command: &command,
+            };
+            for line in mbfmu::multibody::fmu::unmodelled(&mechanism) {
+                eprintln!("warning: {file}: {line}");
+            }
+            mbfmu::own_model::write_mechanism_crate(
+                &name,
+                &dir,
+                &workspace_root(),
+                &mechanism,
+                &from,
+                false,
+            )?;
+        }
+        None => {
+            mbfmu::own_model::write_template(&args.name, &dir, &workspace_root())?;
+        }
+    }
     let manifest = dir.join("Cargo.toml");
     println!(
         "created {}: edit {}, then\n  mbfmu build --manifest-path {}",

@@ -15,8 +15,16 @@
 /// of a crate of one's own: its describe answer also gives the Rust source of the equations
 /// of motion generated from its T, V and constraints, which `mbfmu build --manifest-path`
 /// writes into the crate (`src/eom.rs`) for its `generated_eom!` line to run.
+///
+/// `export_fmu!(mechanism Ur5)` for a mechanism declared with
+/// [`mechanism_fmu!`](crate::mechanism_fmu): the model is
+/// [`Robot<Ur5>`](crate::multibody::fmu::Robot), and its describe answer also gives the
+/// mechanism it was built from (`mbfmu build --urdf` checks it against the URDF).
 #[macro_export]
 macro_rules! export_fmu {
+    (mechanism $declared:ty) => {
+        $crate::export_fmu!(@with respond_mechanism, $crate::multibody::fmu::Robot<$declared>);
+    };
     (lagrangian $model:ty) => {
         $crate::export_fmu!(@with respond_lagrangian, $model);
     };

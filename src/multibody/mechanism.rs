@@ -408,7 +408,13 @@ impl Mechanism {
             if self.bodies[..k].iter().any(|o| o.name == b.name) {
                 return Err(Error::link(&b.name, "is declared twice".into()));
             }
-            check_body(b)?;
+            // A point mass (no inertia of its own) on a fixed joint is folded into its
+            // parent, whose combined inertia is checked after the merge.
+            let folded = self
+                .joints
+                .iter()
+                .any(|j| j.kind == JointKind::Fixed && j.child == b.name);
+            check_body(b, folded)?;
         }
         let mut parent_joint: Vec<Option<usize>> = vec![None; n];
         let mut child_joints = vec![Vec::new(); n];
@@ -639,7 +645,10 @@ impl Mechanism {
     }
 }
 
-fn check_body(b: &Body) -> Result<(), Error> {
+/// `folded`: the body hangs on a fixed joint, so a point mass (mass > 0, no inertia: a
+/// sensor's mass in URDFs such as Talos's) is allowed; merged into its parent it adds
+/// m (|d|² 1 − d dᵀ) to an inertia that must still pass these checks.
+fn check_body(b: &Body, folded: bool) -> Result<(), Error> {
     let err = |why: String| Err(Error::link(&b.name, why));
     if !b.mass.is_finite() || b.mass < 0.0 {
         return err(format!("mass {} is not a finite number ≥ 0", b.mass));
@@ -653,7 +662,7 @@ fn check_body(b: &Body) -> Result<(), Error> {
     }
     let trace = i[0][0] + i[1][1] + i[2][2];
     let all_zero = i.iter().flatten().all(|&x| x == 0.0);
-    if b.mass == 0.0 && all_zero {
+    if all_zero && (b.mass == 0.0 || folded) {
         return Ok(());
     }
     let sym_tol = 1e-9 * trace.abs();
@@ -670,7 +679,7 @@ fn check_body(b: &Body) -> Result<(), Error> {
     e.sort_by(f64::total_cmp);
     if e[0] <= 0.0 {
         let hint = if b.mass > 0.0 && all_zero {
-            " (a point mass needs a small inertia too)"
+            " (a point mass needs a small inertia too, unless on a fixed joint)"
         } else {
             ""
         };

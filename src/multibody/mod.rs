@@ -1,11 +1,14 @@
 //! Mechanisms as bodies and joints: the data model and its builder ([`mechanism`]), URDF
 //! reading ([`urdf`]), and rigid-body dynamics generic over the scalar ([`dynamics`], on
-//! the hand-written spatial algebra of [`spatial`]).
+//! the hand-written spatial algebra of [`spatial`]); a declared mechanism as a model with
+//! FMU variables ([`fmu`]), and as the Rust source of its builder ([`source`]).
 //!
 //! A low layer like [`crate::model`]: it knows nothing of FMI, packaging or the CLI.
 
 pub mod dynamics;
+pub mod fmu;
 pub mod mechanism;
+pub mod source;
 pub mod spatial;
 pub mod urdf;
 

@@ -624,6 +624,29 @@ fn bad_masses_and_inertias_are_refused() {
     assert_says(&m, &[r#"link "bad""#, "not positive definite"]);
     let m = refusal(&link(r#"<mass value="1"/>"#));
     assert_says(&m, &[r#"link "bad""#, "point mass needs a small inertia"]);
+    // On a fixed joint a point mass is folded into its parent (a sensor's mass, as in
+    // Talos's URDF): allowed, and the merged body is checked instead.
+    let folded = |b_inertial: &str| {
+        urdf_with(&format!(
+            r#"<link name="b">{b_inertial}</link>
+            <link name="sensor"><inertial><origin xyz="0.1 0 0"/><mass value="0.1"/><inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/></inertial></link>
+            <joint name="j" type="revolute"><parent link="a"/><child link="b"/></joint>
+            <joint name="f" type="fixed"><parent link="b"/><child link="sensor"/></joint>"#
+        ))
+    };
+    let ok = urdf::parse(
+        &folded(r#"<inertial><mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial>"#),
+        "ok.urdf",
+    )
+    .unwrap();
+    let merged = Model::new(&ok).unwrap();
+    assert_eq!(merged.inertia[0].m, 1.1);
+    // Folded into a massless link, it is still a point mass on a moving joint: refused
+    // after the merge, naming the merged link (whose inertia about its centre of mass is
+    // zero up to rounding).
+    let bare = urdf::parse(&folded(""), "bare.urdf").unwrap();
+    let e = Model::new(&bare).unwrap_err().to_string();
+    assert_says(&e, &[r#"link "b""#, "inertia is not positive definite"]);
     let m = refusal(&link(
         r#"<mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="3"/>"#,
     ));
@@ -772,4 +795,224 @@ fn aba_traces_into_a_branch_free_graph() {
         }
     }
     eprintln!("ABA + energies of a 5-joint tree: {} nodes", graph.len());
+}
+
+// ---- The FMU adapter (fmu.rs) and the builder printer (source.rs) ----
+
+use super::fmu::{Built, Declared, Robot};
+use super::mechanism::Limit;
+use crate::model::lagrangian::{self, Lagrangian};
+use crate::model::System;
+
+/// `branched()` with limits and efforts: the hip limited to (−0.5, 0.8) rad with effort
+/// 40 N.m, the slide to (−0.1, 0.2) m with 50 N, the wrist (continuous) unlimited.
+fn limited() -> Mechanism {
+    let mut m = branched();
+    for j in &mut m.joints {
+        j.limit = match j.name.as_str() {
+            "hip" => Limit {
+                lower: Some(-0.5),
+                upper: Some(0.8),
+                effort: Some(40.0),
+                velocity: Some(2.0),
+            },
+            "slide" => Limit {
+                lower: Some(-0.1),
+                upper: Some(0.2),
+                effort: Some(50.0),
+                velocity: None,
+            },
+            _ => Limit::default(),
+        };
+    }
+    m.joints[0].friction = 0.2;
+    m
+}
+
+crate::mechanism_fmu!(Tree, "Tree", limited, notes = ["a test mechanism"]);
+
+/// `Robot<Tree>` on automatic differentiation only, whatever its generated path.
+type TreeAd = lagrangian::AutoDiff<Robot<Tree>>;
+
+#[test]
+fn the_adapters_accelerations_are_aba_and_the_euler_lagrange_equations() {
+    let model = Tree::model();
+    let n = model.nq();
+    assert_eq!(n, 5);
+    let mut rng = Rng(0x5eed_f7ee);
+    let p = [1.0];
+    let mut worst: f64 = 0.0;
+    for _ in 0..50 {
+        let q = rng.vec(n, -1.0, 1.0);
+        let qd = rng.vec(n, -2.0, 2.0);
+        let u = rng.vec(n, -3.0, 3.0);
+        let x: Vec<f64> = q.iter().chain(&qd).copied().collect();
+        let mut dx = vec![0.0; 2 * n];
+        <Robot<Tree> as System>::derivatives(0.0, &x, &u, &p, &mut dx);
+        assert_eq!(&dx[..n], &qd[..]);
+        // The generated path is exactly Model::aba (damping inside).
+        assert_eq!(dx[n..].to_vec(), model.aba(&q, &qd, &u));
+        // The Euler–Lagrange equations of T, V and Q = τ − d q̇ by automatic
+        // differentiation: the same q̈ to rounding.
+        let ad = lagrangian::accelerations::<TreeAd, f64>(0.0, &q, &qd, &u, &p);
+        for (a, b) in ad.iter().zip(&dx[n..]) {
+            worst = worst.max((a - b).abs() / b.abs().max(1.0));
+        }
+    }
+    println!("worst relative difference ABA vs automatic differentiation: {worst:e}");
+    assert!(worst < 1e-10, "{worst:e}");
+}
+
+#[test]
+fn the_adapters_variables_are_named_after_joints_and_links() {
+    let names = |v: Vec<crate::model::Var>| -> Vec<String> {
+        v.iter().map(|v| v.name.to_string()).collect()
+    };
+    let units = |v: Vec<crate::model::Var>| -> Vec<String> {
+        v.iter()
+            .map(|v| v.unit.as_deref().unwrap_or("-").to_string())
+            .collect()
+    };
+    type R = Robot<Tree>;
+    // Depth first from the root, children in declaration order.
+    let joints = ["waist", "shoulder", "slide", "wrist", "hip"];
+    assert_eq!(names(R::coordinates()), joints);
+    assert_eq!(units(R::coordinates()), ["rad", "rad", "m", "rad", "rad"]);
+    assert_eq!(
+        names(R::velocities()),
+        joints.map(|j| format!("{j}_dot")).to_vec()
+    );
+    assert_eq!(
+        units(R::velocities()),
+        ["rad/s", "rad/s", "m/s", "rad/s", "rad/s"]
+    );
+    assert_eq!(
+        names(<R as Lagrangian>::inputs()),
+        joints.map(|j| format!("tau_{j}")).to_vec()
+    );
+    let inputs = <R as Lagrangian>::inputs();
+    assert_eq!(units(inputs.clone()), ["N.m", "N.m", "N", "N.m", "N.m"]);
+    assert_eq!((inputs[4].min, inputs[4].max), (Some(-40.0), Some(40.0)));
+    assert_eq!((inputs[2].min, inputs[2].max), (Some(-50.0), Some(50.0)));
+    assert_eq!((inputs[0].min, inputs[0].max), (None, None));
+    assert!(inputs[4].description.contains("±40.0 N.m"));
+    // The ends of branches: "hand" (behind the fixed "mount") and "leg".
+    let mut outputs = vec!["E".to_string()];
+    for link in ["hand", "leg"] {
+        for s in ["x", "y", "z", "q0", "q1", "q2", "q3"] {
+            outputs.push(format!("{link}_{s}"));
+        }
+    }
+    assert_eq!(names(<R as Lagrangian>::outputs()), outputs);
+    assert_eq!(names(<R as Lagrangian>::parameters()), ["limit_events"]);
+    assert!(!<R as System>::explicit_time(&[1.0]).0);
+    assert_eq!(
+        <R as Lagrangian>::EQUATIONS.last(),
+        Some(&"a test mechanism")
+    );
+    // The start: 0 inside the limits; the inputs hold it against gravity.
+    let built = Tree::built();
+    let x0: Vec<f64> = built.start.iter().chain(&[0.0; 5]).copied().collect();
+    let mut dx = vec![0.0; 10];
+    <R as System>::derivatives(0.0, &x0, &built.hold, &[1.0], &mut dx);
+    assert!(dx.iter().all(|v| v.abs() < 1e-12), "{dx:?}");
+    // Outputs: E = T + V and the tips' poses as Model::tip_poses.
+    let mut rng = Rng(42);
+    let (q, qd) = (rng.vec(5, -1.0, 1.0), rng.vec(5, -1.0, 1.0));
+    let mut y = vec![0.0; 15];
+    <R as Lagrangian>::extra_outputs(0.0, &q, &qd, &[0.0; 5], &[1.0], &mut y);
+    let model = Tree::model();
+    assert_eq!(
+        y[0],
+        model.kinetic_energy(&q, &qd) + model.potential_energy(&q)
+    );
+    let tips = model.tip_poses(&q);
+    assert_eq!(&y[1..4], &tips[0].0);
+    assert_eq!(&y[4..8], &tips[0].1);
+    assert_eq!(&y[8..11], &tips[1].0);
+}
+
+#[test]
+fn the_unmodelled_is_named() {
+    let lines = super::fmu::unmodelled(&limited());
+    assert_eq!(lines.len(), 2, "{lines:?}");
+    assert!(lines[0].contains("Coulomb friction") && lines[0].contains("\"waist\" (0.2)"));
+    assert!(lines[1].contains("velocity limits") && lines[1].contains("\"hip\" (2.0)"));
+    let notes = super::fmu::unmodelled_notes(&limited());
+    assert_eq!(
+        notes,
+        [
+            "Coulomb friction of 1 joint is not modelled (the build warning names them)",
+            "Velocity limits of 1 joint are not enforced (the build warning names them)"
+        ]
+    );
+}
+
+#[test]
+fn names_that_clash_are_refused() {
+    let m = limited();
+    let mut clash = m.clone();
+    clash.joints[0].name = "solver".into();
+    let e = Built::new(clash).unwrap_err().to_string();
+    assert!(e.starts_with("joint \"solver\": its position variable \"solver\" would also be a variable of the FMU itself"), "{e}");
+    let mut clash = m.clone();
+    clash.joints[1].name = "waist_dot".into();
+    let e = Built::new(clash).unwrap_err().to_string();
+    assert!(e.starts_with("joint \"waist\": its velocity variable \"waist_dot\" would also be the position of joint \"waist_dot\""), "{e}");
+    let mut clash = m;
+    let hip = clash.joints.iter().position(|j| j.name == "hip").unwrap();
+    clash.joints[hip].name = "hand_x".into();
+    let e = Built::new(clash).unwrap_err().to_string();
+    assert!(
+        e.starts_with(
+            "link \"hand\": its output \"hand_x\" would also be the position of joint \"hand_x\""
+        ),
+        "{e}"
+    );
+}
+
+#[test]
+fn the_builder_source_spells_every_value_exactly() {
+    let text = double_pendulum_urdf();
+    let m = urdf::parse(&text, "dp.urdf").unwrap();
+    let src = super::source::builder(&m);
+    println!("{src}");
+    assert!(src.starts_with("Mechanism::new(\"double_pendulum\")"));
+    assert!(src.contains(".body(Body::massless(\"base\"))"));
+    assert!(src.contains(&format!("Body::new(\"upper\", {M1:?})")));
+    assert!(src.contains(".limit(Limit { lower: Some(-3.0), upper: Some(3.0), effort: Some(10.0), velocity: Some(5.0) })"));
+    // An axis "0 2 0" was normalised on reading: printed as the unit vector.
+    assert!(src.contains(".axis([0.0, 1.0, 0.0])"));
+    let tree = super::source::builder(&branched());
+    println!("{tree}");
+    assert!(
+        tree.contains("Origin::new([0.0, 0.0, 0.5], [0.1, -0.2, 0.3])")
+            || tree.contains("Origin { xyz: [0.0, 0.0, 0.5]")
+    );
+    assert!(tree.contains(".damping(0.4)"));
+}
+
+/// A quarter turn as exporters write it (1.570796325, not π/2): the pitch next to ±π/2 is
+/// recovered by atan2 and printed as written, not as the matrix.
+#[test]
+#[allow(clippy::approx_constant)] // rounded on purpose: as exporters write π/2 and π
+fn the_builder_source_keeps_rpy_next_to_a_quarter_turn() {
+    for rpy in [
+        [0.0, 1.570796325, 0.0],
+        [0.3, -1.5707963, 0.2],
+        [3.14159265, 0.0, -1.5707963],
+    ] {
+        let m = Mechanism::new("q")
+            .body(Body::massless("a"))
+            .body(Body::new("b", 1.0).inertia_diag([1.0, 1.0, 1.0]))
+            .revolute("j", "a", "b", Origin::new([0.0; 3], rpy), [0.0, 0.0, 1.0]);
+        let src = super::source::builder(&m);
+        assert!(
+            src.contains(&format!(
+                "Origin::new([0.0, 0.0, 0.0], [{:?}, {:?}, {:?}])",
+                rpy[0], rpy[1], rpy[2]
+            )),
+            "{src}"
+        );
+    }
 }

@@ -8,6 +8,8 @@ const LIB_RS: &str = include_str!("template/lib.rs.template");
 const CARGO_TOML: &str = include_str!("template/Cargo.toml.template");
 const README: &str = include_str!("template/README.md.template");
 const BUILD_RS: &str = include_str!("template/build.rs.template");
+const MECHANISM_LIB_RS: &str = include_str!("template/mechanism_lib.rs.template");
+const MECHANISM_README: &str = include_str!("template/mechanism_README.md.template");
 
 /// Where a crate of one's own keeps the equations of motion generated from its Lagrangian
 /// (written by [`build_generated`]; run by the `generated_eom!` line of its template).
@@ -135,8 +137,115 @@ pub fn write_template(name: &str, dir: &Path, mbfmu_source: &Path) -> Result<Vec
     if let Ok(lock) = std::fs::read_to_string(mbfmu_source.join("Cargo.lock")) {
         files.push((dir.join("Cargo.lock"), lock));
     }
+    write_files(files)
+}
+
+/// A modelIdentifier from a robot's name: characters other than letters, digits and `_`
+/// become `_`, and a name that does not start with a letter gets `robot_` in front.
+pub fn identifier_from(robot: &str) -> String {
+    let s: String = robot
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect();
+    if s.starts_with(|c: char| c.is_ascii_alphabetic()) {
+        s
+    } else {
+        format!("robot_{s}")
+    }
+}
+
+/// Where a mechanism's crate came from and which command wrote it (its doc comments).
+pub struct MechanismSource<'a> {
+    /// e.g. the URDF file's path.
+    pub source: &'a str,
+    /// e.g. `build --urdf ur5.urdf`.
+    pub command: &'a str,
+}
+
+/// Writes a crate declaring `mechanism` as the model `name` (`mbfmu new NAME --from-urdf`,
+/// and the crate `mbfmu build --urdf` compiles) into `dir`, depending on the mbfmu library
+/// at `mbfmu_source`. `replace`: `dir` may hold an earlier such crate, whose files are
+/// rewritten where they differ (unchanged files keep their time, so cargo does not rebuild
+/// them); else `dir` must be empty or absent. Returns the files written.
+pub fn write_mechanism_crate(
+    name: &str,
+    dir: &Path,
+    mbfmu_source: &Path,
+    mechanism: &crate::multibody::Mechanism,
+    from: &MechanismSource,
+    replace: bool,
+) -> Result<Vec<PathBuf>, String> {
+    use crate::multibody::{fmu, source};
+    if !is_model_identifier(name) {
+        return Err(format!(
+            "{name:?} cannot name a model: use letters, digits and _, starting with a letter (it becomes the FMU's modelIdentifier)"
+        ));
+    }
+    // `_fmu`: a library named like a crate of the prelude (`core`, `std`) would not build.
+    let crate_name = format!("{}_fmu", snake_case(name));
+    let mut type_name = camel_case(name);
+    // Not one of the names the template imports or the export macro declares.
+    const TAKEN: [&str; 8] = [
+        "Body",
+        "Joint",
+        "JointKind",
+        "Limit",
+        "Mechanism",
+        "Origin",
+        "ExportedModel",
+        "Robot",
+    ];
+    if TAKEN.contains(&type_name.as_str()) || type_name.is_empty() {
+        type_name.push_str("Robot");
+    }
+    if !replace
+        && dir.exists()
+        && std::fs::read_dir(dir)
+            .map_err(|e| format!("{}: {e}", dir.display()))?
+            .next()
+            .is_some()
+    {
+        return Err(format!(
+            "{} exists and is not empty: choose another --dir",
+            dir.display()
+        ));
+    }
+    let notes: Vec<String> = fmu::unmodelled_notes(mechanism)
+        .iter()
+        .map(|line| format!("{line:?}"))
+        .collect();
+    let fill = |t: &str| {
+        t.replace("{{NAME}}", name)
+            .replace("{{TYPE}}", &type_name)
+            .replace("{{CRATE}}", &crate_name)
+            .replace("{{SOURCE}}", from.source)
+            .replace("{{COMMAND}}", from.command)
+            .replace("{{NOTES}}", &notes.join(", "))
+            .replace(
+                "{{MBFMU_PATH}}",
+                &toml_escape(&mbfmu_source.to_string_lossy()),
+            )
+            .replace("{{BUILDER}}", &source::builder(mechanism))
+    };
+    let mut files = vec![
+        (dir.join("Cargo.toml"), fill(CARGO_TOML)),
+        (dir.join("src/lib.rs"), fill(MECHANISM_LIB_RS)),
+        (dir.join("README.md"), fill(MECHANISM_README)),
+        (dir.join(".gitignore"), "/target\n".to_string()),
+    ];
+    if let Ok(lock) = std::fs::read_to_string(mbfmu_source.join("Cargo.lock")) {
+        files.push((dir.join("Cargo.lock"), lock));
+    }
+    write_files(files)
+}
+
+/// Writes each file whose content differs, creating folders; returns those written.
+fn write_files(files: Vec<(PathBuf, String)>) -> Result<Vec<PathBuf>, String> {
     let mut written = Vec::new();
     for (path, text) in files {
+        if std::fs::read_to_string(&path).is_ok_and(|old| old == text) {
+            continue;
+        }
         if let Some(parent) = path.parent() {
             std::fs::create_dir_all(parent).map_err(|e| format!("{}: {e}", parent.display()))?;
         }
@@ -203,9 +312,23 @@ fn cdylib_of(line: &str, manifest: &Path) -> Vec<PathBuf> {
 /// returns its cdylib, wherever the crate's target folder is. Cargo's progress and
 /// diagnostics go to stderr (`quiet`: only errors).
 pub fn build_cdylib(manifest: &Path, quiet: bool) -> Result<PathBuf, String> {
+    build_cdylib_in(manifest, quiet, None)
+}
+
+#[cfg(feature = "cli")]
+/// [`build_cdylib`] into the cargo target folder `target` (`None`: the crate's own, or
+/// `CARGO_TARGET_DIR`'s).
+pub fn build_cdylib_in(
+    manifest: &Path,
+    quiet: bool,
+    target: Option<&Path>,
+) -> Result<PathBuf, String> {
     use std::process::{Command, Stdio};
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let mut cmd = Command::new(&cargo);
+    if let Some(target) = target {
+        cmd.env("CARGO_TARGET_DIR", target);
+    }
     cmd.args(["build", "--release", "--lib", "--manifest-path"])
         .arg(manifest)
         .arg("--message-format=json-render-diagnostics")
@@ -250,6 +373,10 @@ pub fn build_generated(manifest: &Path, quiet: bool) -> Result<(PathBuf, String)
         Ok(records) => records,
         Err(why) => return Ok((library, format!("runs on automatic differentiation: {why}"))),
     };
+    // A mechanism (`export_fmu!(mechanism …)`) says what it runs; nothing to generate.
+    if let Some(runs) = protocol::value(&records, "runs") {
+        return Ok((library, runs.to_string()));
+    }
     let get = |key: &str| {
         protocol::value(&records, key)
             .unwrap_or_default()

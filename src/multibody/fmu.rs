@@ -1,0 +1,626 @@
+//! A declared mechanism as a model: bodies and joints become a [`Lagrangian`], and so get
+//! everything the Lagrangian systems have (the FMU, RATTLE, linearisation, the page).
+//!
+//! A mechanism is declared once per type ([`Declared`], written by
+//! [`mechanism_fmu!`](crate::mechanism_fmu)): its builder, its name, and a static [`Built`]
+//! (the [`Model`] and the variables) made on first use. [`Robot<D>`] is the model:
+//!
+//! - coordinates: one per moving joint, in the [`Model`]'s order (depth first from the root),
+//!   named as the joint (rad, or m for a prismatic joint; a continuous joint's is a plain
+//!   angle); velocities `J_dot`;
+//! - inputs `tau_J`: the joint's generalised force (N.m, or N for a prismatic joint), with
+//!   the URDF effort limit as min/max; their start values hold the start configuration
+//!   against gravity (inverse dynamics at rest), so the default experiment is an
+//!   equilibrium;
+//! - T and V the mechanism's kinetic and potential energies, Q = τ − d q̇ (viscous damping);
+//!   q̈ by the articulated-body algorithm ([`Model::aba`], or the straight-line code of
+//!   [`Declared::generated_aba`] when it has some), which equals the Euler–Lagrange equations
+//!   of these T, V and Q (the automatic-differentiation path stays the oracle);
+//! - outputs `E = T + V` and, for every end of a branch (a link with no child, fixed
+//!   children merged), `LINK_x`, `LINK_y`, `LINK_z` and the quaternion `LINK_q0`…`LINK_q3`
+//!   in the base frame;
+//! - joint position limits: an event indicator (the signed distance to the nearest limit)
+//!   whose zero ends the doStep with fmi2Discard (the model has no end stops), switched off
+//!   by the parameter `limit_events = 0`.
+//!
+//! Not modelled, and said so ([`unmodelled`], the page): Coulomb friction and velocity
+//! limits. A model layer: nothing here knows FMI, packaging or the CLI.
+
+use super::dynamics::{Axis, Model};
+use super::mechanism::{Error, JointKind, Mechanism};
+use crate::model::lagrangian::Lagrangian;
+use crate::model::{Scalar, Scene, Var};
+use std::marker::PhantomData;
+
+/// The one line of a mechanism's modelDescription (unless its declaration gives its own).
+pub const DESCRIPTION: &str =
+    "A rigid-body mechanism (bodies and joints, e.g. read from a URDF) with a generalised force input per joint";
+
+/// The lines of a mechanism's documentation: [`Declared::EQUATIONS`]' default, and the
+/// start of what [`mechanism_fmu!`](crate::mechanism_fmu) writes (its notes follow).
+#[doc(hidden)]
+#[macro_export]
+macro_rules! mechanism_equations {
+    ($($note:expr),* $(,)?) => {
+        &[
+            "q: one coordinate per moving joint, named as the joint (rad, or m for a prismatic joint; a continuous joint's is a plain angle, not wrapped), and its velocity q̇",
+            "Bodies in a tree from a fixed base; fixed joints fold their child into the parent (mass, centre of mass and inertia combined)",
+            "T = ½ Σ vᵢᵀ Iᵢ vᵢ (spatial velocities and inertias), V = −Σ mᵢ g·cᵢ over the moving bodies, L = T − V",
+            "Generalised forces: Q = τ − d q̇, with τ the joint's input (a torque, or a force for a prismatic joint) and d its viscous damping",
+            "M(q) q̈ = Q + ∂L/∂q − (∂²L/∂q̇∂q) q̇, solved by the articulated-body algorithm (Featherstone, Rigid Body Dynamics Algorithms, table 7.1): O(n), no mass matrix formed",
+            "E = T + V; for the end of each branch, its position and orientation quaternion (w, x, y, z) in the base frame",
+            "Joint position limits: the model has no end stops; a joint reaching one ends the doStep with fmi2Discard at that instant, saying which joint and limit (a parameter switches this off)",
+            "Not modelled: Coulomb friction, velocity limits, end stops; mimic joints and a floating base are refused; effort limits are the ranges of the inputs",
+            $($note,)*
+        ]
+    };
+}
+
+/// A mechanism declared in Rust: written by [`mechanism_fmu!`](crate::mechanism_fmu) (Rust
+/// has no generic statics, so the macro writes the static behind [`Declared::built`]).
+pub trait Declared: 'static {
+    /// The FMU's modelIdentifier.
+    const NAME: &'static str;
+    /// One line: what the mechanism is.
+    const DESCRIPTION: &'static str = DESCRIPTION;
+    /// Equations and notes for the documentation, one per line.
+    const EQUATIONS: &'static [&'static str] = crate::mechanism_equations!();
+
+    /// The bodies and joints (called once per process, by [`Declared::built`]).
+    fn mechanism() -> Mechanism;
+
+    /// The model and its variables, made once from [`Declared::mechanism`].
+    fn built() -> &'static Built;
+
+    /// The dynamics model (fixed joints merged).
+    fn model() -> &'static Model {
+        &Self::built().model
+    }
+
+    /// `q̈` from `(q, q̇, τ)` as [`Model::aba`] (damping applied inside: `τ − d q̇`) by
+    /// straight-line code generated for this mechanism, into `qdd`, returning `true`;
+    /// `false` (the default): none, [`Model::aba`] runs instead.
+    fn generated_aba<S: Scalar>(_q: &[S], _qd: &[S], _tau: &[S], _qdd: &mut [S]) -> bool {
+        false
+    }
+}
+
+/// Declares a mechanism type for an FMU: `mechanism_fmu!(pub Ur5, "ur5", mechanism)` with
+/// `mechanism` a function (or closure) returning the [`Mechanism`](crate::multibody::Mechanism),
+/// optionally followed by `notes = ["…", …]` (documentation lines after the standard ones)
+/// and by items of the `Declared` impl in braces (`{ fn generated_aba… }`). Then
+/// `mbfmu::export_fmu!(mechanism Ur5)` exports its FMU; the model type is
+/// `mbfmu::multibody::fmu::Robot<Ur5>`.
+#[macro_export]
+macro_rules! mechanism_fmu {
+    (
+        $(#[$attr:meta])* $vis:vis $name:ident, $id:expr, $mechanism:expr
+        $(, notes = [$($note:expr),* $(,)?])?
+        $(, { $($item:tt)* })? $(,)?
+    ) => {
+        $(#[$attr])*
+        $vis struct $name;
+
+        impl $crate::multibody::fmu::Declared for $name {
+            const NAME: &'static str = $id;
+            const EQUATIONS: &'static [&'static str] =
+                $crate::mechanism_equations!($($($note),*)?);
+            fn mechanism() -> $crate::multibody::Mechanism {
+                ($mechanism)()
+            }
+            fn built() -> &'static $crate::multibody::fmu::Built {
+                static BUILT: ::std::sync::OnceLock<$crate::multibody::fmu::Built> =
+                    ::std::sync::OnceLock::new();
+                BUILT.get_or_init($crate::multibody::fmu::Built::of::<$name>)
+            }
+            $($($item)*)?
+        }
+    };
+}
+
+/// A joint position limit on one coordinate.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PositionLimit {
+    pub coordinate: usize,
+    pub lower: f64,
+    pub upper: f64,
+}
+
+/// What [`Robot`] needs of a mechanism, made once: the model, the variables (their names
+/// leaked, as scenes want `&'static str`: once per mechanism and process), the start
+/// configuration and the torques that hold it.
+#[derive(Clone, Debug)]
+pub struct Built {
+    pub model: Model,
+    /// The mechanism as declared (before fixed joints were merged).
+    pub mechanism: Mechanism,
+    /// The start configuration: 0, or the middle of a joint's limits when 0 is not
+    /// strictly inside them.
+    pub start: Vec<f64>,
+    /// The generalised forces that hold `start` at rest against gravity (RNEA), clamped
+    /// to the effort limits.
+    pub hold: Vec<f64>,
+    /// The limits that raise events (revolute and prismatic joints with lower < upper).
+    pub limits: Vec<PositionLimit>,
+    pub parameters: Vec<Var>,
+    pub coordinates: Vec<Var>,
+    pub velocities: Vec<Var>,
+    pub inputs: Vec<Var>,
+    pub outputs: Vec<Var>,
+    pub scenes: Vec<Scene>,
+    /// Viscous damping per coordinate.
+    pub damping: Vec<f64>,
+}
+
+/// Index of the `limit_events` parameter.
+pub const LIMIT_EVENTS: usize = 0;
+
+/// Names the FMU gives its own variables, which no joint or link may take.
+const RESERVED: [&str; 5] = [
+    "time",
+    "solver",
+    "solver_step",
+    "solver_max_steps",
+    "limit_events",
+];
+
+fn leak(s: String) -> &'static str {
+    Box::leak(s.into_boxed_str())
+}
+
+impl Built {
+    /// [`Built::new`] of `D`'s mechanism; panics with the error (a mechanism that does not
+    /// validate cannot be a model: `mbfmu build --urdf` validates before it generates).
+    pub fn of<D: Declared>() -> Built {
+        Built::new(D::mechanism()).unwrap_or_else(|e| panic!("{}: {e}", D::NAME))
+    }
+
+    pub fn new(mechanism: Mechanism) -> Result<Built, Error> {
+        let model = Model::new(&mechanism)?;
+        let n = model.nq();
+        let joint_of = |i: usize| {
+            mechanism
+                .joints
+                .iter()
+                .find(|j| j.name == model.joints[i])
+                .expect("a model joint is a mechanism joint")
+        };
+        let mut start = vec![0.0; n];
+        let mut limits = Vec::new();
+        let mut effort = vec![None; n];
+        for (i, s) in start.iter_mut().enumerate() {
+            let j = joint_of(i);
+            effort[i] = j.limit.effort.filter(|e| *e > 0.0);
+            if j.kind == JointKind::Continuous {
+                continue;
+            }
+            if let (Some(lower), Some(upper)) = (j.limit.lower, j.limit.upper) {
+                if lower < upper {
+                    if !(lower < 0.0 && 0.0 < upper) {
+                        *s = 0.5 * (lower + upper);
+                    }
+                    limits.push(PositionLimit {
+                        coordinate: i,
+                        lower,
+                        upper,
+                    });
+                }
+            }
+        }
+        let hold: Vec<f64> = model
+            .rnea(&start, &vec![0.0; n], &vec![0.0; n])
+            .iter()
+            .zip(&effort)
+            .map(|(&t, e)| match e {
+                Some(e) => t.clamp(-e, *e),
+                None => t,
+            })
+            .collect();
+        let unit = |i: usize| match model.kinds[i] {
+            Axis::Rotation => ("rad", "rad/s", "N.m", "torque"),
+            Axis::Translation => ("m", "m/s", "N", "force"),
+        };
+        let mut coordinates = Vec::new();
+        let mut velocities = Vec::new();
+        let mut inputs = Vec::new();
+        for i in 0..n {
+            let j = joint_of(i);
+            let (u, v, f, what) = unit(i);
+            let name = &j.name;
+            let kind = j.kind.name();
+            let mut q = Var::new("", Some(u), start[i], "").nominal(1.0);
+            q.name = name.clone().into();
+            q.description = format!(
+                "Position of {kind} joint {name} (link {} in {})",
+                j.child, j.parent
+            )
+            .into();
+            let mut qd = Var::new("", Some(v), 0.0, "").nominal(1.0);
+            qd.name = format!("{name}_dot").into();
+            qd.description = format!("Velocity of joint {name}").into();
+            let mut tau = Var::new("", Some(f), hold[i], "");
+            tau.name = format!("tau_{name}").into();
+            let bound = match effort[i] {
+                Some(e) => {
+                    tau = tau.min(-e).max(e);
+                    format!(", within the URDF effort limit ±{e:?} {f}")
+                }
+                None => ", no effort limit".to_string(),
+            };
+            tau.description = format!(
+                "Generalised {what} at joint {name} ({f}{bound}); its start value holds the start configuration against gravity"
+            )
+            .into();
+            coordinates.push(q);
+            velocities.push(qd);
+            inputs.push(tau);
+        }
+        let mut outputs = vec![Var::new(
+            "E",
+            Some("J"),
+            0.0,
+            "Mechanical energy T + V (V = 0 with every moving centre of mass at the base origin)",
+        )];
+        for tip in &model.tips {
+            let link = &tip.name;
+            for c in ["x", "y", "z"] {
+                let mut v = Var::new("", Some("m"), 0.0, "");
+                v.name = format!("{link}_{c}").into();
+                v.description =
+                    format!("Position of link {link} (an end of a branch), {c} in the base frame")
+                        .into();
+                outputs.push(v);
+            }
+            for k in 0..4 {
+                let mut v = Var::new("", None, 0.0, "");
+                v.name = format!("{link}_q{k}").into();
+                let part = ["w", "x", "y", "z"][k];
+                v.description = format!(
+                    "Orientation of link {link} in the base frame: unit quaternion, {part} part"
+                )
+                .into();
+                outputs.push(v);
+            }
+        }
+        // Every name once, none of the FMU's own.
+        let mut seen: std::collections::HashMap<String, String> = RESERVED
+            .iter()
+            .map(|r| (r.to_string(), "a variable of the FMU itself".to_string()))
+            .collect();
+        seen.insert("E".into(), "the energy output".into());
+        for (i, vars) in [&coordinates, &velocities, &inputs].iter().enumerate() {
+            for (k, v) in vars.iter().enumerate() {
+                let joint = &joint_of(k).name;
+                let what = ["position", "velocity", "input"][i];
+                if let Some(other) = seen.insert(
+                    v.name.to_string(),
+                    format!("the {what} of joint \"{joint}\""),
+                ) {
+                    return Err(Error::joint(
+                        joint,
+                        format!(
+                            "its {what} variable \"{}\" would also be {other}: rename the joint",
+                            v.name
+                        ),
+                    ));
+                }
+            }
+        }
+        for (k, v) in outputs.iter().enumerate().skip(1) {
+            let link = &model.tips[(k - 1) / 7].name;
+            if let Some(other) =
+                seen.insert(v.name.to_string(), format!("an output of link \"{link}\""))
+            {
+                return Err(Error::link(
+                    link,
+                    format!(
+                        "its output \"{}\" would also be {other}: rename the link",
+                        v.name
+                    ),
+                ));
+            }
+        }
+        let parameters = vec![Var::new(
+            "limit_events",
+            None,
+            1.0,
+            "1: a joint reaching a position limit ends the doStep with fmi2Discard there (the model has no end stops); 0: limits are ignored",
+        )
+        .min(0.0)
+        .max(1.0)];
+        let scenes = scenes(
+            &model,
+            &start,
+            &hold,
+            &effort,
+            &coordinates,
+            &velocities,
+            &inputs,
+        );
+        Ok(Built {
+            damping: model.damping.clone(),
+            model,
+            mechanism,
+            start,
+            hold,
+            limits,
+            parameters,
+            coordinates,
+            velocities,
+            inputs,
+            outputs,
+            scenes,
+        })
+    }
+
+    /// The signed distance to the nearest position limit (in the coordinate's unit):
+    /// positive inside every limit; `None` without limits.
+    pub fn limit_distance(&self, q: &[f64]) -> Option<f64> {
+        self.limits
+            .iter()
+            .map(|l| (q[l.coordinate] - l.lower).min(l.upper - q[l.coordinate]))
+            .min_by(f64::total_cmp)
+    }
+
+    /// The joint at its nearest limit, and which one, as a log line.
+    pub fn limit_reached(&self, t: f64, q: &[f64]) -> String {
+        let nearest = self.limits.iter().min_by(|a, b| {
+            let d = |l: &PositionLimit| (q[l.coordinate] - l.lower).min(l.upper - q[l.coordinate]);
+            d(a).total_cmp(&d(b))
+        });
+        let Some(l) = nearest else {
+            return format!("t = {t}: no joint has a position limit");
+        };
+        let i = l.coordinate;
+        let (side, value) = if q[i] - l.lower < l.upper - q[i] {
+            ("lower", l.lower)
+        } else {
+            ("upper", l.upper)
+        };
+        let unit = self.coordinates[i].unit.as_deref().unwrap_or("");
+        format!(
+            "joint {} reached its {side} limit {value:?} {unit} at t = {t} s (the model has no end stops; set limit_events = 0 to run through its limits)",
+            self.model.joints[i]
+        )
+    }
+}
+
+/// The scenes: released at rest from the start configuration with no torque (it falls);
+/// held by the gravity torques, the first joint's stepped by a tenth of its effort limit
+/// (1 N.m or 1 N without one).
+fn scenes(
+    model: &Model,
+    start: &[f64],
+    hold: &[f64],
+    effort: &[Option<f64>],
+    coordinates: &[Var],
+    velocities: &[Var],
+    inputs: &[Var],
+) -> Vec<Scene> {
+    let n = model.nq();
+    if n == 0 {
+        return Vec::new();
+    }
+    let at_rest = |mut s: Scene| {
+        for i in 0..n {
+            s = s
+                .set(leak(coordinates[i].name.to_string()), start[i])
+                .set(leak(velocities[i].name.to_string()), 0.0);
+        }
+        s
+    };
+    let mut released = at_rest(Scene::new(
+        "released",
+        "Released at rest from the start configuration with no joint torques: it falls under gravity (a joint reaching a position limit ends the run)",
+        2.0,
+    ));
+    for input in inputs {
+        released = released.set(leak(input.name.to_string()), 0.0);
+    }
+    let step = effort[0].map_or(1.0, |e| 0.1 * e);
+    let unit = inputs[0].unit.as_deref().unwrap_or("");
+    let mut stepped = at_rest(Scene::new(
+        "step",
+        leak(format!(
+            "Held at rest by the gravity torques, joint {}'s input stepped by {step:?} {unit} at t = 0",
+            model.joints[0]
+        )),
+        2.0,
+    ));
+    for (i, input) in inputs.iter().enumerate() {
+        let mut value = hold[i] + if i == 0 { step } else { 0.0 };
+        if let Some(e) = effort[i] {
+            value = value.clamp(-e, e);
+        }
+        stepped = stepped.set(leak(input.name.to_string()), value);
+    }
+    vec![released, stepped]
+}
+
+/// What the mechanism's URDF data say and the model does not hold, one line each naming
+/// the joints (the build warnings): Coulomb friction, velocity limits, limits that raise
+/// no event (lower ≥ upper, or on a continuous joint).
+pub fn unmodelled(mechanism: &Mechanism) -> Vec<String> {
+    unmodelled_by_joint(mechanism)
+        .into_iter()
+        .map(|(what, joints, source)| format!("{what}: joints {} ({source})", joints.join(", ")))
+        .collect()
+}
+
+/// [`unmodelled`] counted, for the documentation page (whose equation lines typeset
+/// names with `_` as subscripts): "Coulomb friction of 2 joints is not modelled".
+pub fn unmodelled_notes(mechanism: &Mechanism) -> Vec<String> {
+    unmodelled_by_joint(mechanism)
+        .into_iter()
+        .map(|(what, joints, _)| {
+            let n = joints.len();
+            let what = what.replacen(
+                " is ",
+                &format!(" of {n} joint{} is ", if n == 1 { "" } else { "s" }),
+                1,
+            );
+            let what = what.replacen(
+                " are ",
+                &format!(" of {n} joint{} are ", if n == 1 { "" } else { "s" }),
+                1,
+            );
+            let mut c = what.chars();
+            let first = c
+                .next()
+                .map(|f| f.to_uppercase().collect::<String>())
+                .unwrap_or_default();
+            format!("{first}{} (the build warning names them)", c.as_str())
+        })
+        .collect()
+}
+
+/// (what, the joints with their values, the URDF element it comes from).
+fn unmodelled_by_joint(mechanism: &Mechanism) -> Vec<(&'static str, Vec<String>, &'static str)> {
+    let list = |pick: &dyn Fn(&super::Joint) -> Option<f64>| {
+        mechanism
+            .joints
+            .iter()
+            .filter(|j| j.moves())
+            .filter_map(|j| pick(j).map(|v| format!("\"{}\" ({v:?})", j.name)))
+            .collect::<Vec<_>>()
+    };
+    let mut lines = Vec::new();
+    let friction = list(&|j| (j.friction > 0.0).then_some(j.friction));
+    if !friction.is_empty() {
+        lines.push((
+            "Coulomb friction is not modelled",
+            friction,
+            "URDF <dynamics friction>",
+        ));
+    }
+    let velocity = list(&|j| j.limit.velocity.filter(|v| *v > 0.0));
+    if !velocity.is_empty() {
+        lines.push((
+            "velocity limits are not enforced",
+            velocity,
+            "URDF <limit velocity>",
+        ));
+    }
+    let no_event: Vec<String> = mechanism
+        .joints
+        .iter()
+        .filter(|j| j.moves())
+        .filter(|j| match (j.limit.lower, j.limit.upper) {
+            (Some(lo), Some(hi)) => j.kind == JointKind::Continuous || lo >= hi,
+            _ => false,
+        })
+        .map(|j| format!("\"{}\"", j.name))
+        .collect();
+    if !no_event.is_empty() {
+        lines.push((
+            "position limits that raise no event (continuous joint, or lower ≥ upper) are ignored",
+            no_event,
+            "URDF <limit lower upper>",
+        ));
+    }
+    lines
+}
+
+/// A declared mechanism as a [`Lagrangian`] (hence a `System` and an FMU).
+pub struct Robot<D>(PhantomData<D>);
+
+/// The declaration a [`Robot`] is made from (what `export_fmu!(mechanism …)`'s describe
+/// answer reaches through the model type).
+pub trait OfMechanism: Lagrangian {
+    type Declared: Declared;
+}
+
+impl<D: Declared> OfMechanism for Robot<D> {
+    type Declared = D;
+}
+
+impl<D: Declared> Lagrangian for Robot<D> {
+    const NAME: &'static str = D::NAME;
+    const DESCRIPTION: &'static str = D::DESCRIPTION;
+    const EQUATIONS: &'static [&'static str] = D::EQUATIONS;
+    /// Neither Q nor the outputs read t.
+    const TIME_IN_FORCES_OR_OUTPUTS: bool = false;
+
+    fn parameters() -> Vec<Var> {
+        D::built().parameters.clone()
+    }
+
+    fn inputs() -> Vec<Var> {
+        D::built().inputs.clone()
+    }
+
+    fn coordinates() -> Vec<Var> {
+        D::built().coordinates.clone()
+    }
+
+    fn velocities() -> Vec<Var> {
+        D::built().velocities.clone()
+    }
+
+    fn outputs() -> Vec<Var> {
+        D::built().outputs.clone()
+    }
+
+    fn kinetic<S: Scalar>(_t: S, q: &[S], qd: &[S], _p: &[S]) -> S {
+        D::model().kinetic_energy(q, qd)
+    }
+
+    fn potential<S: Scalar>(_t: S, q: &[S], _p: &[S]) -> S {
+        D::model().potential_energy(q)
+    }
+
+    fn forces<S: Scalar>(_t: f64, _q: &[S], qd: &[S], u: &[S], _p: &[S], out: &mut [S]) {
+        for ((o, (&tau, &v)), &d) in out
+            .iter_mut()
+            .zip(u.iter().zip(qd))
+            .zip(&D::built().damping)
+        {
+            *o = tau - v * d;
+        }
+    }
+
+    fn generated_eom<S: Scalar>(
+        _t: f64,
+        q: &[S],
+        qd: &[S],
+        u: &[S],
+        _p: &[S],
+        qdd: &mut [S],
+        _lambda: &mut [S],
+    ) -> bool {
+        if !D::generated_aba(q, qd, u, qdd) {
+            qdd.copy_from_slice(&D::model().aba(q, qd, u));
+        }
+        true
+    }
+
+    fn extra_outputs<S: Scalar>(_t: f64, q: &[S], qd: &[S], _u: &[S], _p: &[S], y: &mut [S]) {
+        let model = D::model();
+        y[0] = model.kinetic_energy(q, qd) + model.potential_energy(q);
+        for (k, (p, quat)) in model.tip_poses(q).into_iter().enumerate() {
+            let out = &mut y[1 + 7 * k..8 + 7 * k];
+            out[..3].copy_from_slice(&p);
+            out[3..].copy_from_slice(&quat);
+        }
+    }
+
+    fn scenes() -> Vec<Scene> {
+        D::built().scenes.clone()
+    }
+
+    /// Two seconds held by the gravity torques (the start values: an equilibrium).
+    fn default_experiment() -> (f64, f64, f64) {
+        (2.0, 1e-8, 1e-2)
+    }
+
+    fn event_indicator(_t: f64, q: &[f64], _qd: &[f64], _u: &[f64], p: &[f64]) -> Option<f64> {
+        if p[LIMIT_EVENTS] == 0.0 {
+            return None;
+        }
+        D::built().limit_distance(q)
+    }
+
+    fn on_event(t: f64, q: &mut [f64], _qd: &mut [f64], _p: &[f64]) -> Result<(), String> {
+        Err(D::built().limit_reached(t, q))
+    }
+}
