@@ -177,7 +177,8 @@ impl<M: System> Instance<M> {
 
     /// fmi2NewDiscreteStates: the event at the time and states set. When the indicator
     /// changed sign since the last event, [`System::on_event`] (its `Err`: terminateSimulation,
-    /// with a warning line); then, with `me_projection`, the projection onto the constraints.
+    /// with a warning line); then, with `me_projection`, the projection onto the constraints
+    /// where the state has left them by more than rounding.
     /// valuesOfContinuousStatesChanged tells whether either changed the states.
     pub fn new_discrete_states(&mut self) -> Res<EventInfo> {
         const F: &str = "fmi2NewDiscreteStates";
@@ -196,8 +197,14 @@ impl<M: System> Instance<M> {
                 );
             }
         }
-        if d.me_projection {
-            M::project(d.time, &d.params, &mut x);
+        // Back onto the constraints where the state has left them (not after an event the
+        // model cannot pass: the state stays where it stopped holding).
+        if d.me_projection && !info.terminate_simulation {
+            let mut y = x.clone();
+            M::project(d.time, &d.params, &mut y);
+            if self.off_constraints(&x, &y) {
+                x = y;
+            }
         }
         if !all_finite(&x) {
             return Err(format!(
@@ -226,11 +233,15 @@ impl<M: System> Instance<M> {
         let mut work = self.work.borrow_mut();
         let y = crate::integrators::copied(&mut work.x, &d.x);
         M::project(d.time, &d.params, y);
-        let off = (0..y.len()).any(|i| {
-            let scale = d.x[i].abs().max(self.nominal(i));
-            // (a projection that fails here is not a return to the constraints)
-            y[i].is_finite() && (y[i] - d.x[i]).abs() > PROJECTION_ROUNDING * scale
-        });
-        Ok((off, false))
+        Ok((self.off_constraints(&d.x, y), false))
+    }
+
+    /// Whether the projection `y` of `x` moves it by more than rounding: the state has left
+    /// its constraints. (A projection that fails, non-finite, is not a return to them.)
+    fn off_constraints(&self, x: &[f64], y: &[f64]) -> bool {
+        (0..y.len()).any(|i| {
+            let scale = x[i].abs().max(self.nominal(i));
+            y[i].is_finite() && (y[i] - x[i]).abs() > PROJECTION_ROUNDING * scale
+        })
     }
 }
