@@ -138,7 +138,9 @@ fn instantiate_rejects_wrong_guid_and_unknown_type() {
     assert_eq!(log.len(), 2);
     assert!(log[0].2.contains("GUID"), "{}", log[0].2);
     assert!(
-        log[1].2.contains("fmi2ModelExchange = 0 and fmi2CoSimulation = 1"),
+        log[1]
+            .2
+            .contains("fmi2ModelExchange = 0 and fmi2CoSimulation = 1"),
         "{}",
         log[1].2
     );
@@ -487,7 +489,11 @@ fn solver_max_steps_bounds_a_do_step_and_is_named_when_it_stops_one() {
     let layout = &ExportedModel::info().layout;
     let max_vr = vr("solver_max_steps");
     // (then `me_projection`, added after it)
-    assert_eq!(max_vr as usize, layout.vars.len() - 2, "appended after the outputs");
+    assert_eq!(
+        max_vr as usize,
+        layout.vars.len() - 2,
+        "appended after the outputs"
+    );
     assert_eq!(vr("E") + 1, max_vr, "right after the outputs");
     let (solver, max) = (vr("solver"), max_vr);
     // Both Integers read back through one call; the default is 50 000.

@@ -64,7 +64,6 @@ pub(super) struct Work {
     pub(super) integrators: Workspace,
 }
 
-
 pub(super) type Res<T = ()> = Result<T, String>;
 
 impl<M: System> Instance<M> {
@@ -167,7 +166,12 @@ impl<M: System> Instance<M> {
     #[inline]
     pub fn require(&self, mask: u32, function: &str) -> Res {
         if mask & self.data.machine.code() == 0 {
-            return Err(not_allowed(self.data.machine, self.data.interface, mask, function));
+            return Err(not_allowed(
+                self.data.machine,
+                self.data.interface,
+                mask,
+                function,
+            ));
         }
         Ok(())
     }
@@ -886,7 +890,6 @@ fn check_method<M: System>(method: Method, u: &[f64], p: &[f64], lti: bool) -> R
     }
     Ok(())
 }
-
 
 /// Whether an event indicator changed sign from `before` to `after` (`None`: the model has
 /// no indicator at that state, so no crossing).

@@ -394,7 +394,6 @@ impl<M: System> Instance<M> {
     pub fn require_status(&self, function: &str) -> Res {
         self.require(machine::STATUS, function)
     }
-
 }
 
 /// Most events handled inside one doStep before it gives up (a chattering model).

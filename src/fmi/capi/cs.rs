@@ -160,4 +160,3 @@ pub unsafe fn get_string_status<E: Export>(
         unavailable::<E>(inst, "fmi2GetStringStatus", kind)
     })
 }
-

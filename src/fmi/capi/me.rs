@@ -22,8 +22,7 @@ impl From<EventInfo> for EventInfoC {
         EventInfoC {
             new_discrete_states_needed: e.new_discrete_states_needed as c_int,
             terminate_simulation: e.terminate_simulation as c_int,
-            nominals_of_continuous_states_changed: e.nominals_of_continuous_states_changed
-                as c_int,
+            nominals_of_continuous_states_changed: e.nominals_of_continuous_states_changed as c_int,
             values_of_continuous_states_changed: e.values_of_continuous_states_changed as c_int,
             next_event_time_defined: e.next_event_time.is_some() as c_int,
             next_event_time: e.next_event_time.unwrap_or(0.0),

@@ -26,7 +26,6 @@ use std::sync::{Mutex, MutexGuard};
 pub type Component = *mut c_void;
 pub type FmuState = *mut c_void;
 
-
 /// What an `fmi2FMUstate` points at. The tag and GUID let us reject a state pointer
 /// from another model instead of reading it as ours.
 struct StateBox {
