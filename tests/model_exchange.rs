@@ -632,6 +632,11 @@ fn sphere_slide_departs_in_event_mode() {
         -v * theta.sin(),
         1.0,
     ];
+    // A mode outside its declared [0, 1] is refused, as fmi2SetReal refuses it.
+    let e = me
+        .set_continuous_states(&[x[0], x[1], x[2], x[3], 1.5])
+        .unwrap_err();
+    assert!(e.contains("on_surface") && e.contains("outside"), "{e}");
     me.set_continuous_states(&x).unwrap();
     me.get_event_indicators(&mut z).unwrap();
     assert!(z[0] < 0.0, "{}", z[0]);
@@ -738,3 +743,34 @@ fn every_system_declares_its_indicators_and_step_events() {
 
 #[allow(dead_code)]
 fn unused(_: c_int) {}
+
+/// A Model Exchange FMU state goes through its blob unchanged (the interface, the event
+/// reference and `me_projection` included), every bit flip of it is refused, and a restored
+/// state goes on as the original does.
+#[test]
+fn a_model_exchange_state_round_trips_through_its_blob() {
+    let mut me = instance::<SphereSlide>(Interface::ModelExchange, &[], &[("me_projection", 0)]);
+    me.set_time(0.5).unwrap();
+    let snap = me.snapshot();
+    assert_eq!(snap.interface, Interface::ModelExchange);
+    assert!(!snap.me_projection);
+    assert!(snap.event_reference.is_some());
+    let blob = me.serialize(&snap);
+    let back = me.deserialize(&blob).unwrap();
+    assert_eq!(back, snap);
+    let mut bad = blob.clone();
+    for byte in 0..blob.len() {
+        for bit in 0..8 {
+            bad[byte] ^= 1 << bit;
+            assert!(me.deserialize(&bad).is_err(), "flip {byte}.{bit} accepted");
+            bad[byte] ^= 1 << bit;
+        }
+    }
+    let mut other = instance::<SphereSlide>(Interface::ModelExchange, &[], &[]);
+    other.restore(&back).unwrap();
+    let (mut a, mut b) = ([0.0; 5], [0.0; 5]);
+    me.get_derivatives(&mut a).unwrap();
+    other.get_derivatives(&mut b).unwrap();
+    assert_eq!(a, b);
+    assert_eq!(other.completed_integrator_step().unwrap(), (false, false));
+}

@@ -69,7 +69,7 @@ pub enum StepOutcome {
     Discarded(String),
 }
 
-/// `settings` (of a [`Work`]) for the values in `d`: method, tolerances (`atol` = tolerance
+/// `settings` (of a [`Work`](super::core::Work)) for the values in `d`: method, tolerances (`atol` = tolerance
 /// × the state's nominal), the step (`adaptive_max_step` for the adaptive methods) and the
 /// step limit.
 fn prepared<'a>(

@@ -1398,6 +1398,9 @@ class Sequence:
             x = (x + [0.0])[:max(count, 0)]
         elif r < 0.22 and n:
             null, bad = True, True
+        # (a state with a declared [min, max]: SphereSlide's mode, checked as fmi2SetReal)
+        bad |= not all(self.spec.by_vr[vr].in_range(v)
+                       for vr, v in zip(self.spec.state_vrs, x) if math.isfinite(v))
         expect = INVALID if bad else self._me_expect((CONT,))
         self.call(f"fmi2SetContinuousStates({x}{', NULL' if null else ''})",
                   "fmi2SetContinuousStates", self.comp,
@@ -1479,9 +1482,10 @@ class Sequence:
         if st == OK:
             self.time = t
         xn = [a + h * b for a, b in zip(x, dx)]
+        valid = finite(xn) and all(self.spec.by_vr[vr].in_range(v)
+                                   for vr, v in zip(self.spec.state_vrs, xn))
         self.call(f"step: fmi2SetContinuousStates({xn})", "fmi2SetContinuousStates",
-                  self.comp, arr(c_double, xn), n,
-                  expect=VALID if finite(xn) else INVALID)
+                  self.comp, arr(c_double, xn), n, expect=VALID if valid else INVALID)
         st, enter, terminate = self._completed_step()
         if st != OK or not (enter or terminate):
             return
