@@ -107,7 +107,7 @@ fn bad_input_is_rejected_logged_and_harmless() {
 }
 
 #[test]
-fn instantiate_rejects_wrong_guid_and_model_exchange() {
+fn instantiate_rejects_wrong_guid_and_unknown_type() {
     let name = CString::new("reject").unwrap();
     let bad = CString::new("{not-the-guid}").unwrap();
     let c = unsafe {
@@ -125,7 +125,7 @@ fn instantiate_rejects_wrong_guid_and_model_exchange() {
     let c = unsafe {
         fmi2Instantiate(
             name.as_ptr(),
-            0,
+            7,
             guid().as_ptr(),
             std::ptr::null(),
             callbacks(),
@@ -137,7 +137,28 @@ fn instantiate_rejects_wrong_guid_and_model_exchange() {
     let log = log_of("reject");
     assert_eq!(log.len(), 2);
     assert!(log[0].2.contains("GUID"), "{}", log[0].2);
-    assert!(log[1].2.contains("Co-Simulation"), "{}", log[1].2);
+    assert!(
+        log[1]
+            .2
+            .contains("fmi2ModelExchange = 0 and fmi2CoSimulation = 1"),
+        "{}",
+        log[1].2
+    );
+    // Both interfaces are served: fmi2ModelExchange = 0 makes an instance.
+    let c = unsafe {
+        fmi2Instantiate(
+            name.as_ptr(),
+            0,
+            guid().as_ptr(),
+            std::ptr::null(),
+            callbacks(),
+            0,
+            0,
+        )
+    };
+    assert!(!c.is_null());
+    unsafe { fmi2FreeInstance(c) };
+    assert_eq!(log_of("reject").len(), 2);
 }
 
 #[test]
@@ -467,7 +488,12 @@ fn dopri5_warns_once_when_the_problem_is_stiff() {
 fn solver_max_steps_bounds_a_do_step_and_is_named_when_it_stops_one() {
     let layout = &ExportedModel::info().layout;
     let max_vr = vr("solver_max_steps");
-    assert_eq!(max_vr as usize, layout.vars.len() - 1, "appended last");
+    // (then `me_projection`, added after it)
+    assert_eq!(
+        max_vr as usize,
+        layout.vars.len() - 2,
+        "appended after the outputs"
+    );
     assert_eq!(vr("E") + 1, max_vr, "right after the outputs");
     let (solver, max) = (vr("solver"), max_vr);
     // Both Integers read back through one call; the default is 50 000.

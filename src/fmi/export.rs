@@ -1,4 +1,5 @@
-//! `export_fmu!`: the `fmi2*` symbols of one FMU's cdylib.
+//! `export_fmu!`: the `fmi2*` symbols of one FMU's cdylib, Co-Simulation's and Model
+//! Exchange's (one binary serves both interfaces; fmi2Instantiate's fmuType picks one).
 //!
 //! Thin on purpose: each symbol forwards to the generic function of the same name in
 //! [`capi`](crate::fmi::capi), where the checks live. One macro line per FMU crate:
@@ -9,7 +10,8 @@
 //! ([`package::protocol`](crate::package::protocol)): the FMU's interface comes from the
 //! binary it ships.
 
-/// Defines the complete FMI 2.0 Co-Simulation C API for one [`System`](crate::model::System).
+/// Defines the complete FMI 2.0 C API, Co-Simulation and Model Exchange, for one
+/// [`System`](crate::model::System).
 ///
 /// `export_fmu!(lagrangian MyModel)` for a [`Lagrangian`](crate::model::lagrangian::Lagrangian)
 /// of a crate of one's own: its describe answer also gives the Rust source of the equations
@@ -48,7 +50,7 @@ macro_rules! export_fmu {
             #![allow(non_snake_case, clippy::missing_safety_doc)]
             use super::ExportedModel as E;
             use ::std::ffi::{c_char, c_int, c_uint};
-            use $crate::fmi::capi::{self, Component, FmuState};
+            use $crate::fmi::capi::{self, Component, EventInfoC, FmuState};
             use $crate::fmi::{CallbackFunctions, Status};
 
             /// Not FMI: the packager's questions (`mbfmu::package::protocol`).
@@ -310,6 +312,81 @@ macro_rules! export_fmu {
             ) -> Status {
                 capi::get_boolean_status::<E>(c, kind, v)
             }
+            // Model Exchange.
+            #[no_mangle]
+            pub extern "C" fn fmi2EnterEventMode(c: Component) -> Status {
+                capi::enter_event_mode::<E>(c)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2NewDiscreteStates(
+                c: Component,
+                info: *mut EventInfoC,
+            ) -> Status {
+                capi::new_discrete_states::<E>(c, info)
+            }
+            #[no_mangle]
+            pub extern "C" fn fmi2EnterContinuousTimeMode(c: Component) -> Status {
+                capi::enter_continuous_time_mode::<E>(c)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2CompletedIntegratorStep(
+                c: Component,
+                no_prior: c_int,
+                enter_event_mode: *mut c_int,
+                terminate_simulation: *mut c_int,
+            ) -> Status {
+                capi::completed_integrator_step::<E>(
+                    c,
+                    no_prior,
+                    enter_event_mode,
+                    terminate_simulation,
+                )
+            }
+            #[no_mangle]
+            pub extern "C" fn fmi2SetTime(c: Component, time: f64) -> Status {
+                capi::set_time::<E>(c, time)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2SetContinuousStates(
+                c: Component,
+                x: *const f64,
+                nx: usize,
+            ) -> Status {
+                capi::set_continuous_states::<E>(c, x, nx)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetDerivatives(
+                c: Component,
+                dx: *mut f64,
+                nx: usize,
+            ) -> Status {
+                capi::get_derivatives::<E>(c, dx, nx)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetEventIndicators(
+                c: Component,
+                z: *mut f64,
+                ni: usize,
+            ) -> Status {
+                capi::get_event_indicators::<E>(c, z, ni)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetContinuousStates(
+                c: Component,
+                x: *mut f64,
+                nx: usize,
+            ) -> Status {
+                capi::get_continuous_states::<E>(c, x, nx)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetNominalsOfContinuousStates(
+                c: Component,
+                nominals: *mut f64,
+                nx: usize,
+            ) -> Status {
+                capi::get_nominals_of_continuous_states::<E>(c, nominals, nx)
+            }
+            // Co-Simulation.
             #[no_mangle]
             pub unsafe extern "C" fn fmi2GetStringStatus(
                 c: Component,

@@ -1,8 +1,15 @@
-//! The Co-Simulation state machine of FMI 2.0 (standard, section 4.2.4): which
-//! function may be called in which state, checked in one place before any work.
+//! The state machines of FMI 2.0, Co-Simulation (standard, section 4.2.4) and Model
+//! Exchange (section 3.2.3): which function may be called in which state, checked in one
+//! place before any work.
+//!
+//! One enum holds the states of both interfaces; an instance lives in those of its own
+//! ([`Interface::states`]), so a mask may name states of both: a function shared by the two
+//! interfaces (fmi2GetReal, fmi2GetFMUstate, …) has one mask, and its refusal lists only the
+//! states of the caller's interface ([`describe`]).
 
-/// States of a co-simulation slave. `StepInProgress` and `StepCanceled` never occur:
-/// doStep is synchronous (canRunAsynchronuously = false).
+/// States of an instance. `StepInProgress` and `StepCanceled` never occur: doStep is
+/// synchronous (canRunAsynchronuously = false). `EventMode` and `ContinuousTimeMode` are
+/// Model Exchange's, `StepComplete` and `StepFailed` Co-Simulation's.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Machine {
     Instantiated = 1 << 0,
@@ -11,6 +18,8 @@ pub enum Machine {
     StepFailed = 1 << 3,
     Terminated = 1 << 4,
     Error = 1 << 5,
+    EventMode = 1 << 6,
+    ContinuousTimeMode = 1 << 7,
 }
 
 impl Machine {
@@ -23,15 +32,53 @@ impl Machine {
     }
 }
 
+/// The interface an instance was made for (fmi2Type: fmi2ModelExchange = 0,
+/// fmi2CoSimulation = 1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Interface {
+    ModelExchange = 0,
+    CoSimulation = 1,
+}
+
+impl Interface {
+    pub fn code(self) -> u8 {
+        self as u8
+    }
+
+    pub fn from_code(code: u8) -> Option<Interface> {
+        [Interface::ModelExchange, Interface::CoSimulation]
+            .into_iter()
+            .find(|i| i.code() == code)
+    }
+
+    /// The states an instance of this interface can be in.
+    pub const fn states(self) -> u32 {
+        match self {
+            Interface::CoSimulation => CS_STATES,
+            Interface::ModelExchange => ME_STATES,
+        }
+    }
+
+    /// As the standard names it (fmi2Type).
+    pub fn name(self) -> &'static str {
+        match self {
+            Interface::ModelExchange => "Model Exchange",
+            Interface::CoSimulation => "Co-Simulation",
+        }
+    }
+}
+
 use Machine::*;
 
-const ALL_STATES: [Machine; 6] = [
+const ALL_STATES: [Machine; 8] = [
     Instantiated,
     InitializationMode,
     StepComplete,
     StepFailed,
     Terminated,
     Error,
+    EventMode,
+    ContinuousTimeMode,
 ];
 
 const fn mask(states: &[Machine]) -> u32 {
@@ -44,33 +91,89 @@ const fn mask(states: &[Machine]) -> u32 {
     m
 }
 
-pub const ANY: u32 = mask(&ALL_STATES);
-pub const SETUP_EXPERIMENT: u32 = mask(&[Instantiated]);
-pub const ENTER_INIT: u32 = mask(&[Instantiated]);
-pub const EXIT_INIT: u32 = mask(&[InitializationMode]);
-pub const TERMINATE: u32 = mask(&[StepComplete, StepFailed]);
-pub const RESET: u32 = ANY;
-pub const GET: u32 = mask(&[
+const CS_STATES: u32 = mask(&[
+    Instantiated,
     InitializationMode,
     StepComplete,
     StepFailed,
     Terminated,
     Error,
 ]);
-pub const SET_REAL: u32 = mask(&[Instantiated, InitializationMode, StepComplete]);
-pub const SET_INTEGER: u32 = mask(&[Instantiated, InitializationMode, StepComplete]);
+const ME_STATES: u32 = mask(&[
+    Instantiated,
+    InitializationMode,
+    EventMode,
+    ContinuousTimeMode,
+    Terminated,
+    Error,
+]);
+
+// Both interfaces.
+pub const ANY: u32 = mask(&ALL_STATES);
+pub const SETUP_EXPERIMENT: u32 = mask(&[Instantiated]);
+pub const ENTER_INIT: u32 = mask(&[Instantiated]);
+pub const EXIT_INIT: u32 = mask(&[InitializationMode]);
+pub const TERMINATE: u32 = mask(&[StepComplete, StepFailed, EventMode, ContinuousTimeMode]);
+pub const RESET: u32 = ANY;
+pub const GET: u32 = mask(&[
+    InitializationMode,
+    StepComplete,
+    StepFailed,
+    EventMode,
+    ContinuousTimeMode,
+    Terminated,
+    Error,
+]);
+/// fmi2SetReal: in Model Exchange's event and continuous-time modes only inputs may be
+/// set (checked per variable, as after initialisation in Co-Simulation).
+pub const SET_REAL: u32 = mask(&[
+    Instantiated,
+    InitializationMode,
+    StepComplete,
+    EventMode,
+    ContinuousTimeMode,
+]);
+/// fmi2SetInteger: the Integer variables are fixed parameters; Model Exchange admits the
+/// call in event mode (for tunable ones, which these models do not have).
+pub const SET_INTEGER: u32 = mask(&[Instantiated, InitializationMode, StepComplete, EventMode]);
 pub const FMU_STATE: u32 = ANY;
-pub const INPUT_DERIVATIVES: u32 = mask(&[Instantiated, InitializationMode, StepComplete]);
-pub const OUTPUT_DERIVATIVES: u32 = mask(&[StepComplete, StepFailed, Terminated, Error]);
 pub const DIRECTIONAL_DERIVATIVE: u32 = GET;
-pub const DO_STEP: u32 = mask(&[StepComplete]);
-pub const CANCEL_STEP: u32 = 0;
-pub const STATUS: u32 = mask(&[StepComplete, StepFailed, Terminated]);
 /// States in which fixed parameters and the start values of states may be set.
 pub const BEFORE_INIT_DONE: u32 = mask(&[Instantiated, InitializationMode]);
 /// Where a variable with initial = "approx" (a guess: the dependent states) may be set:
 /// FMI 2.0 allows it only before fmi2EnterInitializationMode.
 pub const BEFORE_INIT_MODE: u32 = mask(&[Instantiated]);
+
+// Co-Simulation only.
+pub const INPUT_DERIVATIVES: u32 = mask(&[Instantiated, InitializationMode, StepComplete]);
+pub const OUTPUT_DERIVATIVES: u32 = mask(&[StepComplete, StepFailed, Terminated, Error]);
+pub const DO_STEP: u32 = mask(&[StepComplete]);
+pub const CANCEL_STEP: u32 = 0;
+pub const STATUS: u32 = mask(&[StepComplete, StepFailed, Terminated]);
+
+// Model Exchange only (the masks of the standard's table in section 3.2.3).
+pub const ENTER_EVENT_MODE: u32 = mask(&[EventMode, ContinuousTimeMode]);
+pub const NEW_DISCRETE_STATES: u32 = mask(&[EventMode]);
+pub const ENTER_CONTINUOUS_TIME_MODE: u32 = mask(&[EventMode]);
+pub const COMPLETED_INTEGRATOR_STEP: u32 = mask(&[ContinuousTimeMode]);
+pub const SET_TIME: u32 = mask(&[EventMode, ContinuousTimeMode]);
+pub const SET_CONTINUOUS_STATES: u32 = mask(&[ContinuousTimeMode]);
+pub const GET_EVENT_INDICATORS: u32 = mask(&[
+    InitializationMode,
+    EventMode,
+    ContinuousTimeMode,
+    Terminated,
+    Error,
+]);
+pub const GET_CONTINUOUS_STATES: u32 = GET_EVENT_INDICATORS;
+pub const GET_DERIVATIVES: u32 = mask(&[EventMode, ContinuousTimeMode, Terminated, Error]);
+pub const GET_NOMINALS: u32 = mask(&[
+    Instantiated,
+    EventMode,
+    ContinuousTimeMode,
+    Terminated,
+    Error,
+]);
 
 /// Names of the states a mask admits, for error messages.
 pub fn describe(mask: u32) -> String {

@@ -1,27 +1,37 @@
-//! The FMI 2.0 Co-Simulation boundary.
+//! The FMI 2.0 boundary: Co-Simulation and Model Exchange from one binary.
 //!
 //! Call flow, from the C symbol down to the physics:
 //! 1. [`export_fmu!`](crate::export_fmu) (in `export.rs`) defines every `fmi2*` symbol of one
-//!    FMU's cdylib, each a one-line forward to [`capi`].
+//!    FMU's cdylib (both interfaces), each a one-line forward to [`capi`].
 //! 2. [`capi`] turns C pointers into checked Rust values, catches panics and logs
 //!    failures: the only `unsafe`, `extern "C"` and `catch_unwind` of the FMU side (the
-//!    packager's side of `mbfmu_describe`, dlopen, is in `package::library`).
-//! 3. [`Instance`] is the safe state machine of the standard: argument checks, get/set,
-//!    doStep around an integrator, FMU state.
+//!    packager's side of `mbfmu_describe`, dlopen, is in `package::library`). Split as the
+//!    instance is: `capi/mod.rs` the functions both interfaces have, `capi/cs.rs` and
+//!    `capi/me.rs` each interface's own.
+//! 3. [`Instance`] is the safe state machine of the standard, one core and two thin
+//!    front-ends: `core.rs` (argument checks, get/set, initialisation, directional
+//!    derivatives, FMU state and its checked blob in `snapshot.rs`, the state machines of
+//!    both interfaces in `machine.rs`), `cs.rs` (doStep around an integrator) and `me.rs`
+//!    (time, continuous states, derivatives, event indicators, event mode).
 //! 4. The [`System`](crate::model::System) computes `ẋ` and the outputs.
 
 pub mod capi;
+mod core;
+mod cs;
 mod export;
 mod inputs;
-mod instance;
 mod logger;
 mod machine;
+mod me;
 mod snapshot;
 
+pub use cs::{StepOutcome, DOSTEP_WORK};
 pub use inputs::MAX_INPUT_DERIVATIVE_ORDER;
-pub use instance::{Instance, StepOutcome, DOSTEP_WORK};
 pub use logger::{CallbackFunctions, CallbackLogger, Logger};
-pub use machine::Machine;
+pub use machine::{Interface, Machine};
+pub use me::{EventInfo, NO_EVENT_INDICATOR};
+
+pub use self::core::Instance;
 pub use snapshot::{Snapshot, SNAPSHOT_MAGIC, SNAPSHOT_VERSION};
 
 use crate::model::{Layout, System};
@@ -46,13 +56,17 @@ pub struct ModelInfo {
     pub guid: String,
     /// DefaultExperiment tolerance: used when fmi2SetupExperiment defines none.
     pub default_tolerance: f64,
+    /// What Model Exchange declares: event indicators, projection, `reinit` states.
+    pub probe: crate::model::Probe,
 }
 
 impl ModelInfo {
     pub fn of<M: System>() -> ModelInfo {
+        let layout = Layout::of::<M>();
         ModelInfo {
             name: M::NAME,
-            layout: Layout::of::<M>(),
+            probe: crate::model::Probe::of::<M>(&layout),
+            layout,
             guid: crate::xml::guid::<M>(),
             default_tolerance: M::default_experiment().1,
         }

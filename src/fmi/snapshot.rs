@@ -9,7 +9,7 @@
 //! copy: CRC-32 detects every single-bit error and every burst of up to 32 bits) is
 //! rejected.
 
-use super::Machine;
+use super::machine::{Interface, Machine};
 use crate::integrators::dopri5::{Ahead, StiffnessMonitor};
 use crate::integrators::{dop853, radau5, Memory, Method, Stats};
 
@@ -19,8 +19,9 @@ pub const SNAPSHOT_MAGIC: [u8; 8] = *b"MBFMU\0ST";
 /// dense-output point ([`dop853::Ahead`]). 5: ends with a CRC-32 of the blob. 6: adds
 /// `solver_max_steps` after `solver_step`. 7: adds the inputs' first and second time
 /// derivatives (fmi2SetRealInputDerivatives) after the inputs. 8: counts the Jacobians
-/// (doStep's work bound) after the rejected steps.
-pub const SNAPSHOT_VERSION: u32 = 8;
+/// (doStep's work bound) after the rejected steps. 9: ends (before the checksum) with the
+/// interface the state was taken in, `me_projection` and Model Exchange's event reference.
+pub const SNAPSHOT_VERSION: u32 = 9;
 
 /// Bytes of the checksum that ends a blob.
 const CRC_LEN: usize = 4;
@@ -43,6 +44,16 @@ pub struct Snapshot {
     pub tolerance: f64,
     pub memory: Memory,
     pub machine: Machine,
+    /// The interface the instance was made for: a state is restored only into an
+    /// instance of the same one (its machine states are that interface's).
+    pub interface: Interface,
+    /// `me_projection`: whether Model Exchange keeps a constrained system on its
+    /// constraints through step events (Co-Simulation ignores it).
+    pub me_projection: bool,
+    /// Model Exchange: the event indicator where the last event ended (fmi2NewDiscreteStates,
+    /// or fmi2ExitInitializationMode); a sign change against it is an event. `None`: the
+    /// model has no indicator here, or Co-Simulation.
+    pub event_reference: Option<f64>,
 }
 
 struct Reader<'a> {
@@ -267,6 +278,10 @@ impl Snapshot {
             write_dop853(&mut b, a);
         }
         b.extend_from_slice(&self.machine.code().to_le_bytes());
+        b.push(self.interface.code());
+        b.push(self.me_projection as u8);
+        b.push(self.event_reference.is_some() as u8);
+        f(&mut b, self.event_reference.unwrap_or(0.0));
         let crc = crc32fast::hash(&b);
         b.extend_from_slice(&crc.to_le_bytes());
         b
@@ -390,6 +405,15 @@ impl Snapshot {
         let code = r.u32()?;
         let machine = Machine::from_code(code)
             .ok_or_else(|| format!("FMU state names unknown machine state {code}"))?;
+        let code = r.take(1)?[0];
+        let interface = Interface::from_code(code)
+            .ok_or_else(|| format!("FMU state names unknown interface {code}"))?;
+        let me_projection = r.flag()?;
+        let has_reference = r.flag()?;
+        let reference = r.f64()?;
+        if !reference.is_finite() {
+            return Err("FMU state holds a non-finite event indicator reference".into());
+        }
         if !r.bytes.is_empty() {
             return Err(format!("FMU state has {} trailing bytes", r.bytes.len()));
         }
@@ -419,6 +443,9 @@ impl Snapshot {
                 stiffness,
             },
             machine,
+            interface,
+            me_projection,
+            event_reference: has_reference.then_some(reference),
         })
     }
 }

@@ -3,7 +3,7 @@
 //! Order (and so value reference = position, ScalarVariable index = position + 1):
 //! model parameters, solver parameters (`solver`, `solver_step`), states, state
 //! derivatives, inputs, outputs, then the variables added since, in the order they were
-//! added (`solver_max_steps`). A new variable goes at the end, never in between: every
+//! added (`solver_max_steps`, `me_projection`). A new variable goes at the end, never in between: every
 //! existing value reference stays what it was, since tools outside script them.
 
 use super::{System, Var};
@@ -24,6 +24,10 @@ pub enum VarKind {
     /// The most internal steps one doStep may take (Integer `solver_max_steps`), read with
     /// fmi2Get/SetInteger.
     SolverMaxSteps,
+    /// Whether Model Exchange projects a constrained system onto its constraints at step
+    /// events (Integer `me_projection`, 1 or 0), read with fmi2Get/SetInteger; Co-Simulation
+    /// ignores it (doStep always projects).
+    MeProjection,
 }
 
 /// Where a variable's value lives: its kind and its index inside that kind.
@@ -114,6 +118,17 @@ impl Layout {
             )
             .min(1.0)
             .max(i32::MAX as f64)],
+        );
+        push(
+            VarKind::MeProjection,
+            &[Var::new(
+                "me_projection",
+                None,
+                1.0,
+                "Model Exchange only: 1 (default) keeps a constrained system on its constraints: fmi2CompletedIntegratorStep asks for event mode when the state has left them, and fmi2NewDiscreteStates projects it back (valuesOfContinuousStatesChanged); 0 leaves the importer's states as integrated (the constraints drift). No effect on a system without constraints, nor in Co-Simulation, whose doStep always projects",
+            )
+            .min(0.0)
+            .max(1.0)],
         );
         Layout {
             vars,

@@ -11,10 +11,12 @@ pub mod jacobian;
 pub mod kinematics;
 pub mod lagrangian;
 mod layout;
+pub mod probe;
 mod scene;
 pub mod symbolic;
 
 pub use layout::{Layout, Slot, VarKind, DEFAULT_SOLVER_MAX_STEPS};
+pub use probe::Probe;
 pub use scene::Scene;
 
 use crate::integrators::problem::Mechanics;

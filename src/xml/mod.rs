@@ -10,7 +10,7 @@ mod units;
 pub use structure::{dependencies, Dependencies};
 
 use crate::integrators::Method;
-use crate::model::{Layout, Slot, System, VarKind};
+use crate::model::{Layout, Probe, Slot, System, VarKind};
 use quick_xml::events::{BytesDecl, BytesEnd, BytesStart, Event};
 use quick_xml::Writer;
 use std::io::Cursor;
@@ -93,6 +93,7 @@ fn s(v: impl ToString) -> String {
 fn render<M: System>(guid: &str) -> String {
     let layout = Layout::of::<M>();
     let deps = dependencies::<M>(&layout);
+    let probe = Probe::of::<M>(&layout);
     let (stop, tol, step) = M::default_experiment();
     let mut w = Writer::new_with_indent(Cursor::new(Vec::new()), b' ', 2);
     w.write_event(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)))
@@ -107,7 +108,23 @@ fn render<M: System>(guid: &str) -> String {
             ("guid", s(guid)),
             ("description", s(M::DESCRIPTION)),
             ("generationTool", s(GENERATION_TOOL)),
-            ("numberOfEventIndicators", s(0)),
+            ("numberOfEventIndicators", s(probe.event_indicators)),
+        ],
+    );
+    // Model Exchange first (the schema's order). A constrained system needs
+    // fmi2CompletedIntegratorStep: it asks for the step events that project.
+    empty(
+        &mut w,
+        "ModelExchange",
+        &[
+            ("modelIdentifier", s(M::NAME)),
+            ("needsExecutionTool", s(false)),
+            ("completedIntegratorStepNotNeeded", s(!probe.projects)),
+            ("canBeInstantiatedOnlyOncePerProcess", s(false)),
+            ("canNotUseMemoryManagementFunctions", s(true)),
+            ("canGetAndSetFMUstate", s(true)),
+            ("canSerializeFMUstate", s(true)),
+            ("providesDirectionalDerivative", s(true)),
         ],
     );
     empty(
@@ -200,7 +217,7 @@ fn render<M: System>(guid: &str) -> String {
                     ("start", s(var.start as i32)),
                 ],
             );
-        } else if slot.kind == VarKind::SolverMaxSteps {
+        } else if matches!(slot.kind, VarKind::SolverMaxSteps | VarKind::MeProjection) {
             let mut integer = Vec::new();
             for (name, bound) in [("min", var.min), ("max", var.max)] {
                 if let Some(bound) = bound {
@@ -232,6 +249,11 @@ fn render<M: System>(guid: &str) -> String {
             }
             if has_start(slot.kind) {
                 real.push(("start", fmt_real(var.start)));
+            }
+            // A state the FMU changes at events (projection, on_event): Model Exchange's
+            // importer must re-read it after fmi2NewDiscreteStates.
+            if slot.kind == VarKind::State && probe.reinit[slot.index] {
+                real.push(("reinit", s(true)));
             }
             empty(&mut w, "Real", &real);
         }
@@ -271,7 +293,8 @@ pub fn fmi_attributes(slot: Slot) -> (&'static str, &'static str, Option<&'stati
         VarKind::Parameter
         | VarKind::SolverMethod
         | VarKind::SolverStep
-        | VarKind::SolverMaxSteps => ("parameter", "fixed", Some("exact")),
+        | VarKind::SolverMaxSteps
+        | VarKind::MeProjection => ("parameter", "fixed", Some("exact")),
         // States are outputs whose start value is the initial state.
         VarKind::State => ("output", "continuous", Some("exact")),
         VarKind::Derivative => ("local", "continuous", Some("calculated")),

@@ -227,7 +227,8 @@ class Model:
 class Instance:
     """One fmi2Component plus a tracked communication time."""
 
-    def __init__(self, model: Model, name: str, logging_on: bool = False, lib: FMU2Slave | None = None):
+    def __init__(self, model: Model, name: str, logging_on: bool = False, lib: FMU2Slave | None = None,
+                 kind: int = fmi2CoSimulation):
         if AUTO_ENSURE_LOGGER:
             ensure_logger()
         self.model = model
@@ -237,7 +238,7 @@ class Instance:
         self.fn = self.lib._functions  # raw ctypes function pointers (argtypes set by fmpy)
         comp = self.fn["fmi2Instantiate"](
             name.encode(),
-            fmi2CoSimulation,
+            kind,
             model.guid.encode(),
             model.resource_uri(),
             byref(CALLBACKS),

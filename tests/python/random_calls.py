@@ -1,4 +1,5 @@
-"""Random call sequences through the FMI 2.0 Co-Simulation C API of one FMU.
+"""Random call sequences through the FMI 2.0 C API of one FMU, Co-Simulation and Model
+Exchange instances (about a third of the instances are Model Exchange ones, ME_SHARE).
 
 Each sequence starts from no instance and makes random calls from the whole CS API —
 instantiate (also with a wrong GUID, type or name), setup, initialization, Get/Set of
@@ -9,8 +10,13 @@ bits flipped, truncated or extended, header fields changed, and values at their 
 overwritten with out-of-range ones), reset, terminate, directional derivatives, status
 queries, debug logging, input and output derivatives, and fmi2CancelStep — in whatever
 state the
-machine is in. A model of the standard's state machine (section 4.2.4) says which calls
-are valid; the FMU's documented contract ("every rejected call returns fmi2Error, changes
+machine is in; for Model Exchange instances also fmi2SetTime, fmi2Set/GetContinuousStates,
+fmi2GetDerivatives, fmi2GetEventIndicators, fmi2GetNominalsOfContinuousStates, event mode
+(fmi2EnterEventMode, fmi2NewDiscreteStates, fmi2EnterContinuousTimeMode) and
+fmi2CompletedIntegratorStep, alone and as an importer's explicit Euler step with the step
+events it asks for; each interface's functions are called on instances of the other too (all
+refused), and blobs of one interface are deserialized into the other (refused). A model of
+the standard's state machines (sections 4.2.4 and 3.2.3) says which calls are valid; the FMU's documented contract ("every rejected call returns fmi2Error, changes
 nothing") says where a rejected call leaves it.
 
 The oracles. A sequence stops at the first one violated and reports it with its seed:
@@ -82,6 +88,8 @@ from ctypes import (byref, c_char_p, c_double, c_int, c_size_t, c_uint, c_void_p
                     create_string_buffer)
 from dataclasses import dataclass, field
 
+from fmpy.fmi2 import fmi2EventInfo
+
 import fmu_support as fs
 
 OK, WARNING, DISCARD, ERROR = 0, 1, 2, 3
@@ -97,9 +105,14 @@ ANY = None  # the standard leaves it open (or the model decides): not checked by
 # Machine states (the harness's model of the standard's state machine).
 NONE, INSTANTIATED, INIT, STEP_COMPLETE, STEP_FAILED, TERMINATED = (
     "none", "instantiated", "initializationMode", "stepComplete", "stepFailed", "terminated")
-GET_STATES = (INIT, STEP_COMPLETE, STEP_FAILED, TERMINATED)  # fmi2GetXXX, directional der.
-SET_STATES = (INSTANTIATED, INIT, STEP_COMPLETE)  # fmi2SetXXX, SetRealInputDerivatives
-STATUS_STATES = (STEP_COMPLETE, STEP_FAILED, TERMINATED)  # fmi2GetStatus & co.
+EVENT, CONT = "eventMode", "continuousTimeMode"  # Model Exchange's (CS: the step states)
+# fmi2GetXXX, directional derivatives (each interface lives in its own states: a union)
+GET_STATES = (INIT, STEP_COMPLETE, STEP_FAILED, TERMINATED, EVENT, CONT)
+SET_STATES = (INSTANTIATED, INIT, STEP_COMPLETE, EVENT, CONT)  # fmi2SetReal (inputs)
+SET_INT_STATES = (INSTANTIATED, INIT, STEP_COMPLETE, EVENT)  # fmi2SetInteger/Boolean/String
+INPUT_DER_STATES = (INSTANTIATED, INIT, STEP_COMPLETE)  # SetRealInputDerivatives (CS only)
+STATUS_STATES = (STEP_COMPLETE, STEP_FAILED, TERMINATED)  # fmi2GetStatus & co. (CS only)
+ME_SHARE = 0.35  # of the instances a sequence makes: Model Exchange ones
 # O3's states: the values set before and in initialization mode are checked together by
 # fmi2ExitInitializationMode (an infeasible combination of in-range values is refused
 # there), so the FMU vouches for its outputs from then on.
@@ -202,6 +215,10 @@ class Spec:
         self.solver_step = next((v for v in self.reals if v.name == "solver_step"), None)
         self.max_vr = max(v.vr for v in self.vars)
         self.max_output_order = int(md.coSimulation.maxOutputDerivativeOrder or 0)
+        self.n_states = len(self.state_vrs)
+        self.n_indicators = int(md.numberOfEventIndicators or 0)
+        self.state_nominals = [float(v.nominal) if v.nominal is not None else 1.0
+                               for v in self.states]
 
 
 # ---------------------------------------------------------------------------------------
@@ -351,6 +368,7 @@ class StateRec:
     values: dict  # vr -> value of the Real variables set or known (parameters, starts)
     readable: dict = field(default_factory=dict)  # vr -> value read at fmi2GetFMUstate
     tainted: bool = False  # deserialized from a corrupt blob (accepted: O2 at its restore)
+    me: bool = False  # taken in a Model Exchange instance (refused by a CS one, and back)
 
 
 class Sequence:
@@ -368,6 +386,7 @@ class Sequence:
         self.coverage: dict[str, int] = {}  # "function in state: status" -> calls
         self.violations: list[tuple[str, str]] = []  # with KEEP_GOING
         self.comp = None  # c_void_p of the live instance
+        self.me = False  # the live instance is a Model Exchange one
         self.n_inst = 0
         self.machine = NONE
         self.states: dict[int, tuple[c_void_p, StateRec]] = {}  # live fmi2FMUstate
@@ -383,7 +402,7 @@ class Sequence:
 
     def _rec(self, readable=None) -> StateRec:
         return StateRec(self.machine, self.time, self.start, self.stop, self.tol,
-                        dict(self.values), dict(readable or {}))
+                        dict(self.values), dict(readable or {}), me=self.me)
 
     def _restore(self, rec: StateRec):
         self.machine, self.time, self.start = rec.machine, rec.time, rec.start
@@ -445,7 +464,8 @@ class Sequence:
 
     def check_finite(self, label: str):
         """O3: every Real variable reads OK and finite."""
-        if self.comp is None or self.machine not in CHECKED_STATES:
+        if self.comp is None or self.machine not in CHECKED_STATES or self.me:
+            # (Model Exchange: the importer sets the states; each getter's own oracle holds)
             return
         vrs = self.spec.checked_vrs
         out = (c_double * len(vrs))()
@@ -476,7 +496,11 @@ class Sequence:
         ("derivatives", 2),
         ("free_instance", 0.4), ("bad_instantiate", 0.6), ("null_component", 0.5),
         ("platform", 0.2),
+        # Model Exchange (refused on Co-Simulation instances)
+        ("me_time", 2), ("me_states", 3), ("me_get", 4), ("me_event", 3), ("me_integrate", 8),
     ]
+    ME_ACTIONS = {"me_time", "me_states", "me_get", "me_event", "me_integrate"}
+    CS_ACTIONS = {"do_step", "status", "derivatives", "unsupported"}
 
     # More of the calls that move the machine on where they are valid, so that every
     # state is visited often (stepComplete most).
@@ -486,6 +510,8 @@ class Sequence:
         STEP_COMPLETE: {"do_step": 4},
         STEP_FAILED: {"terminate": 3, "set_state": 2},
         TERMINATED: {"reset": 3, "set_state": 2},
+        EVENT: {"me_event": 4, "me_get": 1.5},
+        CONT: {"me_integrate": 4},
     }
 
     KEEP_GOING = False  # --keep-going: diagnostics only (after a violation the
@@ -515,8 +541,11 @@ class Sequence:
                     boost = self.BOOST.get(self.machine, {})
                     if self.wide > 0.5 and self.machine == STEP_COMPLETE:
                         boost = {"do_step": 10}  # long runs: stiffness shows after a while
+                    # The other interface's functions: now and then (all refused).
+                    other = self.CS_ACTIONS if self.me else self.ME_ACTIONS
                     action = self.rng.choices(
-                        names, [w * boost.get(a, 1) for a, w in zip(names, weights)])[0]
+                        names, [w * boost.get(a, 1) * (0.1 if a in other else 1)
+                                for a, w in zip(names, weights)])[0]
                 getattr(self, "do_" + action)()
         except Failure as f:
             result["failure"] = {"oracle": f.oracle, "message": str(f),
@@ -542,16 +571,19 @@ class Sequence:
         self.n_inst += 1
         name = f"rc{self.seed}_{self.n_inst}".encode()
         logging_on = int(self.rng.random() < 0.2)
+        me = self.rng.random() < ME_SHARE
         mark = fs.RECORDER.mark()
-        comp = self.fn["fmi2Instantiate"](name, fs.fmi2CoSimulation, m.guid.encode(),
+        comp = self.fn["fmi2Instantiate"](name, fs.fmi2ModelExchange if me else
+                                          fs.fmi2CoSimulation, m.guid.encode(),
                                           m.resource_uri(), byref(fs.CALLBACKS),
                                           0, logging_on)
-        self.log(f"[{len(self.trace)}] fmi2Instantiate({name.decode()}, loggingOn="
+        self.log(f"[{len(self.trace)}] fmi2Instantiate({name.decode()}, "
+                 f"{'ModelExchange' if me else 'CoSimulation'}, loggingOn="
                  f"{logging_on}) -> {'instance' if comp else 'NULL'}")
         if not comp:
             lines = fs.RECORDER.since(mark)
             self.fail("O2", f"fmi2Instantiate with valid arguments returned NULL: {lines}")
-        self.comp, self.machine = c_void_p(comp), INSTANTIATED
+        self.comp, self.machine, self.me = c_void_p(comp), INSTANTIATED, me
         self._fresh_values()
 
     def do_free_instance(self):
@@ -568,7 +600,7 @@ class Sequence:
         m, rng = self.spec.model, self.rng
         args = dict(name=f"rcbad{self.seed}".encode(), kind=fs.fmi2CoSimulation,
                     guid=m.guid.encode(), cb=byref(fs.CALLBACKS))
-        what = rng.choice(["wrong GUID", "other GUID case", "ModelExchange", "type 7",
+        what = rng.choice(["wrong GUID", "other GUID case", "type -1", "type 7",
                            "NULL name", "empty name", "NULL GUID", "NULL callbacks"])
         if what == "wrong GUID":
             args["guid"] = b"{00000000-1111-2222-3333-444444444444}"
@@ -576,8 +608,8 @@ class Sequence:
             args["guid"] = m.guid.swapcase().encode()
             if args["guid"] == m.guid.encode():
                 args["guid"] = b"{" + args["guid"][1:-1][::-1] + b"}"
-        elif what == "ModelExchange":
-            args["kind"] = fs.fmi2ModelExchange
+        elif what == "type -1":
+            args["kind"] = -1
         elif what == "type 7":
             args["kind"] = 7
         elif what == "NULL name":
@@ -670,7 +702,7 @@ class Sequence:
     def do_exit(self):
         def after(st):
             if st in (OK, WARNING):
-                self.machine = STEP_COMPLETE
+                self.machine = EVENT if self.me else STEP_COMPLETE
                 self.time = self.start
                 self.check_finite("fmi2ExitInitializationMode")
 
@@ -685,7 +717,7 @@ class Sequence:
                 self.machine = TERMINATED
                 self.check_finite("fmi2Terminate")
 
-        ok = self.machine in (STEP_COMPLETE, STEP_FAILED)
+        ok = self.machine in (STEP_COMPLETE, STEP_FAILED, EVENT, CONT)
         self.call("fmi2Terminate", "fmi2Terminate", self.comp,
                   expect=VALID if ok else INVALID, after=after)
 
@@ -791,7 +823,7 @@ class Sequence:
     def do_set_int(self):
         rng, spec = self.rng, self.spec
         state = self.machine
-        invalid = state not in SET_STATES
+        invalid = state not in SET_INT_STATES
         model_decides = False
         vrs, values = [], []
         for _ in range(rng.choice((0, 1, 1, 2))):
@@ -853,7 +885,7 @@ class Sequence:
             values = (c_char_p * max(n, 1))(*([b"x"] * n if setter else []))
         else:
             values = (c_int * max(n, 1))()
-        if n > 0 or self.machine not in (SET_STATES if setter else GET_STATES + (
+        if n > 0 or self.machine not in (SET_INT_STATES if setter else GET_STATES + (
                 INSTANTIATED,)):
             expect = INVALID
         else:  # nothing to get or set (a getter in instantiated: see do_get_real)
@@ -1066,7 +1098,8 @@ class Sequence:
                        f"{', into an existing state' if reuse else ''})",
                        "fmi2DeSerializeFMUstate", self.comp,
                        create_string_buffer(data, len(data)), len(data), byref(ptr),
-                       expect=VALID if mutated is None else ANY)
+                       expect=INVALID if rec.me != self.me else (
+                           VALID if mutated is None else ANY))
         if st not in (OK, WARNING):
             return
         if reuse and ptr.value != before:
@@ -1203,7 +1236,7 @@ class Sequence:
         value = ctype()
         null = rng.random() < 0.05
         answerable = (f, kind) in (("fmi2GetRealStatus", 2), ("fmi2GetBooleanStatus", 3))
-        if null or self.machine not in STATUS_STATES:
+        if null or self.machine not in STATUS_STATES or self.me:
             expect = INVALID
         elif answerable:
             expect = VALID
@@ -1275,7 +1308,7 @@ class Sequence:
             f = "fmi2SetRealInputDerivatives"
             vrs, orders, values, bad = self._derivative_args([v.vr for v in spec.inputs], 2)
             bad |= not finite(values)
-            ok_state = self.machine in SET_STATES
+            ok_state = self.machine in INPUT_DER_STATES and not self.me
             expect = INVALID if (bad or null or not ok_state) else VALID
             self.call(f"{f}({vrs}, {orders}, {values}{', NULL' if null else ''})", f,
                       self.comp, arr(c_uint, vrs), len(vrs), arr(c_int, orders),
@@ -1284,7 +1317,7 @@ class Sequence:
         f = "fmi2GetRealOutputDerivatives"
         vrs, orders, _, bad = self._derivative_args(spec.checked_vrs, spec.max_output_order)
         out = (c_double * len(vrs))()
-        ok_state = self.machine in STATUS_STATES
+        ok_state = self.machine in STATUS_STATES and not self.me
         expect = INVALID if (bad or null or not ok_state) else ANY
 
         def after(st):
@@ -1295,6 +1328,174 @@ class Sequence:
                   arr(c_uint, vrs), len(vrs), arr(c_int, orders), None if null else out,
                   expect=expect, after=after)
 
+
+    # -- Model Exchange -----------------------------------------------------------------
+    def _me_expect(self, allowed) -> frozenset:
+        return VALID if (self.me and self.machine in allowed) else INVALID
+
+    def _me_read(self, fname: str, n: int, allowed, label: str | None = None,
+                 discard_ok: bool = False):
+        """A getter of n values (continuous states, derivatives, event indicators,
+        nominals): sometimes with a wrong count or NULL. O3: OK means finite values (and
+        positive nominals). Returns (status, values)."""
+        rng = self.rng
+        count, null = n, False
+        r = rng.random()
+        if r < 0.06:
+            count = n + rng.choice((1, -1 if n > 0 else 2))
+        elif r < 0.1 and n > 0:
+            null = True
+        out = (c_double * max(count, 1))()
+        expect = INVALID if (count != n or null) else self._me_expect(allowed)
+        if expect == VALID and discard_ok:
+            expect = frozenset({OK, WARNING, DISCARD})
+
+        def after(st):
+            vals = list(out)[:count]
+            if st == OK and not finite(vals):
+                self.fail("O3", f"{fname} returned OK with {vals}")
+            if st == OK and fname == "fmi2GetNominalsOfContinuousStates" and not all(
+                    v > 0 for v in vals):
+                self.fail("O3", f"{fname} returned OK with {vals}")
+
+        st = self.call(f"{label or fname}(n {count}{', NULL' if null else ''})", fname,
+                       self.comp, None if null else out, count, expect=expect, after=after)
+        return st, list(out)[:count]
+
+    def do_me_time(self):
+        rng = self.rng
+        t = self.time + rng.choice((1.0, 1.0, 1.0, -1.0)) * 10 ** rng.uniform(-5, -1)
+        bad = rng.random() < 0.15
+        if bad:
+            t = rng.choice((math.nan, math.inf, -math.inf))
+        expect = INVALID if bad else self._me_expect((EVENT, CONT))
+
+        def after(st):
+            if st in (OK, WARNING):
+                self.time = t
+
+        self.call(f"fmi2SetTime({t!r})", "fmi2SetTime", self.comp, c_double(t),
+                  expect=expect, after=after)
+
+    def do_me_states(self):
+        """fmi2SetContinuousStates: near the states held (sometimes far), or invalid."""
+        rng, spec = self.rng, self.spec
+        n = spec.n_states
+        x = [0.0] * n
+        if self.me and self.machine in (INIT, EVENT, CONT, TERMINATED):
+            out = (c_double * max(n, 1))()
+            if int(self.fn["fmi2GetContinuousStates"](self.comp, out, n)) == OK:
+                x = list(out)[:n]
+        scale = 0.05 if rng.random() >= self.wide else 1.0
+        x = [v + rng.gauss(0.0, scale) * nom for v, nom in zip(x, spec.state_nominals)]
+        count, null, bad = n, False, False
+        r = rng.random()
+        if r < 0.12 and n:
+            x[rng.randrange(n)] = rng.choice((math.nan, math.inf, -math.inf))
+            bad = True
+        elif r < 0.18:
+            count, bad = n + rng.choice((1, -1)), True
+            x = (x + [0.0])[:max(count, 0)]
+        elif r < 0.22 and n:
+            null, bad = True, True
+        # (a state with a declared [min, max]: SphereSlide's mode, checked as fmi2SetReal)
+        bad |= not all(self.spec.by_vr[vr].in_range(v)
+                       for vr, v in zip(self.spec.state_vrs, x) if math.isfinite(v))
+        expect = INVALID if bad else self._me_expect((CONT,))
+        self.call(f"fmi2SetContinuousStates({x}{', NULL' if null else ''})",
+                  "fmi2SetContinuousStates", self.comp,
+                  None if null else arr(c_double, x), max(count, 0), expect=expect)
+
+    def do_me_get(self):
+        spec = self.spec
+        f, n, allowed = self.rng.choice([
+            ("fmi2GetContinuousStates", spec.n_states, (INIT, EVENT, CONT, TERMINATED)),
+            ("fmi2GetDerivatives", spec.n_states, (EVENT, CONT, TERMINATED)),
+            ("fmi2GetEventIndicators", spec.n_indicators, (INIT, EVENT, CONT, TERMINATED)),
+            ("fmi2GetNominalsOfContinuousStates", spec.n_states,
+             (INSTANTIATED, EVENT, CONT, TERMINATED)),
+        ])
+        self._me_read(f, n, allowed, discard_ok=f in ("fmi2GetDerivatives",
+                                                     "fmi2GetEventIndicators"))
+
+    def do_me_event(self):
+        rng = self.rng
+        f = rng.choice(("fmi2EnterEventMode", "fmi2NewDiscreteStates",
+                        "fmi2EnterContinuousTimeMode", "fmi2CompletedIntegratorStep"))
+        if f == "fmi2EnterEventMode":
+            self.call(f, f, self.comp, expect=self._me_expect((EVENT, CONT)),
+                      after=lambda st: self._move(st, EVENT))
+        elif f == "fmi2EnterContinuousTimeMode":
+            self.call(f, f, self.comp, expect=self._me_expect((EVENT,)),
+                      after=lambda st: self._move(st, CONT))
+        elif f == "fmi2NewDiscreteStates":
+            self._new_discrete_states(null=rng.random() < 0.08)
+        else:
+            self._completed_step(null=rng.random() < 0.08)
+
+    def _move(self, st, machine):
+        if st in (OK, WARNING):
+            self.machine = machine
+
+    def _new_discrete_states(self, null=False):
+        info = fmi2EventInfo()
+        expect = INVALID if null else self._me_expect((EVENT,))
+        st = self.call(f"fmi2NewDiscreteStates{'(NULL)' if null else ''}",
+                       "fmi2NewDiscreteStates", self.comp, None if null else byref(info),
+                       expect=expect)
+        return st, info
+
+    def _completed_step(self, null=False):
+        enter, terminate = c_int(7), c_int(7)
+
+        def after(st):
+            if st == OK and (enter.value not in (0, 1) or terminate.value not in (0, 1)):
+                self.fail("O3", f"fmi2CompletedIntegratorStep returned OK with "
+                                f"{enter.value}, {terminate.value}")
+
+        expect = INVALID if null else self._me_expect((CONT,))
+        st = self.call(f"fmi2CompletedIntegratorStep{'(NULL)' if null else ''}",
+                       "fmi2CompletedIntegratorStep", self.comp, int(self.rng.random() < 0.5),
+                       None if null else byref(enter), byref(terminate), expect=expect,
+                       after=after)
+        return st, bool(enter.value == 1), bool(terminate.value == 1)
+
+    def do_me_integrate(self):
+        """One explicit Euler step as an importer takes it: states and derivatives read, time
+        and states set, fmi2CompletedIntegratorStep, and the step event it asks for (event
+        mode, fmi2NewDiscreteStates, back to continuous-time mode)."""
+        if not (self.me and self.machine == CONT):
+            self._completed_step()
+            return
+        n = self.spec.n_states
+        st, x = self._me_read("fmi2GetContinuousStates", n, (CONT,), "step: states")
+        if st != OK or len(x) != n:
+            return
+        st, dx = self._me_read("fmi2GetDerivatives", n, (CONT,), "step: derivatives",
+                               discard_ok=True)
+        if st != OK or len(dx) != n:
+            return
+        h = 10 ** self.rng.uniform(-4, -1.5)
+        t = self.time + h
+        st = self.call(f"step: fmi2SetTime({t!r})", "fmi2SetTime", self.comp, c_double(t),
+                       expect=VALID)
+        if st == OK:
+            self.time = t
+        xn = [a + h * b for a, b in zip(x, dx)]
+        valid = finite(xn) and all(self.spec.by_vr[vr].in_range(v)
+                                   for vr, v in zip(self.spec.state_vrs, xn))
+        self.call(f"step: fmi2SetContinuousStates({xn})", "fmi2SetContinuousStates",
+                  self.comp, arr(c_double, xn), n, expect=VALID if valid else INVALID)
+        st, enter, terminate = self._completed_step()
+        if st != OK or not (enter or terminate):
+            return
+        st = self.call("step event: fmi2EnterEventMode", "fmi2EnterEventMode", self.comp,
+                       expect=VALID, after=lambda st: self._move(st, EVENT))
+        st, info = self._new_discrete_states()
+        if st != OK or info.terminateSimulation:
+            return
+        self.call("step event: fmi2EnterContinuousTimeMode", "fmi2EnterContinuousTimeMode",
+                  self.comp, expect=VALID, after=lambda st: self._move(st, CONT))
 
 # ---------------------------------------------------------------------------------------
 # O5: FMU states freed with their instance
@@ -1455,11 +1656,36 @@ def describe(name: str, outcome: dict, calls: int, shown: int = 3) -> tuple[list
     return failures, "\n".join(lines)
 
 
+def bind_model_exchange(lib) -> None:
+    """fmpy's FMU2Slave binds the Co-Simulation functions only: the Model Exchange ones of
+    the same binary, added to its function table."""
+    d, sz = ctypes.POINTER(c_double), c_size_t
+    signatures = {
+        "fmi2SetTime": [c_void_p, c_double],
+        "fmi2SetContinuousStates": [c_void_p, d, sz],
+        "fmi2GetContinuousStates": [c_void_p, d, sz],
+        "fmi2GetDerivatives": [c_void_p, d, sz],
+        "fmi2GetEventIndicators": [c_void_p, d, sz],
+        "fmi2GetNominalsOfContinuousStates": [c_void_p, d, sz],
+        "fmi2EnterEventMode": [c_void_p],
+        "fmi2EnterContinuousTimeMode": [c_void_p],
+        "fmi2NewDiscreteStates": [c_void_p, ctypes.POINTER(fmi2EventInfo)],
+        "fmi2CompletedIntegratorStep": [c_void_p, c_int, ctypes.POINTER(c_int),
+                                        ctypes.POINTER(c_int)],
+    }
+    for name, args in signatures.items():
+        f = getattr(lib.dll, name)
+        f.argtypes, f.restype = args, c_int
+        lib._functions[name] = f
+
+
 def load(model_name: str):
     fs.ensure_logger()
     fs.AUTO_ENSURE_LOGGER = False
     model = fs.Model(model_name)
-    return Spec(model), model.library(f"{model_name}_random")
+    lib = model.library(f"{model_name}_random")
+    bind_model_exchange(lib)
+    return Spec(model), lib
 
 
 def batch(model_name: str, first: int, count: int, n_calls: int, leak: bool) -> None:

@@ -239,7 +239,7 @@ def test_parameter_settable_in_initialization_mode(model, instances):
 # ---------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("what", ["wrong GUID", "other model's GUID", "ModelExchange"])
+@pytest.mark.parametrize("what", ["wrong GUID", "other model's GUID", "fmuType 7"])
 def test_instantiate_rejected(model, load_model, logs, what):
     lib = model.library()
     try:
@@ -253,7 +253,7 @@ def test_instantiate_rejected(model, load_model, logs, what):
             guid = load_model(other).guid.encode()
             assert guid != model.guid.encode()
         else:
-            kind = fs.fmi2ModelExchange
+            kind = 7  # neither fmi2ModelExchange (0) nor fmi2CoSimulation (1)
         name = f"{model.name}_bad_{what.replace(' ', '_')}"
         fs.ensure_logger()
         mark = logs.mark()
@@ -459,8 +459,14 @@ def test_fmpy_high_level_api_raises_with_status(model, logs):
         fmu.freeInstance()
 
 
-def test_fmpy_refuses_model_exchange(model):
+def test_fmpy_runs_model_exchange(model):
+    """The same binary serves Model Exchange (tests/python/test_model_exchange.py compares
+    the runs)."""
     import fmpy
+    import numpy as np
 
-    with pytest.raises(Exception, match="not supported"):
-        fmpy.simulate_fmu(model.unzipdir, model_description=model.md, fmi_type="ModelExchange")
+    result = fmpy.simulate_fmu(model.unzipdir, model_description=model.md,
+                               fmi_type="ModelExchange", stop_time=0.5, output_interval=0.01)
+    assert abs(result["time"][-1] - 0.5) < 1e-9
+    for field in result.dtype.names:
+        assert np.all(np.isfinite(result[field])), field

@@ -1,4 +1,5 @@
-"""Random call sequences through the C API of every FMU in the FMU folder.
+"""Random call sequences through the C API of every FMU in the FMU folder, on
+Co-Simulation and Model Exchange instances (about a third are Model Exchange ones).
 
 random_calls.py makes the calls and states the oracles (O1 crash or hang, O2 invalid
 arguments refused and valid ones accepted, O3 finite values after success, O4 returned

@@ -29,11 +29,15 @@ def test_validate_fmu_reports_no_problems(model):
     assert problems == [], "\n".join(problems)
 
 
-def test_fmi2_cosimulation_only(model):
+def test_fmi2_cosimulation_and_model_exchange(model):
     md = model.md
     assert md.fmiVersion == "2.0"
     assert md.coSimulation is not None
-    assert md.modelExchange is None, "the FMU must not declare ModelExchange"
+    me = md.modelExchange
+    assert me is not None, "the FMU declares ModelExchange beside CoSimulation"
+    assert me.modelIdentifier == md.coSimulation.modelIdentifier == model.identifier
+    assert me.providesDirectionalDerivative and me.canGetAndSetFMUstate
+    assert me.canSerializeFMUstate
     assert md.modelName == model.name
     # GUID is a braced UUID string
     uuid.UUID(md.guid.strip("{}"))

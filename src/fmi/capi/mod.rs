@@ -1,15 +1,23 @@
 //! The C side of the boundary: raw pointers in, checked Rust values out.
 //!
 //! Every function here is generic over the exported model and is called by a one-line
-//! `extern "C"` symbol from [`export_fmu!`](crate::export_fmu). Each one:
+//! `extern "C"` symbol from [`export_fmu!`](crate::export_fmu): this module the functions
+//! both interfaces have (instantiation, get/set, FMU state, directional derivatives,
+//! logging), [`cs`] Co-Simulation's own, [`me`] Model Exchange's own. Each one:
 //! - rejects NULL pointers and impossible lengths before touching memory,
 //! - runs its body under `catch_unwind`, so no panic crosses into the host,
 //! - turns every `Err` into fmi2Error and one line through the logger,
 //! - returns fmi2Warning from a call that logged a warning and would return fmi2OK.
 
+mod cs;
+mod me;
+
+pub use cs::*;
+pub use me::*;
+
 use super::logger::CallbackFunctions;
-use super::machine;
-use super::{Export, Instance, Logger, Snapshot, Status, StepOutcome};
+use super::machine::{self, Interface};
+use super::{Export, Instance, Logger, Snapshot, Status};
 use std::collections::BTreeMap;
 use std::ffi::{c_char, c_int, c_uint, c_void, CStr};
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -17,14 +25,6 @@ use std::sync::{Mutex, MutexGuard};
 
 pub type Component = *mut c_void;
 pub type FmuState = *mut c_void;
-
-/// fmi2Type: the only one this exporter builds.
-const FMI2_COSIMULATION: c_int = 1;
-
-/// fmi2StatusKind values this FMU answers (fmi2DoStepStatus and fmi2PendingStatus
-/// only concern asynchronous steps, which it never runs).
-const LAST_SUCCESSFUL_TIME: c_int = 2;
-const TERMINATED: c_int = 3;
 
 /// What an `fmi2FMUstate` points at. The tag and GUID let us reject a state pointer
 /// from another model instead of reading it as ours.
@@ -63,7 +63,7 @@ fn new_state<E: Export>(c: Component, snapshot: Snapshot) -> FmuState {
     state
 }
 
-type Inst<E> = Instance<<E as Export>::Model>;
+pub(crate) type Inst<E> = Instance<<E as Export>::Model>;
 
 fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
     payload
@@ -76,7 +76,7 @@ fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
 /// Runs `body` on the instance behind `c`: NULL check, debug log, panic guard, error log,
 /// and fmi2OK raised to fmi2Warning when the body logged a warning.
 #[inline(always)] // (each FMI function has its own body: one call site per instance)
-fn call<E: Export>(
+pub(crate) fn call<E: Export>(
     c: Component,
     function: &str,
     body: impl FnOnce(&mut Inst<E>) -> Result<Status, String>,
@@ -122,7 +122,7 @@ fn call<E: Export>(
 ///
 /// # Safety
 /// When `n > 0` and `ptr` is not NULL, `ptr` must point to `n` valid values.
-unsafe fn slice<'a, T>(
+pub(crate) unsafe fn slice<'a, T>(
     ptr: *const T,
     n: usize,
     what: &str,
@@ -142,7 +142,7 @@ unsafe fn slice<'a, T>(
 
 /// # Safety
 /// As [`slice`], for writing.
-unsafe fn slice_mut<'a, T>(
+pub(crate) unsafe fn slice_mut<'a, T>(
     ptr: *mut T,
     n: usize,
     what: &str,
@@ -160,7 +160,7 @@ unsafe fn slice_mut<'a, T>(
     Ok(std::slice::from_raw_parts_mut(ptr, n))
 }
 
-fn ok(r: Result<(), String>) -> Result<Status, String> {
+pub(crate) fn ok(r: Result<(), String>) -> Result<Status, String> {
     r.map(|()| Status::Ok)
 }
 
@@ -208,12 +208,15 @@ pub unsafe fn instantiate<E: Export>(
             None | Some("") => return fail("instanceName is NULL or empty".into()),
             Some(_) => {}
         }
-        if fmu_type != FMI2_COSIMULATION {
-            return fail(format!(
-                "fmuType {fmu_type} requested; {} is a Co-Simulation FMU only (fmi2CoSimulation = 1)",
-                info.name
-            ));
-        }
+        let interface = match u8::try_from(fmu_type).ok().and_then(Interface::from_code) {
+            Some(interface) => interface,
+            None => {
+                return fail(format!(
+                    "fmuType {fmu_type} requested; {} offers fmi2ModelExchange = 0 and fmi2CoSimulation = 1",
+                    info.name
+                ))
+            }
+        };
         if guid.is_null() {
             return fail("fmuGUID is NULL".into());
         }
@@ -224,7 +227,7 @@ pub unsafe fn instantiate<E: Export>(
                 info.guid
             ));
         }
-        let instance: Box<Inst<E>> = Box::new(Instance::new(info, logger));
+        let instance: Box<Inst<E>> = Box::new(Instance::for_interface(info, logger, interface));
         Box::into_raw(instance) as Component
     }));
     result.unwrap_or(std::ptr::null_mut())
@@ -590,148 +593,6 @@ pub unsafe fn get_directional_derivative<E: Export>(
         let dv_known = slice(dv_known, n_known, "dvKnown[]", F)?;
         let dv_unknown = slice_mut(dv_unknown, n_unknown, "dvUnknown[]", F)?;
         ok(inst.directional_derivative(unknown, known, dv_known, dv_unknown))
-    })
-}
-
-/// # Safety
-/// The arrays hold `n` elements when `n` is positive.
-pub unsafe fn set_real_input_derivatives<E: Export>(
-    c: Component,
-    vr: *const c_uint,
-    n: usize,
-    order: *const c_int,
-    value: *const f64,
-) -> Status {
-    const F: &str = "fmi2SetRealInputDerivatives";
-    call::<E>(c, F, |inst| {
-        let vr = slice(vr, n, "vr[]", F)?;
-        let order = slice(order, n, "order[]", F)?;
-        let value = slice(value, n, "value[]", F)?;
-        ok(inst.set_input_derivatives(vr, order, value))
-    })
-}
-
-/// # Safety
-/// The arrays hold `n` elements when `n` is positive.
-pub unsafe fn get_real_output_derivatives<E: Export>(
-    c: Component,
-    vr: *const c_uint,
-    n: usize,
-    order: *const c_int,
-    value: *mut f64,
-) -> Status {
-    const F: &str = "fmi2GetRealOutputDerivatives";
-    call::<E>(c, F, |inst| {
-        let vr = slice(vr, n, "vr[]", F)?;
-        let order = slice(order, n, "order[]", F)?;
-        let value = slice_mut(value, n, "value[]", F)?;
-        ok(inst.output_derivatives(vr, order, value))
-    })
-}
-
-pub fn do_step<E: Export>(c: Component, current: f64, h: f64, _no_set_prior: c_int) -> Status {
-    call::<E>(c, "fmi2DoStep", |inst| match inst.do_step(current, h)? {
-        StepOutcome::Completed => Ok(Status::Ok),
-        StepOutcome::Discarded(message) => {
-            inst.logger.failure(Status::Discard, &message);
-            Ok(Status::Discard)
-        }
-    })
-}
-
-pub fn cancel_step<E: Export>(c: Component) -> Status {
-    call::<E>(c, "fmi2CancelStep", |inst| {
-        inst.require(machine::CANCEL_STEP, "fmi2CancelStep")?;
-        Ok(Status::Ok)
-    })
-}
-
-/// Status kinds this FMU cannot report answer fmi2Discard (standard, 4.2.3).
-fn unavailable<E: Export>(inst: &Inst<E>, function: &str, kind: c_int) -> Result<Status, String> {
-    inst.require_status(function)?;
-    inst.logger.failure(
-        Status::Discard,
-        &format!(
-            "{function}: status kind {kind} is not available from this FMU (doStep is synchronous)"
-        ),
-    );
-    Ok(Status::Discard)
-}
-
-/// # Safety
-/// `value` points to a writable value of the kind's type.
-pub unsafe fn get_status<E: Export>(c: Component, kind: c_int, value: *mut c_int) -> Status {
-    call::<E>(c, "fmi2GetStatus", |inst| {
-        if value.is_null() {
-            return Err("fmi2GetStatus: value is NULL".into());
-        }
-        unavailable::<E>(inst, "fmi2GetStatus", kind)
-    })
-}
-
-/// # Safety
-/// As [`get_status`].
-pub unsafe fn get_real_status<E: Export>(c: Component, kind: c_int, value: *mut f64) -> Status {
-    call::<E>(c, "fmi2GetRealStatus", |inst| {
-        if value.is_null() {
-            return Err("fmi2GetRealStatus: value is NULL".into());
-        }
-        if kind == LAST_SUCCESSFUL_TIME {
-            *value = inst.last_successful_time()?;
-            return Ok(Status::Ok);
-        }
-        unavailable::<E>(inst, "fmi2GetRealStatus", kind)
-    })
-}
-
-/// # Safety
-/// As [`get_status`].
-pub unsafe fn get_integer_status<E: Export>(
-    c: Component,
-    kind: c_int,
-    value: *mut c_int,
-) -> Status {
-    call::<E>(c, "fmi2GetIntegerStatus", |inst| {
-        if value.is_null() {
-            return Err("fmi2GetIntegerStatus: value is NULL".into());
-        }
-        unavailable::<E>(inst, "fmi2GetIntegerStatus", kind)
-    })
-}
-
-/// # Safety
-/// As [`get_status`].
-pub unsafe fn get_boolean_status<E: Export>(
-    c: Component,
-    kind: c_int,
-    value: *mut c_int,
-) -> Status {
-    call::<E>(c, "fmi2GetBooleanStatus", |inst| {
-        if value.is_null() {
-            return Err("fmi2GetBooleanStatus: value is NULL".into());
-        }
-        if kind == TERMINATED {
-            inst.require_status("fmi2GetBooleanStatus")?;
-            // The slave never asks to end the simulation early.
-            *value = 0;
-            return Ok(Status::Ok);
-        }
-        unavailable::<E>(inst, "fmi2GetBooleanStatus", kind)
-    })
-}
-
-/// # Safety
-/// As [`get_status`].
-pub unsafe fn get_string_status<E: Export>(
-    c: Component,
-    kind: c_int,
-    value: *mut *const c_char,
-) -> Status {
-    call::<E>(c, "fmi2GetStringStatus", |inst| {
-        if value.is_null() {
-            return Err("fmi2GetStringStatus: value is NULL".into());
-        }
-        unavailable::<E>(inst, "fmi2GetStringStatus", kind)
     })
 }
 

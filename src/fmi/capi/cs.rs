@@ -1,0 +1,162 @@
+//! The Co-Simulation functions of the C API: doStep, input and output derivatives, status
+//! queries (see [`super`] for what every function here does first).
+
+use super::{call, ok, slice, slice_mut, Component, Inst};
+use crate::fmi::machine::{self, Interface};
+use crate::fmi::{Export, Status, StepOutcome};
+use std::ffi::{c_char, c_int, c_uint};
+
+/// fmi2StatusKind values this FMU answers (fmi2DoStepStatus and fmi2PendingStatus
+/// only concern asynchronous steps, which it never runs).
+const LAST_SUCCESSFUL_TIME: c_int = 2;
+const TERMINATED: c_int = 3;
+
+const CS: Interface = Interface::CoSimulation;
+
+/// # Safety
+/// The arrays hold `n` elements when `n` is positive.
+pub unsafe fn set_real_input_derivatives<E: Export>(
+    c: Component,
+    vr: *const c_uint,
+    n: usize,
+    order: *const c_int,
+    value: *const f64,
+) -> Status {
+    const F: &str = "fmi2SetRealInputDerivatives";
+    call::<E>(c, F, |inst| {
+        inst.require_interface(CS, F)?;
+        let vr = slice(vr, n, "vr[]", F)?;
+        let order = slice(order, n, "order[]", F)?;
+        let value = slice(value, n, "value[]", F)?;
+        ok(inst.set_input_derivatives(vr, order, value))
+    })
+}
+
+/// # Safety
+/// The arrays hold `n` elements when `n` is positive.
+pub unsafe fn get_real_output_derivatives<E: Export>(
+    c: Component,
+    vr: *const c_uint,
+    n: usize,
+    order: *const c_int,
+    value: *mut f64,
+) -> Status {
+    const F: &str = "fmi2GetRealOutputDerivatives";
+    call::<E>(c, F, |inst| {
+        inst.require_interface(CS, F)?;
+        let vr = slice(vr, n, "vr[]", F)?;
+        let order = slice(order, n, "order[]", F)?;
+        let value = slice_mut(value, n, "value[]", F)?;
+        ok(inst.output_derivatives(vr, order, value))
+    })
+}
+
+pub fn do_step<E: Export>(c: Component, current: f64, h: f64, _no_set_prior: c_int) -> Status {
+    call::<E>(c, "fmi2DoStep", |inst| match inst.do_step(current, h)? {
+        StepOutcome::Completed => Ok(Status::Ok),
+        StepOutcome::Discarded(message) => {
+            inst.logger.failure(Status::Discard, &message);
+            Ok(Status::Discard)
+        }
+    })
+}
+
+pub fn cancel_step<E: Export>(c: Component) -> Status {
+    call::<E>(c, "fmi2CancelStep", |inst| {
+        inst.require_interface(CS, "fmi2CancelStep")?;
+        inst.require(machine::CANCEL_STEP, "fmi2CancelStep")?;
+        Ok(Status::Ok)
+    })
+}
+
+/// Status kinds this FMU cannot report answer fmi2Discard (standard, 4.2.3).
+fn unavailable<E: Export>(inst: &Inst<E>, function: &str, kind: c_int) -> Result<Status, String> {
+    inst.require_interface(CS, function)?;
+    inst.require_status(function)?;
+    inst.logger.failure(
+        Status::Discard,
+        &format!(
+            "{function}: status kind {kind} is not available from this FMU (doStep is synchronous)"
+        ),
+    );
+    Ok(Status::Discard)
+}
+
+/// # Safety
+/// `value` points to a writable value of the kind's type.
+pub unsafe fn get_status<E: Export>(c: Component, kind: c_int, value: *mut c_int) -> Status {
+    call::<E>(c, "fmi2GetStatus", |inst| {
+        if value.is_null() {
+            return Err("fmi2GetStatus: value is NULL".into());
+        }
+        unavailable::<E>(inst, "fmi2GetStatus", kind)
+    })
+}
+
+/// # Safety
+/// As [`get_status`].
+pub unsafe fn get_real_status<E: Export>(c: Component, kind: c_int, value: *mut f64) -> Status {
+    call::<E>(c, "fmi2GetRealStatus", |inst| {
+        if value.is_null() {
+            return Err("fmi2GetRealStatus: value is NULL".into());
+        }
+        if kind == LAST_SUCCESSFUL_TIME {
+            inst.require_interface(CS, "fmi2GetRealStatus")?;
+            *value = inst.last_successful_time()?;
+            return Ok(Status::Ok);
+        }
+        unavailable::<E>(inst, "fmi2GetRealStatus", kind)
+    })
+}
+
+/// # Safety
+/// As [`get_status`].
+pub unsafe fn get_integer_status<E: Export>(
+    c: Component,
+    kind: c_int,
+    value: *mut c_int,
+) -> Status {
+    call::<E>(c, "fmi2GetIntegerStatus", |inst| {
+        if value.is_null() {
+            return Err("fmi2GetIntegerStatus: value is NULL".into());
+        }
+        unavailable::<E>(inst, "fmi2GetIntegerStatus", kind)
+    })
+}
+
+/// # Safety
+/// As [`get_status`].
+pub unsafe fn get_boolean_status<E: Export>(
+    c: Component,
+    kind: c_int,
+    value: *mut c_int,
+) -> Status {
+    call::<E>(c, "fmi2GetBooleanStatus", |inst| {
+        if value.is_null() {
+            return Err("fmi2GetBooleanStatus: value is NULL".into());
+        }
+        if kind == TERMINATED {
+            inst.require_interface(CS, "fmi2GetBooleanStatus")?;
+            inst.require_status("fmi2GetBooleanStatus")?;
+            // The slave never asks to end the simulation early.
+            *value = 0;
+            return Ok(Status::Ok);
+        }
+        unavailable::<E>(inst, "fmi2GetBooleanStatus", kind)
+    })
+}
+
+/// # Safety
+/// As [`get_status`].
+pub unsafe fn get_string_status<E: Export>(
+    c: Component,
+    kind: c_int,
+    value: *mut *const c_char,
+) -> Status {
+    call::<E>(c, "fmi2GetStringStatus", |inst| {
+        if value.is_null() {
+            return Err("fmi2GetStringStatus: value is NULL".into());
+        }
+        unavailable::<E>(inst, "fmi2GetStringStatus", kind)
+    })
+}

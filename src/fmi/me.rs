@@ -1,0 +1,251 @@
+//! The Model Exchange front-end: the importer's solver sets the time and the continuous
+//! states and reads the derivatives and the event indicator; events are handled in event
+//! mode (fmi2NewDiscreteStates), on the shared [`Instance`] core.
+//!
+//! Events. A system with an [`event_indicator`](System::event_indicator) has one indicator;
+//! where the model returns `None` (no event possible in this mode: SphereSlide in free
+//! flight) the FMU reports the constant [`NO_EVENT_INDICATOR`], which never crosses zero.
+//! fmi2NewDiscreteStates applies [`System::on_event`] when the indicator changed sign since
+//! the last event (the importer located the crossing); `Err(why)` from it (a bicycle that
+//! has fallen) sets terminateSimulation with a line.
+//!
+//! Step events. A constrained system ([`System::project`] does something) leaves its
+//! constraints under any importer's integration: with `me_projection` = 1 (the default)
+//! fmi2CompletedIntegratorStep asks for event mode when the state has left them, and
+//! fmi2NewDiscreteStates projects it back (valuesOfContinuousStatesChanged).
+
+use super::core::{crossed, Res};
+use super::machine::{self, Interface};
+use super::Instance;
+use super::Status;
+use crate::integrators::all_finite;
+use crate::model::{System, VarKind};
+
+/// The event indicator's value where the model has none (a mode without events): positive
+/// and constant, so that it never changes sign.
+pub const NO_EVENT_INDICATOR: f64 = 1.0;
+
+/// What fmi2NewDiscreteStates answers (fmi2EventInfo). The models here have no time
+/// events and no discrete states that need another iteration.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct EventInfo {
+    pub new_discrete_states_needed: bool,
+    pub terminate_simulation: bool,
+    pub nominals_of_continuous_states_changed: bool,
+    pub values_of_continuous_states_changed: bool,
+    pub next_event_time: Option<f64>,
+}
+
+/// Relative move below which a projection is rounding, not a return to the constraints
+/// (per component, against the larger of its magnitude and its nominal).
+const PROJECTION_ROUNDING: f64 = 1e-13;
+
+impl<M: System> Instance<M> {
+    /// The checks every Model Exchange function makes first: the interface, then the state.
+    fn require_me(&self, mask: u32, function: &str) -> Res {
+        self.require_interface(Interface::ModelExchange, function)?;
+        self.require(mask, function)
+    }
+
+    /// A count the importer passed (nx, ni) against the model's.
+    fn require_count(function: &str, what: &str, given: usize, model: usize) -> Res {
+        if given != model {
+            return Err(format!(
+                "{function}: {what} = {given}, this model has {model}"
+            ));
+        }
+        Ok(())
+    }
+
+    pub fn number_of_event_indicators(&self) -> usize {
+        self.info.probe.event_indicators
+    }
+
+    fn nominal(&self, i: usize) -> f64 {
+        let vr = self.info.layout.vr_of_slot(VarKind::State, i);
+        self.info.layout.vars[vr as usize].1.nominal.unwrap_or(1.0)
+    }
+
+    /// fmi2SetTime: any finite time (a solver evaluates at times inside and past its step).
+    pub fn set_time(&mut self, time: f64) -> Res {
+        const F: &str = "fmi2SetTime";
+        self.require_me(machine::SET_TIME, F)?;
+        if !time.is_finite() {
+            return Err(format!("{F}: time {time} is not finite"));
+        }
+        self.data.time = time;
+        Ok(())
+    }
+
+    /// fmi2SetContinuousStates: exactly the model's number of states, every one finite and
+    /// inside its declared [min, max].
+    pub fn set_continuous_states(&mut self, x: &[f64]) -> Res {
+        const F: &str = "fmi2SetContinuousStates";
+        self.require_me(machine::SET_CONTINUOUS_STATES, F)?;
+        Self::require_count(F, "nx", x.len(), self.data.x.len())?;
+        // Finite, and inside a declared [min, max] (a mode held constant between events:
+        // SphereSlide's on_surface), as fmi2SetReal checks a value.
+        let layout = &self.info.layout;
+        for (i, &v) in x.iter().enumerate() {
+            let vr = layout.vr_of_slot(VarKind::State, i);
+            layout.vars[vr as usize]
+                .1
+                .check(v)
+                .map_err(|e| format!("{F}: x[{i}]: {e} (value reference {vr})"))?;
+        }
+        self.data.x.copy_from_slice(x);
+        Ok(())
+    }
+
+    pub fn get_continuous_states(&self, x: &mut [f64]) -> Res {
+        const F: &str = "fmi2GetContinuousStates";
+        self.require_me(machine::GET_CONTINUOUS_STATES, F)?;
+        Self::require_count(F, "nx", x.len(), self.data.x.len())?;
+        x.copy_from_slice(&self.data.x);
+        Ok(())
+    }
+
+    /// fmi2GetNominalsOfContinuousStates: the states' declared nominals (1 where none).
+    pub fn get_nominals(&self, nominals: &mut [f64]) -> Res {
+        const F: &str = "fmi2GetNominalsOfContinuousStates";
+        self.require_me(machine::GET_NOMINALS, F)?;
+        Self::require_count(F, "nx", nominals.len(), self.data.x.len())?;
+        for (i, v) in nominals.iter_mut().enumerate() {
+            *v = self.nominal(i);
+        }
+        Ok(())
+    }
+
+    /// fmi2GetDerivatives: `f(t, x, u, p)` at the time and states set. Where it is not finite
+    /// (a singular configuration the solver stepped into) fmi2Discard with a line: the
+    /// standard's answer for "retry with a smaller step".
+    pub fn get_derivatives(&self, dx: &mut [f64]) -> Res<Status> {
+        const F: &str = "fmi2GetDerivatives";
+        self.require_me(machine::GET_DERIVATIVES, F)?;
+        let d = &self.data;
+        Self::require_count(F, "nx", dx.len(), d.x.len())?;
+        M::derivatives(d.time, &d.x, &d.u, &d.params, dx);
+        if let Some(i) = dx.iter().position(|v| !v.is_finite()) {
+            return Ok(self.discard(F, &format!("der({})", self.state_name(i)), dx[i]));
+        }
+        Ok(Status::Ok)
+    }
+
+    /// fmi2GetEventIndicators: the model's indicator ([`NO_EVENT_INDICATOR`] where it has
+    /// none in this mode); fmi2Discard with a line where it is not finite.
+    pub fn get_event_indicators(&self, z: &mut [f64]) -> Res<Status> {
+        const F: &str = "fmi2GetEventIndicators";
+        self.require_me(machine::GET_EVENT_INDICATORS, F)?;
+        Self::require_count(F, "ni", z.len(), self.number_of_event_indicators())?;
+        if let Some(z) = z.first_mut() {
+            let d = &self.data;
+            *z = M::event_indicator(d.time, &d.x, &d.u, &d.params).unwrap_or(NO_EVENT_INDICATOR);
+            if !z.is_finite() {
+                return Ok(self.discard(F, "the event indicator", *z));
+            }
+        }
+        Ok(Status::Ok)
+    }
+
+    /// Logs why `function` answers fmi2Discard: `what` = `value` is not finite here.
+    #[cold]
+    fn discard(&self, function: &str, what: &str, value: f64) -> Status {
+        let states = (0..self.data.x.len())
+            .map(|i| format!("{} = {}", self.state_name(i), self.data.x[i]))
+            .collect::<Vec<_>>()
+            .join(", ");
+        self.logger.failure(
+            Status::Discard,
+            &format!(
+                "{function}: {what} = {value} is not finite at t = {}, {states} (a singular configuration: retry with a smaller step)",
+                self.data.time
+            ),
+        );
+        Status::Discard
+    }
+
+    pub fn enter_event_mode(&mut self) -> Res {
+        self.require_me(machine::ENTER_EVENT_MODE, "fmi2EnterEventMode")?;
+        self.data.machine = machine::Machine::EventMode;
+        Ok(())
+    }
+
+    pub fn enter_continuous_time_mode(&mut self) -> Res {
+        self.require_me(
+            machine::ENTER_CONTINUOUS_TIME_MODE,
+            "fmi2EnterContinuousTimeMode",
+        )?;
+        self.data.machine = machine::Machine::ContinuousTimeMode;
+        Ok(())
+    }
+
+    /// fmi2NewDiscreteStates: the event at the time and states set. When the indicator
+    /// changed sign since the last event, [`System::on_event`] (its `Err`: terminateSimulation,
+    /// with a warning line); then, with `me_projection`, the projection onto the constraints
+    /// where the state has left them by more than rounding.
+    /// valuesOfContinuousStatesChanged tells whether either changed the states.
+    pub fn new_discrete_states(&mut self) -> Res<EventInfo> {
+        const F: &str = "fmi2NewDiscreteStates";
+        self.require_me(machine::NEW_DISCRETE_STATES, F)?;
+        let mut info = EventInfo::default();
+        let d = &self.data;
+        let mut x = d.x.clone();
+        let now = M::event_indicator(d.time, &x, &d.u, &d.params);
+        if crossed(d.event_reference, now) {
+            if let Err(why) = M::on_event(d.time, &mut x, &d.params) {
+                x.copy_from_slice(&d.x);
+                info.terminate_simulation = true;
+                self.logger.failure(
+                    Status::Warning,
+                    &format!("{F}: {why}; terminateSimulation = fmi2True (call fmi2Terminate)"),
+                );
+            }
+        }
+        // Back onto the constraints where the state has left them (not after an event the
+        // model cannot pass: the state stays where it stopped holding).
+        if d.me_projection && !info.terminate_simulation {
+            let mut y = x.clone();
+            M::project(d.time, &d.params, &mut y);
+            if self.off_constraints(&x, &y) {
+                x = y;
+            }
+        }
+        if !all_finite(&x) {
+            return Err(format!(
+                "{F}: the state after the event at t = {} is not finite (the projection failed at this configuration); state kept",
+                d.time
+            ));
+        }
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        info.values_of_continuous_states_changed = bits(&x) != bits(&d.x);
+        let d = &mut self.data;
+        d.x = x;
+        d.event_reference = M::event_indicator(d.time, &d.x, &d.u, &d.params);
+        Ok(info)
+    }
+
+    /// fmi2CompletedIntegratorStep: (enterEventMode, terminateSimulation). enterEventMode is
+    /// true when `me_projection` is on and the state has left the constraints (the projection
+    /// would move it by more than rounding).
+    pub fn completed_integrator_step(&mut self) -> Res<(bool, bool)> {
+        const F: &str = "fmi2CompletedIntegratorStep";
+        self.require_me(machine::COMPLETED_INTEGRATOR_STEP, F)?;
+        let d = &self.data;
+        if !(d.me_projection && self.info.probe.projects) {
+            return Ok((false, false));
+        }
+        let mut work = self.work.borrow_mut();
+        let y = crate::integrators::copied(&mut work.x, &d.x);
+        M::project(d.time, &d.params, y);
+        Ok((self.off_constraints(&d.x, y), false))
+    }
+
+    /// Whether the projection `y` of `x` moves it by more than rounding: the state has left
+    /// its constraints. (A projection that fails, non-finite, is not a return to them.)
+    fn off_constraints(&self, x: &[f64], y: &[f64]) -> bool {
+        (0..y.len()).any(|i| {
+            let scale = x[i].abs().max(self.nominal(i));
+            y[i].is_finite() && (y[i] - x[i]).abs() > PROJECTION_ROUNDING * scale
+        })
+    }
+}
