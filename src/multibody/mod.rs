@@ -4,7 +4,10 @@
 //!
 //! A low layer like [`crate::model`]: it knows nothing of FMI, packaging or the CLI.
 
+pub mod codegen;
 pub mod dynamics;
+#[rustfmt::skip]
+pub mod generated;
 pub mod mechanism;
 pub mod spatial;
 pub mod urdf;
