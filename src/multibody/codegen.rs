@@ -34,7 +34,8 @@ use super::spatial::{
     cross, lift3, mat_t_vec, mat_vec, Force, Motion, RigidInertia, Transform, M3, V3,
 };
 use crate::model::symbolic::emit::{straight_line, Straight};
-use crate::model::symbolic::{diff, record, Arg, Expr, Graph, Id};
+use crate::model::symbolic::expr::with_graph;
+use crate::model::symbolic::{diff, record, Arg, Expr, Graph, Id, Node};
 use crate::model::Scalar;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -62,7 +63,8 @@ pub struct Target {
     pub module: String,
     pub model: Model,
     pub algorithm: Algorithm,
-    pub symbolic_jacobian: bool,
+    /// The Jacobian emitted as `aba_derivatives`, if any.
+    pub jacobian: Option<Jacobian>,
 }
 
 /// The spatial chain of `n` revolute links: joint i turns about z, y, x, z, … (i mod 3),
@@ -138,9 +140,10 @@ pub fn targets() -> Vec<Target> {
         .into_iter()
         .map(|module| {
             let model = benchmark_model(&module);
+            let algorithm = fewest_operations(&model);
             Target {
-                algorithm: fewest_operations(&model),
-                symbolic_jacobian: model.nq() <= 9,
+                jacobian: (model.nq() <= 9).then(|| fewest_jacobian(&model, algorithm)),
+                algorithm,
                 module,
                 model,
             }
@@ -152,13 +155,27 @@ pub fn targets() -> Vec<Target> {
 /// fewer operations (CRBA's n³/6 solve wins for short chains only; the tie goes to ABA).
 pub fn fewest_operations(model: &Model) -> Algorithm {
     let ops = |alg| {
-        let t = trace(model, alg, false);
+        let t = trace(model, alg, None);
         straight_line(&t.graph, &t.qdd, &leaf_name).operations
     };
     if model.nq() > 16 || ops(Algorithm::AbaFolded) <= ops(Algorithm::CrbaLdl) {
         Algorithm::AbaFolded
     } else {
         Algorithm::CrbaLdl
+    }
+}
+
+/// Of the two [`Jacobian`]s, the one whose code (q̈ and the Jacobian) has fewer operations.
+pub fn fewest_jacobian(model: &Model, algorithm: Algorithm) -> Jacobian {
+    let ops = |how| {
+        let t = trace(model, algorithm, Some(how));
+        let roots: Vec<Id> = t.qdd.iter().chain(&t.dq).chain(&t.dqd).copied().collect();
+        straight_line(&t.graph, &roots, &leaf_name).operations
+    };
+    if ops(Jacobian::InverseDynamics) <= ops(Jacobian::ForwardOfForwardDynamics) {
+        Jacobian::InverseDynamics
+    } else {
+        Jacobian::ForwardOfForwardDynamics
     }
 }
 
@@ -217,7 +234,16 @@ pub fn crba_ldl<S: Scalar>(model: &Model, q: &[S], qd: &[S], tau: &[S]) -> Vec<S
     let mut x: Vec<S> = (0..n)
         .map(|i| tau[i] - qd[i] * model.damping[i] - bias[i])
         .collect();
-    // In place: m's lower triangle becomes L (unit diagonal implied), its diagonal D.
+    let d_inv = ldl_factor(&mut m);
+    ldl_solve(&m, &d_inv, &mut x);
+    x
+}
+
+/// LDLᵀ of a symmetric positive definite `m` in place, without pivoting: its strict lower
+/// triangle becomes L (unit diagonal implied), its diagonal D; returns 1/D.
+pub fn ldl_factor<S: Scalar>(m: &mut [Vec<S>]) -> Vec<S> {
+    let n = m.len();
+    let mut d_inv = Vec::with_capacity(n);
     for j in 0..n {
         for k in 0..j {
             let t = m[j][k] * (m[j][k] * m[k][k]);
@@ -231,7 +257,14 @@ pub fn crba_ldl<S: Scalar>(model: &Model, q: &[S], qd: &[S], tau: &[S]) -> Vec<S
             }
             m[i][j] = s * inv;
         }
+        d_inv.push(inv);
     }
+    d_inv
+}
+
+/// Solves `L D Lᵀ x = b` in place (`x` holds b), with the factors of [`ldl_factor`].
+pub fn ldl_solve<S: Scalar>(m: &[Vec<S>], d_inv: &[S], x: &mut [S]) {
+    let n = m.len();
     for i in 0..n {
         for k in 0..i {
             let t = m[i][k] * x[k];
@@ -239,7 +272,7 @@ pub fn crba_ldl<S: Scalar>(model: &Model, q: &[S], qd: &[S], tau: &[S]) -> Vec<S
         }
     }
     for i in 0..n {
-        x[i] /= m[i][i];
+        x[i] *= d_inv[i];
     }
     for i in (0..n).rev() {
         for k in i + 1..n {
@@ -247,7 +280,6 @@ pub fn crba_ldl<S: Scalar>(model: &Model, q: &[S], qd: &[S], tau: &[S]) -> Vec<S
             x[i] -= t;
         }
     }
-    x
 }
 
 // ----- the articulated-body algorithm restated for constant folding -------------------
@@ -459,9 +491,22 @@ pub struct Traced {
     pub dqd: Vec<Id>,
 }
 
-/// Traces q̈ of the snapped `model` by `algorithm`; with `jacobian`, also its forward-mode
-/// symbolic derivatives along each q_j and q̇_j (one sweep per column).
-pub fn trace(model: &Model, algorithm: Algorithm, jacobian: bool) -> Traced {
+/// How the emitted Jacobian is formed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Jacobian {
+    /// Symbolic forward-mode derivatives of the traced q̈, one sweep per q_j and q̇_j.
+    ForwardOfForwardDynamics,
+    /// Through inverse dynamics, as Pinocchio's `computeABADerivatives` does:
+    /// `M q̈ + b(q, q̇) = τ − d q̇` gives `∂q̈/∂q = −M⁻¹ ∂RNEA(q, q̇, a)/∂q` and
+    /// `∂q̈/∂q̇ = −M⁻¹ (∂RNEA/∂q̇ + diag d)` at `a = q̈`: symbolic derivatives of RNEA with
+    /// `a` held fixed (a leaf, replaced by the traced q̈ afterwards), then LDLᵀ solves with
+    /// the traced mass matrix (CRBA), 2n right-hand sides.
+    InverseDynamics,
+}
+
+/// Traces q̈ of the snapped `model` by `algorithm`; with `jacobian`, also ∂q̈/∂q and
+/// ∂q̈/∂q̇ (row-major) formed as it says.
+pub fn trace(model: &Model, algorithm: Algorithm, jacobian: Option<Jacobian>) -> Traced {
     let model = snapped(model);
     let n = model.nq();
     let ((qdd, dq, dqd), graph) = record(|| {
@@ -470,14 +515,38 @@ pub fn trace(model: &Model, algorithm: Algorithm, jacobian: bool) -> Traced {
         let tau = Expr::inputs(Arg::U, n);
         let qdd = forward_dynamics(&model, algorithm, &q, &qd, &tau);
         let (mut dq, mut dqd) = (vec![0; n * n], vec![0; n * n]);
-        if jacobian {
-            for (arg, out) in [(Arg::Q, &mut dq), (Arg::Qd, &mut dqd)] {
-                for j in 0..n {
-                    let col = diff::forward(&qdd, |a, i| {
-                        (a == arg && i == j).then(|| Expr::constant(1.0))
-                    });
-                    for (i, d) in col.iter().enumerate() {
-                        out[i * n + j] = d.id();
+        match jacobian {
+            None => {}
+            Some(Jacobian::ForwardOfForwardDynamics) => {
+                for (arg, out) in [(Arg::Q, &mut dq), (Arg::Qd, &mut dqd)] {
+                    for j in 0..n {
+                        let col = diff::forward(&qdd, |a, i| {
+                            (a == arg && i == j).then(|| Expr::constant(1.0))
+                        });
+                        for (i, d) in col.iter().enumerate() {
+                            out[i * n + j] = d.id();
+                        }
+                    }
+                }
+            }
+            Some(Jacobian::InverseDynamics) => {
+                let a = Expr::inputs(Arg::P, n);
+                let id = model.rnea(&q, &qd, &a);
+                let mut m = model.crba(&q);
+                let d_inv = ldl_factor(&mut m);
+                for (arg, out) in [(Arg::Q, &mut dq), (Arg::Qd, &mut dqd)] {
+                    for j in 0..n {
+                        let col = diff::forward(&id, |b, i| {
+                            (b == arg && i == j).then(|| Expr::constant(1.0))
+                        });
+                        let mut x = substitute(&col, &|b, k| (b == Arg::P).then(|| qdd[k]));
+                        if arg == Arg::Qd {
+                            x[j] += model.damping[j];
+                        }
+                        ldl_solve(&m, &d_inv, &mut x);
+                        for (i, d) in x.iter().enumerate() {
+                            out[i * n + j] = (-*d).id();
+                        }
                     }
                 }
             }
@@ -490,7 +559,7 @@ pub fn trace(model: &Model, algorithm: Algorithm, jacobian: bool) -> Traced {
         "looked at values: {:?}",
         graph.branches
     );
-    let (dq, dqd) = if jacobian {
+    let (dq, dqd) = if jacobian.is_some() {
         (dq, dqd)
     } else {
         (vec![], vec![])
@@ -501,6 +570,36 @@ pub fn trace(model: &Model, algorithm: Algorithm, jacobian: bool) -> Traced {
         dq,
         dqd,
     }
+}
+
+/// `roots` with the leaves `map` names replaced (the others kept), rebuilt node by node
+/// in the current recording (so the constructors simplify again).
+pub fn substitute(roots: &[Expr], map: &dyn Fn(Arg, usize) -> Option<Expr>) -> Vec<Expr> {
+    let ids: Vec<Id> = roots.iter().map(|r| r.id()).collect();
+    let top = ids.iter().map(|&i| i as usize + 1).max().unwrap_or(0);
+    let seen = with_graph(|g| g.reachable(&ids));
+    let mut new: Vec<Option<Expr>> = vec![None; top];
+    for id in 0..top {
+        if !seen[id] {
+            continue;
+        }
+        let e = |i: Id| new[i as usize].expect("operands first");
+        let z = Expr::from_id(id as Id);
+        new[id] = Some(match z.node() {
+            Node::Const(_) => z,
+            Node::Input(arg, k) => map(arg, k as usize).unwrap_or(z),
+            Node::Neg(a) => -e(a),
+            Node::Add(a, b) => e(a) + e(b),
+            Node::Sub(a, b) => e(a) - e(b),
+            Node::Mul(a, b) => e(a) * e(b),
+            Node::Div(a, b) => e(a) / e(b),
+            Node::Fun(f, a) => Expr::fun(f, e(a)),
+            Node::Powi(a, k) => Expr::int_power(e(a), k),
+            Node::Powf(a, k) => Expr::real_power(e(a), f64::from_bits(k)),
+            Node::Atan2(y, x) => Expr::arctan2(e(y), e(x)),
+        });
+    }
+    ids.iter().map(|&i| new[i as usize].expect("reached")).collect()
 }
 
 fn leaf_name(arg: Arg) -> String {
@@ -585,7 +684,7 @@ fn function(
 pub fn generate(target: &Target) -> Generated {
     let model = &target.model;
     let n = model.nq();
-    let traced = trace(model, target.algorithm, target.symbolic_jacobian);
+    let traced = trace(model, target.algorithm, target.jacobian);
     let (aba_src, aba_st) = function(
         &traced.graph,
         "aba",
@@ -596,12 +695,14 @@ pub fn generate(target: &Target) -> Generated {
     );
     let mut source = String::new();
     let joints = model.joints.join(", ");
-    let derivatives = target.symbolic_jacobian.then(|| {
+    let derivatives = target.jacobian.map(|how| {
         function(
             &traced.graph,
             "aba_derivatives",
-            "q̈ and its Jacobian, `dqdd_dq[i * n + j] = ∂q̈_i/∂q_j` and `dqdd_dqd` alike\n\
-             (row-major), from symbolic forward-mode derivatives of the traced graph.",
+            &format!(
+                "q̈ and its Jacobian, `dqdd_dq[i * n + j] = ∂q̈_i/∂q_j` and `dqdd_dqd` alike\n\
+                 (row-major), from symbolic derivatives ({how:?})."
+            ),
             n,
             &[
                 ("qdd", &traced.qdd),

@@ -67,15 +67,19 @@ fn operation_counts() {
         let model = benchmark_model(&module);
         let mut line = format!("{module:9} n = {:2}:", model.nq());
         for alg in [Algorithm::Aba, Algorithm::AbaFolded, Algorithm::CrbaLdl] {
-            let t = trace(&model, alg, false);
+            let t = trace(&model, alg, None);
             let st = straight_line(&t.graph, &t.qdd, &leaf_name);
             line += &format!("  {alg:?} {} ops", st.operations);
         }
-        if model.nq() <= 16 {
-            let t = trace(&model, Algorithm::AbaFolded, true);
+        let alg = fewest_operations(&model);
+        for how in [Jacobian::ForwardOfForwardDynamics, Jacobian::InverseDynamics] {
+            if model.nq() > 16 || (how == Jacobian::ForwardOfForwardDynamics && model.nq() > 9) {
+                continue;
+            }
+            let t = trace(&model, alg, Some(how));
             let roots: Vec<Id> = t.qdd.iter().chain(&t.dq).chain(&t.dqd).copied().collect();
             let st = straight_line(&t.graph, &roots, &leaf_name);
-            line += &format!("  | folded + symbolic Jacobian {} ops", st.operations);
+            line += &format!("  | {alg:?} + {how:?} {} ops", st.operations);
         }
         eprintln!("{line}");
     }

@@ -22,7 +22,7 @@ pub fn aba<S: Scalar>(_q: &[S], _qd: &[S], tau: &[S], qdd: &mut [S]) {
 }
 
 /// q̈ and its Jacobian, `dqdd_dq[i * n + j] = ∂q̈_i/∂q_j` and `dqdd_dqd` alike
-/// (row-major), from symbolic forward-mode derivatives of the traced graph.
+/// (row-major), from symbolic derivatives (InverseDynamics).
 pub fn aba_derivatives<S: Scalar>(_q: &[S], _qd: &[S], tau: &[S], qdd: &mut [S], dqdd_dq: &mut [S], dqdd_dqd: &mut [S]) {
         let tau = &tau[..1];
         let qdd = &mut qdd[..1];
