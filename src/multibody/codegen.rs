@@ -599,7 +599,9 @@ pub fn substitute(roots: &[Expr], map: &dyn Fn(Arg, usize) -> Option<Expr>) -> V
             Node::Atan2(y, x) => Expr::arctan2(e(y), e(x)),
         });
     }
-    ids.iter().map(|&i| new[i as usize].expect("reached")).collect()
+    ids.iter()
+        .map(|&i| new[i as usize].expect("reached"))
+        .collect()
 }
 
 fn leaf_name(arg: Arg) -> String {

@@ -72,7 +72,10 @@ fn operation_counts() {
             line += &format!("  {alg:?} {} ops", st.operations);
         }
         let alg = fewest_operations(&model);
-        for how in [Jacobian::ForwardOfForwardDynamics, Jacobian::InverseDynamics] {
+        for how in [
+            Jacobian::ForwardOfForwardDynamics,
+            Jacobian::InverseDynamics,
+        ] {
             if model.nq() > 16 || (how == Jacobian::ForwardOfForwardDynamics && model.nq() > 9) {
                 continue;
             }
