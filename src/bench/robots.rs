@@ -6,7 +6,7 @@
 //! - RHS: one q̈ = ABA(q, q̇, τ) in `f64` at a random state (fixed seed): the generated
 //!   `aba`, and `Model::aba` (the same algorithm interpreted over the model's arrays).
 //! - Jacobian: ∂q̈/∂q and ∂q̈/∂q̇ (2n² numbers): the generated `aba_derivatives` (symbolic
-//!   forward-mode derivatives, emitted) where it exists, else 2n `Dual64` columns through
+//!   derivatives, emitted: [`Jacobian`](crate::multibody::codegen::Jacobian)) where it exists, else 2n `Dual64` columns through
 //!   the generated `aba` (seeds set in place); both are reported where both exist.
 //! - Pinocchio 4.1 (`benches/pinocchio_robots.py serve`, a Python child reading the same
 //!   URDF files): `pin.aba` (the faster of its LOCAL and WORLD conventions) and

@@ -5,7 +5,7 @@
 //! The pipeline: a [`Model`] is traced with the symbolic scalar
 //! ([`Expr`](crate::model::symbolic::Expr)), q, q̇ and τ as leaves, through one of the
 //! branch-free algorithms of [`Algorithm`]; the graph's q̈ roots (and, for the Jacobian,
-//! their symbolic forward-mode derivatives) are emitted by
+//! their symbolic derivatives, [`Jacobian`]) are emitted by
 //! [`straight_line`](crate::model::symbolic::emit::straight_line) as functions generic over
 //! the scalar, so dual numbers still differentiate them:
 //!
@@ -241,6 +241,7 @@ pub fn crba_ldl<S: Scalar>(model: &Model, q: &[S], qd: &[S], tau: &[S]) -> Vec<S
 
 /// LDLᵀ of a symmetric positive definite `m` in place, without pivoting: its strict lower
 /// triangle becomes L (unit diagonal implied), its diagonal D; returns 1/D.
+#[allow(clippy::needless_range_loop)] // triangular index arithmetic reads best as indices
 pub fn ldl_factor<S: Scalar>(m: &mut [Vec<S>]) -> Vec<S> {
     let n = m.len();
     let mut d_inv = Vec::with_capacity(n);
@@ -263,6 +264,7 @@ pub fn ldl_factor<S: Scalar>(m: &mut [Vec<S>]) -> Vec<S> {
 }
 
 /// Solves `L D Lᵀ x = b` in place (`x` holds b), with the factors of [`ldl_factor`].
+#[allow(clippy::needless_range_loop)]
 pub fn ldl_solve<S: Scalar>(m: &[Vec<S>], d_inv: &[S], x: &mut [S]) {
     let n = m.len();
     for i in 0..n {
