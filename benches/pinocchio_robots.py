@@ -98,8 +98,10 @@ def plot(csv_path: str, png_path: str):
     ax.loglog(n, f(chain, "generated_rhs_ns"), "o-", color="C0", label="mbfmu generated: one RHS (q̈)")
     ax.loglog(n, f(chain, "interpretive_rhs_ns"), "o:", color="C0", alpha=0.6,
               label="mbfmu Model::aba (interpretive): one RHS")
-    ax.loglog(n, f(chain, "generated_jacobian_ns"), "s--", color="C0",
-              label="mbfmu generated: Jacobian ∂q̈/∂(q, q̇)")
+    ax.loglog(n, f(chain, "jacobian_ns"), "s--", color="C0",
+              label="mbfmu Jacobian ∂q̈/∂(q, q̇): symbolic (N ≤ 8), else analytical")
+    ax.loglog(n, f(chain, "dual_jacobian_ns"), "s:", color="C0", alpha=0.5,
+              label="mbfmu Jacobian by dual numbers through the generated code")
     ax.loglog(n, f(chain, "pinocchio_aba_ns"), "o-", color="C3", label="Pinocchio aba")
     ax.loglog(n, f(chain, "pinocchio_derivatives_ns"), "s--", color="C3",
               label="Pinocchio computeABADerivatives")
@@ -114,7 +116,7 @@ def plot(csv_path: str, png_path: str):
     for k, (key, label, color, hatch) in enumerate([
         ("generated_rhs_ns", "mbfmu RHS", "C0", None),
         ("pinocchio_aba_ns", "Pinocchio aba", "C3", None),
-        ("generated_jacobian_ns", "mbfmu Jacobian", "C0", "//"),
+        ("jacobian_ns", "mbfmu Jacobian", "C0", "//"),
         ("pinocchio_derivatives_ns", "Pinocchio ABA derivatives", "C3", "//"),
     ]):
         bx.bar(x + (k - 1.5) * w, f(arms, key), w, label=label, color=color,

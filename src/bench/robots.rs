@@ -20,8 +20,8 @@
 
 use super::speed::best_ns;
 use crate::multibody::codegen::{generated_dir, spatial_chain_urdf, targets};
-use crate::multibody::generated;
 use crate::multibody::Model;
+use crate::multibody::{derivatives, generated};
 use num_dual::Dual64;
 use serde_json::{json, Value};
 use std::hint::black_box;
@@ -79,9 +79,11 @@ pub struct RobotRow {
     pub operations: usize,
     pub generated_rhs_ns: f64,
     pub interpretive_rhs_ns: f64,
-    /// The generated Jacobian: symbolic where emitted, else dual numbers.
-    pub generated_jacobian_ns: f64,
+    /// The Jacobian: symbolic where emitted, else analytical.
+    pub jacobian_ns: f64,
     pub jacobian_method: &'static str,
+    /// Generated `aba` + [`derivatives::aba_derivatives`].
+    pub analytic_jacobian_ns: f64,
     /// 2n `Dual64` columns through the generated `aba`.
     pub dual_jacobian_ns: f64,
     pub pinocchio_aba_ns: f64,
@@ -106,8 +108,8 @@ fn state(n: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
 }
 
 /// Best ns of one Rust repetition of a model: (generated RHS, interpretive RHS, symbolic
-/// Jacobian if any, dual Jacobian).
-fn rust_rep(e: &Entry, model: &Model) -> (f64, f64, Option<f64>, f64) {
+/// Jacobian if any, dual Jacobian, analytical Jacobian).
+fn rust_rep(e: &Entry, model: &Model) -> (f64, f64, Option<f64>, f64, f64) {
     let n = model.nq();
     let (q, qd, tau) = state(n);
     let mut qdd = vec![0.0; n];
@@ -142,7 +144,14 @@ fn rust_rep(e: &Entry, model: &Model) -> (f64, f64, Option<f64>, f64) {
         }
         black_box(&jac);
     });
-    (generated, interpretive, symbolic, dual)
+    let mut scratch = derivatives::Scratch::default();
+    let (mut dq, mut dqd) = (vec![0.0; n * n], vec![0.0; n * n]);
+    let analytic = best_ns(1, || {
+        (e.aba)(black_box(&q), &qd, &tau, &mut qdd);
+        derivatives::aba_derivatives(model, &q, &qd, &qdd, &mut scratch, &mut dq, &mut dqd);
+        black_box((&dq, &dqd));
+    });
+    (generated, interpretive, symbolic, dual, analytic)
 }
 
 /// The Pinocchio child process.
@@ -273,12 +282,13 @@ pub fn sweep(reps: usize, scratch: &Path) -> Result<Vec<RobotRow>, String> {
             operations: e.operations,
             generated_rhs_ns: f64::INFINITY,
             interpretive_rhs_ns: f64::INFINITY,
-            generated_jacobian_ns: f64::INFINITY,
+            jacobian_ns: f64::INFINITY,
             jacobian_method: if e.derivatives.is_some() {
                 "symbolic"
             } else {
-                "dual"
+                "analytic"
             },
+            analytic_jacobian_ns: f64::INFINITY,
             dual_jacobian_ns: f64::INFINITY,
             pinocchio_aba_ns: f64::INFINITY,
             pinocchio_derivatives_ns: f64::INFINITY,
@@ -294,11 +304,12 @@ pub fn sweep(reps: usize, scratch: &Path) -> Result<Vec<RobotRow>, String> {
     for rep in 0..reps {
         eprintln!("robots: repetition {} of {reps}", rep + 1);
         for ((row, e), model) in rows.iter_mut().zip(&entries).zip(&interpretive) {
-            let (g, i, s, d) = rust_rep(e, model);
+            let (g, i, s, d, a) = rust_rep(e, model);
             row.generated_rhs_ns = row.generated_rhs_ns.min(g);
             row.interpretive_rhs_ns = row.interpretive_rhs_ns.min(i);
             row.dual_jacobian_ns = row.dual_jacobian_ns.min(d);
-            row.generated_jacobian_ns = row.generated_jacobian_ns.min(s.unwrap_or(d));
+            row.analytic_jacobian_ns = row.analytic_jacobian_ns.min(a);
+            row.jacobian_ns = row.jacobian_ns.min(s.unwrap_or(a));
         }
         let times = pin.ask(&json!("rep"))?;
         let get = |name: &str, key: &str| -> Result<f64, String> {
@@ -327,12 +338,12 @@ pub fn sweep(reps: usize, scratch: &Path) -> Result<Vec<RobotRow>, String> {
     Ok(rows)
 }
 
-pub const CSV_HEADER: &str = "model,nq,algorithm,operations,generated_rhs_ns,interpretive_rhs_ns,pinocchio_aba_ns,rhs_over_pinocchio,generated_jacobian_ns,jacobian_method,dual_jacobian_ns,pinocchio_derivatives_ns,jacobian_over_pinocchio,max_rel_difference\n";
+pub const CSV_HEADER: &str = "model,nq,algorithm,operations,generated_rhs_ns,interpretive_rhs_ns,pinocchio_aba_ns,rhs_over_pinocchio,jacobian_ns,jacobian_method,analytic_jacobian_ns,dual_jacobian_ns,pinocchio_derivatives_ns,jacobian_over_pinocchio,max_rel_difference\n";
 
 /// One CSV line (see [`CSV_HEADER`]).
 pub fn csv_line(r: &RobotRow) -> String {
     format!(
-        "{},{},{},{},{:.1},{:.1},{:.1},{:.3},{:.1},{},{:.1},{:.1},{:.3},{:.1e}\n",
+        "{},{},{},{},{:.1},{:.1},{:.1},{:.3},{:.1},{},{:.1},{:.1},{:.1},{:.3},{:.1e}\n",
         r.model,
         r.nq,
         r.algorithm,
@@ -341,21 +352,22 @@ pub fn csv_line(r: &RobotRow) -> String {
         r.interpretive_rhs_ns,
         r.pinocchio_aba_ns,
         r.generated_rhs_ns / r.pinocchio_aba_ns,
-        r.generated_jacobian_ns,
+        r.jacobian_ns,
         r.jacobian_method,
+        r.analytic_jacobian_ns,
         r.dual_jacobian_ns,
         r.pinocchio_derivatives_ns,
-        r.generated_jacobian_ns / r.pinocchio_derivatives_ns,
+        r.jacobian_ns / r.pinocchio_derivatives_ns,
         r.max_difference,
     )
 }
 
-pub const MARKDOWN_HEADER: &str = "| model | n | algorithm (ops) | generated RHS ns | Model::aba ns | Pinocchio aba ns | RHS / Pinocchio | generated Jacobian ns (method) | dual Jacobian ns | Pinocchio derivatives ns | Jacobian / Pinocchio |\n|---|---|---|---|---|---|---|---|---|---|---|";
+pub const MARKDOWN_HEADER: &str = "| model | n | algorithm (ops) | generated RHS ns | Model::aba ns | Pinocchio aba ns | RHS / Pinocchio | Jacobian ns (method) | analytical Jacobian ns | dual Jacobian ns | Pinocchio derivatives ns | Jacobian / Pinocchio |\n|---|---|---|---|---|---|---|---|---|---|---|---|";
 
 /// One markdown table row.
 pub fn markdown_line(r: &RobotRow) -> String {
     format!(
-        "| {} | {} | {} ({}) | {:.0} | {:.0} | {:.0} | {:.2} | {:.0} ({}) | {:.0} | {:.0} | {:.2} |",
+        "| {} | {} | {} ({}) | {:.0} | {:.0} | {:.0} | {:.2} | {:.0} ({}) | {:.0} | {:.0} | {:.0} | {:.2} |",
         r.model,
         r.nq,
         r.algorithm,
@@ -364,11 +376,12 @@ pub fn markdown_line(r: &RobotRow) -> String {
         r.interpretive_rhs_ns,
         r.pinocchio_aba_ns,
         r.generated_rhs_ns / r.pinocchio_aba_ns,
-        r.generated_jacobian_ns,
+        r.jacobian_ns,
         r.jacobian_method,
+        r.analytic_jacobian_ns,
         r.dual_jacobian_ns,
         r.pinocchio_derivatives_ns,
-        r.generated_jacobian_ns / r.pinocchio_derivatives_ns,
+        r.jacobian_ns / r.pinocchio_derivatives_ns,
     )
 }
 

@@ -576,7 +576,7 @@ fn speed(args: SpeedArgs) -> Result<(), String> {
         println!(
             "chain growth exponent (N = 2 … 16): generated RHS {:.2}, Jacobian {:.2}, nodes {:.2}; AD RHS {:.2}",
             fit(|r| r.generated_rhs_ns),
-            fit(|r| r.generated_jacobian_ns),
+            fit(|r| r.jacobian_ns),
             fit(|r| r.nodes as f64),
             fit(|r| r.ad_rhs_ns),
         );
@@ -646,10 +646,10 @@ fn speed_robots(reps: usize, out: &Path) -> Result<(), String> {
         growth_exponent(&pts)
     };
     println!(
-        "chain growth exponent (N = 8 … 64): generated RHS {:.2}, Pinocchio aba {:.2}; generated Jacobian {:.2}, Pinocchio derivatives {:.2}",
+        "chain growth exponent (N = 8 … 64): generated RHS {:.2}, Pinocchio aba {:.2}; Jacobian {:.2}, Pinocchio derivatives {:.2}",
         fit(|r| r.generated_rhs_ns),
         fit(|r| r.pinocchio_aba_ns),
-        fit(|r| r.generated_jacobian_ns),
+        fit(|r| r.jacobian_ns),
         fit(|r| r.pinocchio_derivatives_ns),
     );
     let slower: Vec<usize> = chain
@@ -658,6 +658,12 @@ fn speed_robots(reps: usize, out: &Path) -> Result<(), String> {
         .map(|r| r.nq)
         .collect();
     println!("chain sizes where Pinocchio's aba is as fast or faster: {slower:?}");
+    let slower: Vec<&str> = rows
+        .iter()
+        .filter(|r| r.jacobian_ns >= r.pinocchio_derivatives_ns)
+        .map(|r| r.model.as_str())
+        .collect();
+    println!("models where Pinocchio's computeABADerivatives is as fast or faster: {slower:?}");
     let worst = rows.iter().map(|r| r.max_difference).fold(0.0, f64::max);
     println!("largest relative q̈ difference from pin.aba at the timed states: {worst:.1e}");
     let csv_path = out.join("robots.csv");

@@ -5,6 +5,7 @@
 //! A low layer like [`crate::model`]: it knows nothing of FMI, packaging or the CLI.
 
 pub mod codegen;
+pub mod derivatives;
 pub mod dynamics;
 #[rustfmt::skip]
 pub mod generated;
