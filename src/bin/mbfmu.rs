@@ -576,7 +576,7 @@ fn speed(args: SpeedArgs) -> Result<(), String> {
         println!(
             "chain growth exponent (N = 2 … 16): generated RHS {:.2}, Jacobian {:.2}, nodes {:.2}; AD RHS {:.2}",
             fit(|r| r.generated_rhs_ns),
-            fit(|r| r.jacobian_ns),
+            fit(|r| r.generated_jacobian_ns),
             fit(|r| r.nodes as f64),
             fit(|r| r.ad_rhs_ns),
         );

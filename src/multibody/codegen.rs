@@ -11,8 +11,10 @@
 //!
 //! ```text
 //! pub fn aba<S: Scalar>(q: &[S], qd: &[S], tau: &[S], qdd: &mut [S])
-//! pub fn aba_derivatives<S: Scalar>(q, qd, tau, qdd, dqdd_dq, dqdd_dqd)   // small models
+//! pub fn aba_derivatives<S: Scalar>(q, qd, tau, qdd, dqdd_dq, dqdd_dqd)   // n ≤ 9
 //! ```
+//!
+//! (Longer mechanisms' Jacobians: [`super::derivatives`], analytical, O(n²) at run time.)
 //!
 //! **Damping is inside**, as in [`Model::aba`]: the joints' viscous damping acts as
 //! `τ − d q̇`; a caller passes the applied joint forces only.
@@ -131,8 +133,8 @@ pub fn benchmark_model(module: &str) -> Model {
 
 /// The committed models. Each gets the algorithm with the fewest operations after
 /// folding ([`fewest_operations`]); the Jacobian is emitted symbolically for UR5, Panda and
-/// the chains up to 8 links (beyond, the code grows past a megabyte: dual numbers through
-/// `aba` instead).
+/// the chains up to 8 links (beyond, the code grows past a megabyte; the analytical O(n²)
+/// derivatives of [`super::derivatives`] run there instead).
 pub fn targets() -> Vec<Target> {
     let mut modules: Vec<String> = vec!["ur5".into(), "panda".into()];
     modules.extend(CHAIN_SIZES.iter().map(|n| format!("chain_{n}")));

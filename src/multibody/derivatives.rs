@@ -175,7 +175,9 @@ pub fn aba_derivatives(
         let a = ap + s * qdd[i] + crm(&v, &s) * qd[i];
         let h = iw * v;
         sc.f[i] = iw * a + crf(&v, &h);
-        sc.bc[i] = crm_matrix(&v).transpose() * (-iw) + h_matrix(&h) - iw * crm_matrix(&v);
+        // B = (v ×*) I − I (v ×) + H(h) = −Pᵀ − P + H(h) with P = I (v ×) (I symmetric).
+        let pm = iw * crm_matrix(&v);
+        sc.bc[i] = h_matrix(&h) - pm - pm.transpose();
         sc.ic[i] = iw;
         sc.iw[i] = iw;
         sc.s[i] = s;
