@@ -29,6 +29,9 @@
 
 pub mod chain;
 pub mod floors;
+/// Needs the `cli` feature (serde_json talks to the Pinocchio child).
+#[cfg(feature = "cli")]
+pub mod robots;
 pub mod speed;
 pub mod springy_rigid;
 pub mod symbolic;

@@ -190,6 +190,11 @@ struct SpeedArgs {
     /// The symbolic prototype's generated equations instead (symbolic.csv)
     #[arg(long)]
     symbolic: bool,
+    /// The generated robot dynamics (UR5, Panda, spatial chain N = 1…64) against Pinocchio
+    /// in the same run instead (robots.csv, robots.png; Python with `pin`: $MBFMU_PYTHON,
+    /// else .venv/bin/python3, else python3)
+    #[arg(long, conflicts_with_all = ["chain", "symbolic"])]
+    robots: bool,
 }
 
 #[derive(Args)]
@@ -636,7 +641,8 @@ fn list_json() -> String {
 /// floors, into `DIR/speed.csv` (default docs/bench) and as a markdown table on stdout;
 /// `--chain`: the planar chain of N = 1 … 16 links instead, into `DIR/chain.csv`;
 /// `--symbolic`: the symbolic prototype's generated equations against today's path and the
-/// floors, into `DIR/symbolic.csv`.
+/// floors, into `DIR/symbolic.csv`; `--robots`: the generated robot dynamics against
+/// Pinocchio, into `DIR/robots.csv` and `DIR/robots.png`.
 fn speed(args: SpeedArgs) -> Result<(), String> {
     use mbfmu::bench::speed;
     let SpeedArgs {
@@ -645,9 +651,13 @@ fn speed(args: SpeedArgs) -> Result<(), String> {
         out,
         chain,
         symbolic,
+        robots,
     } = args;
     let out = out.unwrap_or_else(|| workspace_root().join("docs/bench"));
     std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
+    if robots {
+        return speed_robots(reps, &out);
+    }
     if symbolic {
         use mbfmu::bench::{chain::growth_exponent, symbolic};
         let rows = symbolic::sweep(reps);
@@ -711,6 +721,57 @@ fn speed(args: SpeedArgs) -> Result<(), String> {
     }
     std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
     write(&out.join("speed.csv"), &csv)
+}
+
+/// `mbfmu speed --robots`: see `mbfmu::bench::robots`.
+fn speed_robots(reps: usize, out: &Path) -> Result<(), String> {
+    use mbfmu::bench::{chain::growth_exponent, robots};
+    let scratch = std::env::temp_dir().join(format!("mbfmu-robots-{}", std::process::id()));
+    let rows = robots::sweep(reps, &scratch);
+    let _ = std::fs::remove_dir_all(&scratch);
+    let rows = rows?;
+    println!("{}", robots::MARKDOWN_HEADER);
+    let mut csv = String::from(robots::CSV_HEADER);
+    for r in &rows {
+        println!("{}", robots::markdown_line(r));
+        csv.push_str(&robots::csv_line(r));
+    }
+    let chain: Vec<&robots::RobotRow> = rows
+        .iter()
+        .filter(|r| r.model.starts_with("chain_"))
+        .collect();
+    let fit = |pick: fn(&robots::RobotRow) -> f64| {
+        let pts: Vec<(usize, f64)> = chain
+            .iter()
+            .filter(|r| r.nq >= 8)
+            .map(|r| (r.nq, pick(r)))
+            .collect();
+        growth_exponent(&pts)
+    };
+    println!(
+        "chain growth exponent (N = 8 … 64): generated RHS {:.2}, Pinocchio aba {:.2}; Jacobian {:.2}, Pinocchio derivatives {:.2}",
+        fit(|r| r.generated_rhs_ns),
+        fit(|r| r.pinocchio_aba_ns),
+        fit(|r| r.jacobian_ns),
+        fit(|r| r.pinocchio_derivatives_ns),
+    );
+    let slower: Vec<usize> = chain
+        .iter()
+        .filter(|r| r.generated_rhs_ns >= r.pinocchio_aba_ns)
+        .map(|r| r.nq)
+        .collect();
+    println!("chain sizes where Pinocchio's aba is as fast or faster: {slower:?}");
+    let slower: Vec<&str> = rows
+        .iter()
+        .filter(|r| r.jacobian_ns >= r.pinocchio_derivatives_ns)
+        .map(|r| r.model.as_str())
+        .collect();
+    println!("models where Pinocchio's computeABADerivatives is as fast or faster: {slower:?}");
+    let worst = rows.iter().map(|r| r.max_difference).fold(0.0, f64::max);
+    println!("largest relative q̈ difference from pin.aba at the timed states: {worst:.1e}");
+    let csv_path = out.join("robots.csv");
+    write(&csv_path, &csv)?;
+    robots::plot(&csv_path, &out.join("robots.png"))
 }
 
 fn bench(args: BenchArgs) -> Result<(), String> {

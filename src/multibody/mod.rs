@@ -5,8 +5,12 @@
 //!
 //! A low layer like [`crate::model`]: it knows nothing of FMI, packaging or the CLI.
 
+pub mod codegen;
+pub mod derivatives;
 pub mod dynamics;
 pub mod fmu;
+#[rustfmt::skip]
+pub mod generated;
 pub mod mechanism;
 pub mod source;
 pub mod spatial;

@@ -138,10 +138,13 @@ pub fn axis_angle<S: Scalar>(axis: &V3<f64>, angle: S) -> M3<S> {
     let (s, c) = (angle.sin(), angle.cos());
     let k = S::one() - c;
     let [x, y, z] = *axis;
+    // About a coordinate axis its diagonal entry is exactly 1 (a tracing scalar cannot
+    // see that c + (1 − c) is): a test of the constant axis, not of a scalar value.
+    let diag = |aa: f64| if aa == 1.0 { S::one() } else { c + k * aa };
     [
-        [c + k * (x * x), k * (x * y) - s * z, k * (x * z) + s * y],
-        [k * (x * y) + s * z, c + k * (y * y), k * (y * z) - s * x],
-        [k * (x * z) - s * y, k * (y * z) + s * x, c + k * (z * z)],
+        [diag(x * x), k * (x * y) - s * z, k * (x * z) + s * y],
+        [k * (x * y) + s * z, diag(y * y), k * (y * z) - s * x],
+        [k * (x * z) - s * y, k * (y * z) + s * x, diag(z * z)],
     ]
 }
 

@@ -10,7 +10,7 @@
 //! parenthesised, so the code rounds exactly as the graph interpreter does.
 
 use super::equations::Equations;
-use super::expr::{Arg, Fun, Id, Node};
+use super::expr::{Arg, Fun, Graph, Id, Node};
 use std::fmt::Write as _;
 
 /// A single-use expression longer than this gets a `let` anyway (readability).
@@ -115,13 +115,26 @@ fn binary(a: &Text, op: &str, b: &Text, prec: Prec) -> Text {
     }
 }
 
-/// The Rust source of `eq` as `impl Eom<n, k> for {type_name}`, with `doc` as the file's
-/// first doc lines. `krate` is how the code names this library: `crate` inside it,
-/// `mbfmu` from a test or another crate.
-pub fn emit(eq: &Equations, type_name: &str, doc: &str, krate: &str) -> Emitted {
-    let graph = &eq.graph;
-    let roots = eq.roots();
-    let seen = graph.reachable(&roots);
+/// Straight-line Rust statements (8-space indented `let`s) computing the nodes of a graph
+/// that some roots reach, each once (see the module notes), and how each root then reads.
+pub struct Straight {
+    /// The `let` statements, one a line.
+    pub body: String,
+    /// For each root, an expression of the scalar type (a name, a short expression or
+    /// `S::from(c)`), valid after `body`.
+    pub roots: Vec<String>,
+    /// Which argument vectors ([`Arg`] order) the code reads.
+    pub used_args: [bool; 5],
+    /// Nodes the code evaluates (leaves and constants included) and operations among them.
+    pub nodes: usize,
+    pub operations: usize,
+    pub lets: usize,
+}
+
+/// The statements computing `roots` of `graph`, reading leaf `Input(arg, k)` as
+/// `{name(arg)}[k]`: the general entry point ([`emit`] uses it for [`Equations`]).
+pub fn straight_line(graph: &Graph, roots: &[Id], name: &dyn Fn(Arg) -> String) -> Straight {
+    let seen = graph.reachable(roots);
     let mut uses = vec![0usize; graph.len()];
     for (i, _) in seen.iter().enumerate().filter(|(_, &s)| s) {
         let (ops, k) = graph.node(i as Id).operands();
@@ -129,7 +142,7 @@ pub fn emit(eq: &Equations, type_name: &str, doc: &str, krate: &str) -> Emitted 
             uses[o as usize] += 1;
         }
     }
-    for &r in &roots {
+    for &r in roots {
         uses[r as usize] += 1;
     }
     // sin x and cos x of the same x, for one sin_cos().
@@ -163,7 +176,7 @@ pub fn emit(eq: &Equations, type_name: &str, doc: &str, krate: &str) -> Emitted 
             }
             Node::Input(arg, k) => {
                 used_args[arg as usize] = true;
-                text[i] = Some(Text::atom(format!("{}[{k}]", arg_name(arg))));
+                text[i] = Some(Text::atom(format!("{}[{k}]", name(arg))));
                 continue;
             }
             Node::Neg(a) => Text {
@@ -223,12 +236,41 @@ pub fn emit(eq: &Equations, type_name: &str, doc: &str, krate: &str) -> Emitted 
         });
     }
 
-    let root = |id: Id| {
-        text[id as usize]
-            .as_ref()
-            .expect("roots are reached")
-            .scalar(Prec::Sum)
-    };
+    let roots = roots
+        .iter()
+        .map(|&id| {
+            text[id as usize]
+                .as_ref()
+                .expect("roots are reached")
+                .scalar(Prec::Sum)
+        })
+        .collect();
+    Straight {
+        body,
+        roots,
+        used_args,
+        nodes,
+        operations,
+        lets,
+    }
+}
+
+/// The Rust source of `eq` as `impl Eom<n, k> for {type_name}`, with `doc` as the file's
+/// first doc lines. `krate` is how the code names this library: `crate` inside it,
+/// `mbfmu` from a test or another crate.
+pub fn emit(eq: &Equations, type_name: &str, doc: &str, krate: &str) -> Emitted {
+    let all = eq.roots();
+    let Straight {
+        mut body,
+        roots: root_text,
+        used_args,
+        nodes,
+        operations,
+        lets,
+    } = straight_line(&eq.graph, &all, &|arg| arg_name(arg).to_string());
+    let position: std::collections::HashMap<Id, usize> =
+        all.iter().enumerate().map(|(k, &id)| (id, k)).collect();
+    let root = |id: Id| root_text[position[&id]].clone();
     for i in 0..eq.n {
         for j in i..eq.n {
             writeln!(body, "        out.m[{i}][{j}] = {};", root(eq.m[i][j])).unwrap();
