@@ -58,5 +58,6 @@ pub fn all() -> Vec<Entry> {
         entry::<NonlinearBicycle>("nonlinear_bicycle"),
         entry::<RotatingHoopBead>("rotating_hoop_bead"),
         entry::<PulledPendulum>("pulled_pendulum"),
+        entry::<FourBar>("four_bar"),
     ]
 }

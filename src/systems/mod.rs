@@ -2,6 +2,7 @@
 
 mod compound_pendulum;
 mod double_pendulum;
+pub mod four_bar;
 mod mass_spring_damper;
 mod nonlinear_bicycle;
 mod projectile;
@@ -19,6 +20,7 @@ mod whipple_bicycle;
 
 pub use compound_pendulum::CompoundPendulum;
 pub use double_pendulum::DoublePendulum;
+pub use four_bar::FourBar;
 pub use mass_spring_damper::MassSpringDamper;
 pub use nonlinear_bicycle::NonlinearBicycle;
 pub use projectile::Projectile;
@@ -89,5 +91,6 @@ mod tests {
         writes_every_component::<NonlinearBicycle>();
         writes_every_component::<RotatingHoopBead>();
         writes_every_component::<PulledPendulum>();
+        writes_every_component::<FourBar>();
     }
 }
