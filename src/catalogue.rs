@@ -59,5 +59,6 @@ pub fn all() -> Vec<Entry> {
         entry::<RotatingHoopBead>("rotating_hoop_bead"),
         entry::<PulledPendulum>("pulled_pendulum"),
         entry::<FourBar>("four_bar"),
+        entry::<AndrewsSqueezer>("andrews_squeezer"),
     ]
 }

@@ -1,5 +1,6 @@
 //! The textbook systems, one file each: physics only, no FMI.
 
+pub mod andrews_squeezer;
 mod compound_pendulum;
 mod double_pendulum;
 pub mod four_bar;
@@ -18,6 +19,7 @@ pub mod springy_pendulum;
 mod two_mass_chain;
 mod whipple_bicycle;
 
+pub use andrews_squeezer::AndrewsSqueezer;
 pub use compound_pendulum::CompoundPendulum;
 pub use double_pendulum::DoublePendulum;
 pub use four_bar::FourBar;
@@ -92,5 +94,6 @@ mod tests {
         writes_every_component::<RotatingHoopBead>();
         writes_every_component::<PulledPendulum>();
         writes_every_component::<FourBar>();
+        writes_every_component::<AndrewsSqueezer>();
     }
 }
