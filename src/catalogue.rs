@@ -58,5 +58,7 @@ pub fn all() -> Vec<Entry> {
         entry::<NonlinearBicycle>("nonlinear_bicycle"),
         entry::<RotatingHoopBead>("rotating_hoop_bead"),
         entry::<PulledPendulum>("pulled_pendulum"),
+        entry::<FourBar>("four_bar"),
+        entry::<AndrewsSqueezer>("andrews_squeezer"),
     ]
 }

@@ -345,17 +345,25 @@ pub fn respond_mechanism<R: crate::multibody::fmu::OfMechanism>(request: &str) -
         Some("symbolic") => {
             let n = D::<R>::model().nq();
             let (z, mut qdd) = (vec![0.0; n], vec![0.0; n]);
-            let how = if D::<R>::generated_aba(&z, &z, &z, &mut qdd) {
-                "straight-line code generated for this mechanism"
-            } else {
-                "the articulated-body algorithm (Featherstone) on its model"
-            };
             let joints = if n == 1 {
                 "1 moving joint".to_string()
             } else {
                 format!("{n} moving joints")
             };
-            records.push(("runs".into(), format!("runs {how}: {joints}, q̈ in O(n)")));
+            let m = D::<R>::CONSTRAINTS;
+            let runs = if m > 0 {
+                format!(
+                    "runs the λ-method on automatic differentiation of its energies: {joints}, {m} loop-closure residuals by forward kinematics, projected after every step"
+                )
+            } else {
+                let how = if D::<R>::generated_aba(&z, &z, &z, &mut qdd) {
+                    "straight-line code generated for this mechanism"
+                } else {
+                    "the articulated-body algorithm (Featherstone) on its model"
+                };
+                format!("runs {how}: {joints}, q̈ in O(n)")
+            };
+            records.push(("runs".into(), runs));
         }
         Some("mechanism") => {
             records.push(("debug".into(), format!("{:?}", D::<R>::mechanism())));

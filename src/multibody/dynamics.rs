@@ -72,6 +72,27 @@ pub struct Model {
     pub gravity: V3<f64>,
     /// The ends of branches of the original mechanism, in its body order.
     pub tips: Vec<Tip>,
+    /// The loop closures, on the moving bodies (`None`: the base).
+    pub closures: Vec<PointPair>,
+    /// The springs, likewise.
+    pub springs: Vec<PointPair>,
+}
+
+/// Two points fixed in bodies of the model (`None`: the base), in those bodies' frames: a
+/// loop closure (with the base-frame axes it holds) or a spring (with its stiffness and
+/// rest length).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PointPair {
+    pub name: String,
+    pub body_a: Option<usize>,
+    pub point_a: V3<f64>,
+    pub body_b: Option<usize>,
+    pub point_b: V3<f64>,
+    /// A closure's base-frame components (0, 1, 2); empty for a spring.
+    pub axes: Vec<usize>,
+    /// A spring's stiffness (N/m) and rest length (m); zero for a closure.
+    pub stiffness: f64,
+    pub rest_length: f64,
 }
 
 impl Model {
@@ -96,6 +117,8 @@ impl Model {
             damping: Vec::new(),
             gravity: m.gravity,
             tips: Vec::new(),
+            closures: Vec::new(),
+            springs: Vec::new(),
         };
         // Pre-order walk from the root, children in declaration order: (joint, parent).
         let mut order: Vec<(usize, Option<usize>)> = Vec::new();
@@ -158,7 +181,95 @@ impl Model {
                 quaternion: quat_from_matrix(&f.offset.rotation),
             });
         }
+        let on = |body: &str| model.bodies.iter().position(|b| b == body);
+        let closures = m
+            .closures
+            .iter()
+            .map(|c| PointPair {
+                name: c.name.clone(),
+                body_a: on(&c.body_a),
+                point_a: c.point_a,
+                body_b: on(&c.body_b),
+                point_b: c.point_b,
+                axes: c.axis_indices(),
+                stiffness: 0.0,
+                rest_length: 0.0,
+            })
+            .collect();
+        let springs = m
+            .springs
+            .iter()
+            .map(|sp| PointPair {
+                name: sp.name.clone(),
+                body_a: on(&sp.body_a),
+                point_a: sp.point_a,
+                body_b: on(&sp.body_b),
+                point_b: sp.point_b,
+                axes: Vec::new(),
+                stiffness: sp.stiffness,
+                rest_length: sp.rest_length,
+            })
+            .collect();
+        model.closures = closures;
+        model.springs = springs;
         Ok(model)
+    }
+
+    /// How many residuals the loop closures have (one per closure axis).
+    pub fn closure_residuals(&self) -> usize {
+        self.closures.iter().map(|c| c.axes.len()).sum()
+    }
+
+    /// A point fixed in a body (`None`: the base), in the base frame.
+    fn point_at<S: Scalar>(
+        poses: &[(M3<S>, V3<S>)],
+        body: Option<usize>,
+        point: &V3<f64>,
+    ) -> V3<S> {
+        let p: V3<S> = lift3(point);
+        match body {
+            None => p,
+            Some(b) => {
+                let (r, o) = &poses[b];
+                add(o, &mat_vec(r, &p))
+            }
+        }
+    }
+
+    /// `p_a − p_b` of a point pair in the base frame.
+    fn separation<S: Scalar>(poses: &[(M3<S>, V3<S>)], pair: &PointPair) -> V3<S> {
+        let a = Self::point_at(poses, pair.body_a, &pair.point_a);
+        let b = Self::point_at(poses, pair.body_b, &pair.point_b);
+        [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+    }
+
+    /// The loop-closure residuals `Φ(q)`: for each closure, `(p_a − p_b)` along each of its
+    /// axes, in declaration order, by forward kinematics (zero when the loops are closed).
+    pub fn closure_residuals_at<S: Scalar>(&self, q: &[S], phi: &mut [S]) {
+        let poses = self.forward_kinematics(q);
+        let mut k = 0;
+        for c in &self.closures {
+            let d = Self::separation(&poses, c);
+            for &axis in &c.axes {
+                phi[k] = d[axis];
+                k += 1;
+            }
+        }
+    }
+
+    /// The springs' potential energy `Σ ½ k (ℓ − ℓ₀)²`, ℓ = |p_a − p_b|.
+    pub fn spring_energy<S: Scalar>(&self, q: &[S]) -> S {
+        if self.springs.is_empty() {
+            return S::zero();
+        }
+        let poses = self.forward_kinematics(q);
+        let mut v = S::zero();
+        for sp in &self.springs {
+            let d = Self::separation(&poses, sp);
+            let stretch = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() - sp.rest_length;
+            v += stretch * stretch * (0.5 * sp.stiffness);
+        }
+        v
     }
 
     /// The number of coordinates (= velocities = moving joints).

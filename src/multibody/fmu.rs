@@ -30,6 +30,7 @@ use super::dynamics::{Axis, Model};
 use super::mechanism::{Error, JointKind, Mechanism};
 use crate::model::lagrangian::Lagrangian;
 use crate::model::{Scalar, Scene, Var};
+use num_dual::{Dual, Dual64};
 use std::marker::PhantomData;
 
 /// The one line of a mechanism's modelDescription (unless its declaration gives its own).
@@ -56,6 +57,24 @@ macro_rules! mechanism_equations {
     };
 }
 
+/// [`mechanism_equations!`](crate::mechanism_equations) for a mechanism with loop closures.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! mechanism_loop_equations {
+    ($($note:expr),* $(,)?) => {
+        &[
+            "q: one coordinate per moving joint, named as the joint (rad, or m for a prismatic joint), and its velocity q̇; those the closures determine are dependent (solved from the others at initialisation)",
+            "Bodies in a tree from a fixed base, closed into loops by loop closures: a point of body A held on a point of body B along base-frame axes, Φ(q) = (p_A − p_B)·e = 0 by forward kinematics",
+            "T = ½ Σ vᵢᵀ Iᵢ vᵢ (spatial velocities and inertias), V = −Σ mᵢ g·cᵢ + Σ ½ k (ℓ − ℓ₀)² over the springs, L = T − V",
+            "Generalised forces: Q = τ − d q̇, with τ the joint's input (a torque, or a force for a prismatic joint) and d its viscous damping",
+            "λ-method: [M Gᵀ; G 0] [q̈; λ] = [Q + ∂L/∂q − (∂²L/∂q̇∂q) q̇; −q̇ᵀ∇²Φ q̇], G = ∂Φ/∂q, by automatic differentiation; λ is the force of each closure on its body B",
+            "After every step: coordinate projection onto Φ = 0 (Newton, M-metric) and of q̇ onto G q̇ = 0; residual_C_x … are Φ(q), force_C_x … the multipliers λ",
+            "E = T + V; for the end of each branch, its position and orientation quaternion (w, x, y, z) in the base frame",
+            $($note,)*
+        ]
+    };
+}
+
 /// A mechanism declared in Rust: written by [`mechanism_fmu!`](crate::mechanism_fmu) (Rust
 /// has no generic statics, so the macro writes the static behind [`Declared::built`]).
 pub trait Declared: 'static {
@@ -65,6 +84,12 @@ pub trait Declared: 'static {
     const DESCRIPTION: &'static str = DESCRIPTION;
     /// Equations and notes for the documentation, one per line.
     const EQUATIONS: &'static [&'static str] = crate::mechanism_equations!();
+    /// How many loop-closure residuals the mechanism has (one per closure axis): a
+    /// [`Lagrangian`]'s constraint count is a constant, so the declaration states it and
+    /// [`Built::of`] checks it against the mechanism.
+    const CONSTRAINTS: usize = 0;
+    /// DefaultExperiment: stop time, relative tolerance, communication step size.
+    const DEFAULT_EXPERIMENT: (f64, f64, f64) = (2.0, 1e-8, 1e-2);
 
     /// The bodies and joints (called once per process, by [`Declared::built`]).
     fn mechanism() -> Mechanism;
@@ -83,18 +108,27 @@ pub trait Declared: 'static {
     fn generated_aba<S: Scalar>(_q: &[S], _qd: &[S], _tau: &[S], _qdd: &mut [S]) -> bool {
         false
     }
+
+    /// The scenes, given those made for every mechanism ([`Built::scenes`]): those by
+    /// default; a declaration may add its own or replace them.
+    fn scenes(generated: Vec<Scene>) -> Vec<Scene> {
+        generated
+    }
 }
 
 /// Declares a mechanism type for an FMU: `mechanism_fmu!(pub Ur5, "ur5", mechanism)` with
 /// `mechanism` a function (or closure) returning the [`Mechanism`](crate::multibody::Mechanism),
-/// optionally followed by `notes = ["…", …]` (documentation lines after the standard ones)
-/// and by items of the `Declared` impl in braces (`{ fn generated_aba… }`). Then
+/// optionally followed by `constraints = N` (the number of loop-closure residuals, when the
+/// mechanism has closures: checked when it is built), by `notes = ["…", …]`
+/// (documentation lines after the standard ones) and by items of the `Declared` impl in
+/// braces (`{ fn generated_aba… }`). Then
 /// `mbfmu::export_fmu!(mechanism Ur5)` exports its FMU; the model type is
 /// `mbfmu::multibody::fmu::Robot<Ur5>`.
 #[macro_export]
 macro_rules! mechanism_fmu {
     (
         $(#[$attr:meta])* $vis:vis $name:ident, $id:expr, $mechanism:expr
+        $(, constraints = $constraints:expr)?
         $(, notes = [$($note:expr),* $(,)?])?
         $(, { $($item:tt)* })? $(,)?
     ) => {
@@ -103,8 +137,12 @@ macro_rules! mechanism_fmu {
 
         impl $crate::multibody::fmu::Declared for $name {
             const NAME: &'static str = $id;
-            const EQUATIONS: &'static [&'static str] =
-                $crate::mechanism_equations!($($($note),*)?);
+            const CONSTRAINTS: usize = 0 $(+ $constraints)?;
+            const EQUATIONS: &'static [&'static str] = if 0 $(+ $constraints)? == 0 {
+                $crate::mechanism_equations!($($($note),*)?)
+            } else {
+                $crate::mechanism_loop_equations!($($($note),*)?)
+            };
             fn mechanism() -> $crate::multibody::Mechanism {
                 ($mechanism)()
             }
@@ -129,16 +167,28 @@ pub struct PositionLimit {
 /// What [`Robot`] needs of a mechanism, made once: the model, the variables (their names
 /// leaked, as scenes want `&'static str`: once per mechanism and process), the start
 /// configuration and the torques that hold it.
+///
+/// Vectors per coordinate (`start`, `hold`, `damping`, the variables) are in coordinate
+/// order: the mechanism's declared [`order`](Mechanism::order), else the model's (depth
+/// first); `order[k]` is the model index of coordinate k.
 #[derive(Clone, Debug)]
 pub struct Built {
     pub model: Model,
     /// The mechanism as declared (before fixed joints were merged).
     pub mechanism: Mechanism,
+    /// Coordinate k is the model's coordinate `order[k]`.
+    pub order: Vec<usize>,
+    /// Whether `order` is the identity (no permutation on the way to the model).
+    pub natural_order: bool,
+    /// Whether each coordinate is dependent (determined by the closures).
+    pub dependent: Vec<bool>,
     /// The start configuration: 0, or the middle of a joint's limits when 0 is not
-    /// strictly inside them.
+    /// strictly inside them, or the declared start; with closures the dependent
+    /// coordinates are solved from the others (the declared values are the first guess).
     pub start: Vec<f64>,
-    /// The generalised forces that hold `start` at rest against gravity (RNEA), clamped
-    /// to the effort limits.
+    /// The generalised forces that hold `start` at rest against gravity and the springs
+    /// (RNEA; with closures, by virtual work with the dependent joints unactuated),
+    /// clamped to the effort limits; a declared start torque instead where there is one.
     pub hold: Vec<f64>,
     /// The limits that raise events (revolute and prismatic joints with lower < upper).
     pub limits: Vec<PositionLimit>,
@@ -168,16 +218,68 @@ fn leak(s: String) -> &'static str {
     Box::leak(s.into_boxed_str())
 }
 
+/// Newton iterations allowed when solving the closures for the start configuration.
+const START_ITERATIONS: usize = 50;
+
+/// `G = ∂Φ/∂q` of the closures at `q` (model order), one dual evaluation per column.
+fn closure_jacobian(model: &Model, q: &[f64]) -> Vec<Vec<f64>> {
+    let (n, m) = (model.nq(), model.closure_residuals());
+    let mut g = vec![vec![0.0; n]; m];
+    let mut phi = vec![Dual64::from(0.0); m];
+    for j in 0..n {
+        let mut qd: Vec<Dual64> = q.iter().map(|&v| Dual64::from(v)).collect();
+        qd[j].eps = 1.0;
+        model.closure_residuals_at(&qd, &mut phi);
+        for (row, v) in g.iter_mut().zip(&phi) {
+            row[j] = v.eps;
+        }
+    }
+    g
+}
+
+/// `∂V_springs/∂q` (model order), one dual evaluation per coordinate.
+pub fn spring_gradient<S: Scalar>(model: &Model, q: &[S]) -> Vec<S> {
+    let mut out = vec![S::zero(); q.len()];
+    if model.springs.is_empty() {
+        return out;
+    }
+    let mut qd: Vec<Dual<S>> = q.iter().map(|&v| Dual::from_re(v)).collect();
+    for (j, o) in out.iter_mut().enumerate() {
+        qd[j].eps = S::one();
+        *o = model.spring_energy(&qd).eps;
+        qd[j].eps = S::zero();
+    }
+    out
+}
+
+/// The closures' residuals are at rounding: the criterion of the projection after each
+/// step.
+fn closed(phi: &[f64], q: &[f64]) -> bool {
+    let scale = q.iter().fold(1.0f64, |s, v| s.max(v.abs()));
+    phi.iter().all(|v| v.abs() <= 4.0 * f64::EPSILON * scale)
+}
+
 impl Built {
     /// [`Built::new`] of `D`'s mechanism; panics with the error (a mechanism that does not
-    /// validate cannot be a model: `mbfmu build --urdf` validates before it generates).
+    /// validate cannot be a model: `mbfmu build --urdf` validates before it generates),
+    /// and when `D` declares another number of closure residuals than its mechanism has.
     pub fn of<D: Declared>() -> Built {
-        Built::new(D::mechanism()).unwrap_or_else(|e| panic!("{}: {e}", D::NAME))
+        let built = Built::new(D::mechanism()).unwrap_or_else(|e| panic!("{}: {e}", D::NAME));
+        let m = built.model.closure_residuals();
+        assert_eq!(
+            D::CONSTRAINTS,
+            m,
+            "{}: the mechanism's closures have {m} residuals but its declaration says `constraints = {}`",
+            D::NAME,
+            D::CONSTRAINTS
+        );
+        built
     }
 
     pub fn new(mechanism: Mechanism) -> Result<Built, Error> {
         let model = Model::new(&mechanism)?;
         let n = model.nq();
+        let robot = || format!("robot \"{}\"", mechanism.name);
         let joint_of = |i: usize| {
             mechanism
                 .joints
@@ -185,6 +287,21 @@ impl Built {
                 .find(|j| j.name == model.joints[i])
                 .expect("a model joint is a mechanism joint")
         };
+        let index_of = |name: &String| {
+            model
+                .joints
+                .iter()
+                .position(|j| j == name)
+                .expect("validated: a moving joint")
+        };
+        let order: Vec<usize> = if mechanism.order.is_empty() {
+            (0..n).collect()
+        } else {
+            mechanism.order.iter().map(index_of).collect()
+        };
+        let natural_order = order.iter().enumerate().all(|(k, &i)| k == i);
+        // Model order from here to the variables.
+        let dependent_model: Vec<usize> = mechanism.dependent.iter().map(index_of).collect();
         let mut start = vec![0.0; n];
         let mut limits = Vec::new();
         let mut effort = vec![None; n];
@@ -200,22 +317,101 @@ impl Built {
                         *s = 0.5 * (lower + upper);
                     }
                     limits.push(PositionLimit {
-                        coordinate: i,
+                        coordinate: order.iter().position(|&k| k == i).expect("a permutation"),
                         lower,
                         upper,
                     });
                 }
             }
         }
-        let hold: Vec<f64> = model
+        for (name, v) in &mechanism.start {
+            start[index_of(name)] = *v;
+        }
+        let m = model.closure_residuals();
+        if m > 0 {
+            // Newton on the closures for the dependent coordinates, the others as set.
+            let mut phi = vec![0.0; m];
+            let mut converged = false;
+            for _ in 0..START_ITERATIONS {
+                model.closure_residuals_at(&start, &mut phi);
+                if closed(&phi, &start) {
+                    converged = true;
+                    break;
+                }
+                let g = closure_jacobian(&model, &start);
+                let mut a: Vec<Vec<f64>> = g
+                    .iter()
+                    .map(|row| dependent_model.iter().map(|&j| row[j]).collect())
+                    .collect();
+                let mut step: Vec<f64> = phi.iter().map(|v| -v).collect();
+                crate::model::lagrangian::solve(&mut a, &mut step);
+                if !step.iter().all(|v| v.is_finite()) {
+                    break;
+                }
+                for (&j, d) in dependent_model.iter().zip(&step) {
+                    start[j] += d;
+                }
+            }
+            if !converged {
+                return Err(Error::new(
+                    robot(),
+                    format!(
+                        "its closures cannot be met from the start positions by moving the dependent joints {} (no solution near them, or the closures do not determine those joints): give start positions near a closed configuration (`.start(…)`)",
+                        mechanism.dependent.join(", ")
+                    ),
+                ));
+            }
+        }
+        // The torques that hold the start at rest: τ = g(q) (gravity by RNEA, springs by
+        // their gradient); with closures, τ − g = Gᵀλ with τ = 0 on the dependent joints
+        // (virtual work): G_depᵀ λ = −g_dep, τ = g + Gᵀλ.
+        let mut hold: Vec<f64> = model
             .rnea(&start, &vec![0.0; n], &vec![0.0; n])
             .iter()
-            .zip(&effort)
-            .map(|(&t, e)| match e {
-                Some(e) => t.clamp(-e, *e),
-                None => t,
-            })
+            .zip(spring_gradient(&model, &start))
+            .map(|(g, s)| g + s)
             .collect();
+        if m > 0 {
+            let g = closure_jacobian(&model, &start);
+            let mut a: Vec<Vec<f64>> = dependent_model
+                .iter()
+                .map(|&j| g.iter().map(|row| row[j]).collect())
+                .collect();
+            let mut lambda: Vec<f64> = dependent_model.iter().map(|&j| -hold[j]).collect();
+            crate::model::lagrangian::solve(&mut a, &mut lambda);
+            if !lambda.iter().all(|v| v.is_finite()) {
+                return Err(Error::new(
+                    robot(),
+                    format!(
+                        "its closures do not determine the dependent joints {} at the start configuration (their Jacobian is singular there): declare others dependent, or start elsewhere",
+                        mechanism.dependent.join(", ")
+                    ),
+                ));
+            }
+            for (i, h) in hold.iter_mut().enumerate() {
+                *h += g
+                    .iter()
+                    .zip(&lambda)
+                    .map(|(row, l)| row[i] * l)
+                    .sum::<f64>();
+            }
+            for &j in &dependent_model {
+                hold[j] = 0.0; // exactly, not by rounding
+            }
+        }
+        for (h, e) in hold.iter_mut().zip(&effort) {
+            if let Some(e) = e {
+                *h = h.clamp(-e, *e);
+            }
+        }
+        for (name, v) in &mechanism.torques {
+            hold[index_of(name)] = *v;
+        }
+        // Coordinate order from here.
+        let permute = |v: &[f64]| -> Vec<f64> { order.iter().map(|&i| v[i]).collect() };
+        let (start, hold, damping) = (permute(&start), permute(&hold), permute(&model.damping));
+        let effort: Vec<Option<f64>> = order.iter().map(|&i| effort[i]).collect();
+        let dependent: Vec<bool> = order.iter().map(|i| dependent_model.contains(i)).collect();
         let unit = |i: usize| match model.kinds[i] {
             Axis::Rotation => ("rad", "rad/s", "N.m", "torque"),
             Axis::Translation => ("m", "m/s", "N", "force"),
@@ -223,34 +419,48 @@ impl Built {
         let mut coordinates = Vec::new();
         let mut velocities = Vec::new();
         let mut inputs = Vec::new();
-        for i in 0..n {
+        for (k, &i) in order.iter().enumerate() {
             let j = joint_of(i);
             let (u, v, f, what) = unit(i);
             let name = &j.name;
             let kind = j.kind.name();
-            let mut q = Var::new("", Some(u), start[i], "").nominal(1.0);
+            let mut q = Var::new("", Some(u), start[k], "").nominal(1.0);
             q.name = name.clone().into();
+            let solved = if dependent[k] {
+                " (dependent: solved from the others by the loop closures)"
+            } else {
+                ""
+            };
             q.description = format!(
-                "Position of {kind} joint {name} (link {} in {})",
+                "Position of {kind} joint {name} (link {} in {}){solved}",
                 j.child, j.parent
             )
             .into();
             let mut qd = Var::new("", Some(v), 0.0, "").nominal(1.0);
             qd.name = format!("{name}_dot").into();
-            qd.description = format!("Velocity of joint {name}").into();
-            let mut tau = Var::new("", Some(f), hold[i], "");
+            qd.description = format!("Velocity of joint {name}{solved}").into();
+            if dependent[k] {
+                q = q.dependent();
+                qd = qd.dependent();
+            }
+            let mut tau = Var::new("", Some(f), hold[k], "");
             tau.name = format!("tau_{name}").into();
-            let bound = match effort[i] {
+            let bound = match effort[k] {
                 Some(e) => {
                     tau = tau.min(-e).max(e);
                     format!(", within the URDF effort limit ±{e:?} {f}")
                 }
                 None => ", no effort limit".to_string(),
             };
-            tau.description = format!(
-                "Generalised {what} at joint {name} ({f}{bound}); its start value holds the start configuration against gravity"
-            )
-            .into();
+            let started = if mechanism.torques.iter().any(|(t, _)| t == name) {
+                "its start value is the declared drive"
+            } else if m > 0 {
+                "its start value holds the start configuration against gravity and springs (by virtual work, the dependent joints unactuated)"
+            } else {
+                "its start value holds the start configuration against gravity"
+            };
+            tau.description =
+                format!("Generalised {what} at joint {name} ({f}{bound}); {started}").into();
             coordinates.push(q);
             velocities.push(qd);
             inputs.push(tau);
@@ -259,7 +469,7 @@ impl Built {
             "E",
             Some("J"),
             0.0,
-            "Mechanical energy T + V (V = 0 with every moving centre of mass at the base origin)",
+            "Mechanical energy T + V (V = 0 with every moving centre of mass at the base origin and every spring at its rest length)",
         )];
         for tip in &model.tips {
             let link = &tip.name;
@@ -282,6 +492,31 @@ impl Built {
                 outputs.push(v);
             }
         }
+        let tip_outputs = outputs.len();
+        for c in &mechanism.closures {
+            for axis in c.axes.chars() {
+                let mut v = Var::new("", Some("m"), 0.0, "");
+                v.name = format!("residual_{}_{axis}", c.name).into();
+                v.description = format!(
+                    "Residual of closure {}: {axis} of its point on {} less that of its point on {} (0 when closed)",
+                    c.name, c.body_a, c.body_b
+                )
+                .into();
+                outputs.push(v);
+            }
+        }
+        for c in &mechanism.closures {
+            for axis in c.axes.chars() {
+                let mut v = Var::new("", Some("N"), 0.0, "");
+                v.name = format!("force_{}_{axis}", c.name).into();
+                v.description = format!(
+                    "Force of closure {} on {} at its point, {axis} in the base frame (its multiplier λ; {} feels the opposite)",
+                    c.name, c.body_b, c.body_a
+                )
+                .into();
+                outputs.push(v);
+            }
+        }
         // Every name once, none of the FMU's own.
         let mut seen: std::collections::HashMap<String, String> = RESERVED
             .iter()
@@ -290,7 +525,7 @@ impl Built {
         seen.insert("E".into(), "the energy output".into());
         for (i, vars) in [&coordinates, &velocities, &inputs].iter().enumerate() {
             for (k, v) in vars.iter().enumerate() {
-                let joint = &joint_of(k).name;
+                let joint = &joint_of(order[k]).name;
                 let what = ["position", "velocity", "input"][i];
                 if let Some(other) = seen.insert(
                     v.name.to_string(),
@@ -306,7 +541,7 @@ impl Built {
                 }
             }
         }
-        for (k, v) in outputs.iter().enumerate().skip(1) {
+        for (k, v) in outputs.iter().enumerate().take(tip_outputs).skip(1) {
             let link = &model.tips[(k - 1) / 7].name;
             if let Some(other) =
                 seen.insert(v.name.to_string(), format!("an output of link \"{link}\""))
@@ -315,6 +550,17 @@ impl Built {
                     link,
                     format!(
                         "its output \"{}\" would also be {other}: rename the link",
+                        v.name
+                    ),
+                ));
+            }
+        }
+        for v in outputs.iter().skip(tip_outputs) {
+            if let Some(other) = seen.insert(v.name.to_string(), "a closure output".into()) {
+                return Err(Error::new(
+                    robot(),
+                    format!(
+                        "the closure output \"{}\" would also be {other}: rename the closure",
                         v.name
                     ),
                 ));
@@ -329,18 +575,21 @@ impl Built {
         .min(0.0)
         .max(1.0)];
         let scenes = scenes(
-            &model,
             &start,
             &hold,
             &effort,
+            &dependent,
             &coordinates,
             &velocities,
             &inputs,
         );
         Ok(Built {
-            damping: model.damping.clone(),
+            damping,
             model,
             mechanism,
+            order,
+            natural_order,
+            dependent,
             start,
             hold,
             limits,
@@ -351,6 +600,16 @@ impl Built {
             outputs,
             scenes,
         })
+    }
+
+    /// `v` (per coordinate) in the model's order: borrowed when that is the coordinate
+    /// order.
+    pub fn to_model<'a, S: Copy>(&self, v: &'a [S]) -> std::borrow::Cow<'a, [S]> {
+        if self.natural_order {
+            std::borrow::Cow::Borrowed(v)
+        } else {
+            std::borrow::Cow::Owned(self.order.iter().map(|&i| v[i]).collect())
+        }
     }
 
     /// The signed distance to the nearest position limit (in the coordinate's unit):
@@ -380,7 +639,7 @@ impl Built {
         let unit = self.coordinates[i].unit.as_deref().unwrap_or("");
         format!(
             "joint {} reached its {side} limit {value:?} {unit} at t = {t} s (the model has no end stops; set limit_events = 0 to run through its limits)",
-            self.model.joints[i]
+            self.coordinates[i].name
         )
     }
 }
@@ -389,20 +648,21 @@ impl Built {
 /// held by the gravity torques, the first joint's stepped by a tenth of its effort limit
 /// (1 N.m or 1 N without one).
 fn scenes(
-    model: &Model,
     start: &[f64],
     hold: &[f64],
     effort: &[Option<f64>],
+    dependent: &[bool],
     coordinates: &[Var],
     velocities: &[Var],
     inputs: &[Var],
 ) -> Vec<Scene> {
-    let n = model.nq();
+    let n = coordinates.len();
     if n == 0 {
         return Vec::new();
     }
+    // The independent states only: initialisation solves the dependent ones.
     let at_rest = |mut s: Scene| {
-        for i in 0..n {
+        for i in (0..n).filter(|&i| !dependent[i]) {
             s = s
                 .set(leak(coordinates[i].name.to_string()), start[i])
                 .set(leak(velocities[i].name.to_string()), 0.0);
@@ -417,18 +677,19 @@ fn scenes(
     for input in inputs {
         released = released.set(leak(input.name.to_string()), 0.0);
     }
-    let step = effort[0].map_or(1.0, |e| 0.1 * e);
-    let unit = inputs[0].unit.as_deref().unwrap_or("");
+    let first = (0..n).find(|&i| !dependent[i]).unwrap_or(0);
+    let step = effort[first].map_or(1.0, |e| 0.1 * e);
+    let unit = inputs[first].unit.as_deref().unwrap_or("");
     let mut stepped = at_rest(Scene::new(
         "step",
         leak(format!(
             "Held at rest by the gravity torques, joint {}'s input stepped by {step:?} {unit} at t = 0",
-            model.joints[0]
+            coordinates[first].name
         )),
         2.0,
     ));
     for (i, input) in inputs.iter().enumerate() {
-        let mut value = hold[i] + if i == 0 { step } else { 0.0 };
+        let mut value = hold[i] + if i == first { step } else { 0.0 };
         if let Some(e) = effort[i] {
             value = value.clamp(-e, e);
         }
@@ -540,6 +801,8 @@ impl<D: Declared> Lagrangian for Robot<D> {
     const EQUATIONS: &'static [&'static str] = D::EQUATIONS;
     /// Neither Q nor the outputs read t.
     const TIME_IN_FORCES_OR_OUTPUTS: bool = false;
+    /// One per loop-closure axis.
+    const CONSTRAINTS: usize = D::CONSTRAINTS;
 
     fn parameters() -> Vec<Var> {
         D::built().parameters.clone()
@@ -562,11 +825,14 @@ impl<D: Declared> Lagrangian for Robot<D> {
     }
 
     fn kinetic<S: Scalar>(_t: S, q: &[S], qd: &[S], _p: &[S]) -> S {
-        D::model().kinetic_energy(q, qd)
+        let b = D::built();
+        b.model.kinetic_energy(&b.to_model(q), &b.to_model(qd))
     }
 
     fn potential<S: Scalar>(_t: S, q: &[S], _p: &[S]) -> S {
-        D::model().potential_energy(q)
+        let b = D::built();
+        let q = b.to_model(q);
+        b.model.potential_energy(&q) + b.model.spring_energy(&q)
     }
 
     fn forces<S: Scalar>(_t: f64, _q: &[S], qd: &[S], u: &[S], _p: &[S], out: &mut [S]) {
@@ -579,6 +845,15 @@ impl<D: Declared> Lagrangian for Robot<D> {
         }
     }
 
+    /// The loop closures by forward kinematics ([`Model::closure_residuals_at`]).
+    fn constraints<S: Scalar>(_t: S, q: &[S], _p: &[S], phi: &mut [S]) {
+        let b = D::built();
+        b.model.closure_residuals_at(&b.to_model(q), phi);
+    }
+
+    /// A tree: q̈ by the articulated-body algorithm (springs as joint forces
+    /// `τ − ∂V_springs/∂q`). With loop closures: `false`, so that the λ-method runs on the
+    /// energies and the constraints (and the states are projected after every step).
     fn generated_eom<S: Scalar>(
         _t: f64,
         q: &[S],
@@ -588,29 +863,72 @@ impl<D: Declared> Lagrangian for Robot<D> {
         qdd: &mut [S],
         _lambda: &mut [S],
     ) -> bool {
-        if !D::generated_aba(q, qd, u, qdd) {
-            qdd.copy_from_slice(&D::model().aba(q, qd, u));
+        if D::CONSTRAINTS > 0 {
+            return false;
+        }
+        let b = D::built();
+        if b.natural_order && b.model.springs.is_empty() {
+            if !D::generated_aba(q, qd, u, qdd) {
+                qdd.copy_from_slice(&b.model.aba(q, qd, u));
+            }
+            return true;
+        }
+        let (q, qd, u) = (b.to_model(q), b.to_model(qd), b.to_model(u));
+        let tau: Vec<S> = u
+            .iter()
+            .zip(spring_gradient(&b.model, &q))
+            .map(|(&t, g)| t - g)
+            .collect();
+        let mut a = vec![S::zero(); q.len()];
+        if !D::generated_aba(&q, &qd, &tau, &mut a) {
+            a = b.model.aba(&q, &qd, &tau);
+        }
+        for (k, &i) in b.order.iter().enumerate() {
+            qdd[k] = a[i];
         }
         true
     }
 
-    fn extra_outputs<S: Scalar>(_t: f64, q: &[S], qd: &[S], _u: &[S], _p: &[S], y: &mut [S]) {
-        let model = D::model();
-        y[0] = model.kinetic_energy(q, qd) + model.potential_energy(q);
-        for (k, (p, quat)) in model.tip_poses(q).into_iter().enumerate() {
+    fn extra_outputs<S: Scalar>(t: f64, q: &[S], qd: &[S], u: &[S], p: &[S], y: &mut [S]) {
+        let b = D::built();
+        let model = &b.model;
+        let (qm, qdm) = (b.to_model(q), b.to_model(qd));
+        y[0] = model.kinetic_energy(&qm, &qdm)
+            + model.potential_energy(&qm)
+            + model.spring_energy(&qm);
+        let tips = model.tips.len();
+        for (k, (p, quat)) in model.tip_poses(&qm).into_iter().enumerate() {
             let out = &mut y[1 + 7 * k..8 + 7 * k];
             out[..3].copy_from_slice(&p);
             out[3..].copy_from_slice(&quat);
         }
+        let m = D::CONSTRAINTS;
+        if m > 0 {
+            let at = 1 + 7 * tips;
+            model.closure_residuals_at(&qm, &mut y[at..at + m]);
+            let mut qdd = vec![S::zero(); q.len()];
+            let mut lambda = vec![S::zero(); m];
+            crate::model::lagrangian::accelerations_and_multipliers_into::<Self, S>(
+                t,
+                q,
+                qd,
+                u,
+                p,
+                &mut qdd,
+                &mut lambda,
+            );
+            y[at + m..at + 2 * m].copy_from_slice(&lambda);
+        }
     }
 
     fn scenes() -> Vec<Scene> {
-        D::built().scenes.clone()
+        D::scenes(D::built().scenes.clone())
     }
 
-    /// Two seconds held by the gravity torques (the start values: an equilibrium).
+    /// [`Declared::DEFAULT_EXPERIMENT`]: by default two seconds held by the gravity
+    /// torques (the start values: an equilibrium).
     fn default_experiment() -> (f64, f64, f64) {
-        (2.0, 1e-8, 1e-2)
+        D::DEFAULT_EXPERIMENT
     }
 
     fn event_indicator(_t: f64, q: &[f64], _qd: &[f64], _u: &[f64], p: &[f64]) -> Option<f64> {

@@ -2,6 +2,13 @@
 //! and fixed joints, with URDF's conventions (a joint's child frame is its joint frame; a
 //! joint's origin places that frame in the parent body's frame).
 //!
+//! Closed kinematic loops are not joints of the tree: a loop closure ([`Closure`],
+//! [`Mechanism::closure`]) says that a point fixed in one body coincides with a point fixed
+//! in another (or in the base) along some base-frame axes, and the model keeps it as a
+//! holonomic constraint with its multipliers. Springs between bodies ([`Spring`]) add to
+//! the potential energy. URDF has neither (it describes trees): only the builder declares
+//! them.
+//!
 //! Written by hand with the builder ([`Mechanism::new`] … [`Mechanism::revolute`] …) or read
 //! from a URDF file ([`super::urdf`]); [`Mechanism::validate`] checks it,
 //! [`Mechanism::merge_fixed`] folds fixed joints away for the dynamics.
@@ -283,6 +290,62 @@ pub struct Mechanism {
     pub joints: Vec<Joint>,
     /// m/s², in the root frame.
     pub gravity: [f64; 3],
+    /// Loop closures: constraints between bodies that close kinematic loops.
+    pub closures: Vec<Closure>,
+    /// Linear springs between points of two bodies (or a body and the base).
+    pub springs: Vec<Spring>,
+    /// The joints whose coordinates the closures determine (as many as closure
+    /// residuals): consistent initialisation keeps the others as set and solves for these.
+    pub dependent: Vec<String>,
+    /// Start positions of joints (the rest start at 0, or mid-limits); with closures the
+    /// dependent ones are a first guess, solved from the others.
+    pub start: Vec<(String, f64)>,
+    /// Start values of joint inputs `tau_J` (the rest hold the start configuration).
+    pub torques: Vec<(String, f64)>,
+    /// The order of the coordinates, by joint name (empty: depth first from the root, the
+    /// order of the dynamics).
+    pub order: Vec<String>,
+}
+
+/// A loop closure: the point `point_a` fixed in body `body_a` coincides with the point
+/// `point_b` fixed in body `body_b` (which may be the base), along the base-frame
+/// components `axes` (`"xy"` for a planar mechanism in the x–y plane, `"xyz"` for a
+/// spherical joint closing the loop). One constraint residual per axis:
+/// `Φ = (p_a − p_b)·e_axis`, in metres; its multiplier λ is the force on body B at the
+/// point along that axis (body A feels −λ).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Closure {
+    pub name: String,
+    pub body_a: String,
+    /// In body A's frame (m).
+    pub point_a: [f64; 3],
+    pub body_b: String,
+    /// In body B's frame (m).
+    pub point_b: [f64; 3],
+    /// Distinct letters of `"xyz"`, in that order.
+    pub axes: String,
+}
+
+impl Closure {
+    /// The base-frame components held, as indices 0, 1, 2.
+    pub fn axis_indices(&self) -> Vec<usize> {
+        self.axes.chars().filter_map(|c| "xyz".find(c)).collect()
+    }
+}
+
+/// A linear spring from a point fixed in body A to a point fixed in body B (or the base):
+/// `V = ½ k (ℓ − ℓ₀)²` with ℓ the distance between the points.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Spring {
+    pub name: String,
+    pub body_a: String,
+    pub point_a: [f64; 3],
+    pub body_b: String,
+    pub point_b: [f64; 3],
+    /// N/m.
+    pub stiffness: f64,
+    /// ℓ₀ (m).
+    pub rest_length: f64,
 }
 
 /// The tree structure of a valid mechanism, by index.
@@ -331,6 +394,12 @@ impl Mechanism {
             bodies: Vec::new(),
             joints: Vec::new(),
             gravity: [0.0, 0.0, -9.81],
+            closures: Vec::new(),
+            springs: Vec::new(),
+            dependent: Vec::new(),
+            start: Vec::new(),
+            torques: Vec::new(),
+            order: Vec::new(),
         }
     }
 
@@ -381,6 +450,80 @@ impl Mechanism {
     /// A fixed joint.
     pub fn fixed(self, name: &str, parent: &str, child: &str, o: Origin) -> Self {
         self.joint(Joint::new(name, JointKind::Fixed, parent, child, o))
+    }
+
+    /// A loop closure `name`: `point_a` of `body_a` on `point_b` of `body_b` along the
+    /// base-frame `axes` (`"xy"`, `"xyz"`, …). See [`Closure`].
+    pub fn closure(
+        mut self,
+        name: &str,
+        body_a: &str,
+        point_a: V3<f64>,
+        body_b: &str,
+        point_b: V3<f64>,
+        axes: &str,
+    ) -> Self {
+        self.closures.push(Closure {
+            name: name.to_string(),
+            body_a: body_a.to_string(),
+            point_a,
+            body_b: body_b.to_string(),
+            point_b,
+            axes: axes.to_string(),
+        });
+        self
+    }
+
+    /// A linear spring `name` of `stiffness` (N/m) and `rest_length` (m) from `point_a` of
+    /// `body_a` to `point_b` of `body_b`. See [`Spring`].
+    #[allow(clippy::too_many_arguments)]
+    pub fn spring(
+        mut self,
+        name: &str,
+        body_a: &str,
+        point_a: V3<f64>,
+        body_b: &str,
+        point_b: V3<f64>,
+        stiffness: f64,
+        rest_length: f64,
+    ) -> Self {
+        self.springs.push(Spring {
+            name: name.to_string(),
+            body_a: body_a.to_string(),
+            point_a,
+            body_b: body_b.to_string(),
+            point_b,
+            stiffness,
+            rest_length,
+        });
+        self
+    }
+
+    /// Declares the coordinates of these joints dependent (solved from the others by the
+    /// closures); as many as the closures have residuals.
+    pub fn dependent(mut self, joints: &[&str]) -> Self {
+        self.dependent.extend(joints.iter().map(|j| j.to_string()));
+        self
+    }
+
+    /// The start position of a joint (rad or m).
+    pub fn start(mut self, joint: &str, value: f64) -> Self {
+        self.start.push((joint.to_string(), value));
+        self
+    }
+
+    /// The start value of the input `tau_J` of a joint (N.m or N): a constant drive unless
+    /// the importer changes it.
+    pub fn torque(mut self, joint: &str, value: f64) -> Self {
+        self.torques.push((joint.to_string(), value));
+        self
+    }
+
+    /// The order of the coordinates (every moving joint once), when it is not the
+    /// depth-first order of the tree.
+    pub fn order(mut self, joints: &[&str]) -> Self {
+        self.order = joints.iter().map(|j| j.to_string()).collect();
+        self
     }
 
     /// The index of the body named `name`.
@@ -496,6 +639,7 @@ impl Mechanism {
             child_joints,
         };
         self.check_singular(&tree)?;
+        self.check_loops()?;
         Ok(tree)
     }
 
@@ -535,6 +679,134 @@ impl Mechanism {
                     ),
                 ));
             }
+        }
+        Ok(())
+    }
+
+    /// The closures, springs and the joint lists: bodies and joints that exist, finite
+    /// points, axes among x, y, z, names used once.
+    fn check_loops(&self) -> Result<(), Error> {
+        let robot = || format!("robot \"{}\"", self.name);
+        let mut names: Vec<&str> = Vec::new();
+        let finite = |p: &[f64; 3]| p.iter().all(|x| x.is_finite());
+        for c in &self.closures {
+            let err = |why: String| Err(Error::new(format!("closure \"{}\"", c.name), why));
+            if c.name.is_empty() || names.contains(&c.name.as_str()) {
+                return err("has no name, or one already used by a closure or spring".into());
+            }
+            names.push(&c.name);
+            for (role, body, point) in [("A", &c.body_a, &c.point_a), ("B", &c.body_b, &c.point_b)]
+            {
+                if self.body_index(body).is_none() {
+                    return err(format!("body {role} \"{body}\" does not exist"));
+                }
+                if !finite(point) {
+                    return err(format!("point {point:?} on body \"{body}\" is not finite"));
+                }
+            }
+            if c.body_a == c.body_b {
+                return err(format!("joins body \"{}\" to itself", c.body_a));
+            }
+            let idx = c.axis_indices();
+            let ordered = idx.windows(2).all(|w| w[0] < w[1]);
+            if idx.is_empty() || idx.len() != c.axes.chars().count() || !ordered {
+                return err(format!(
+                    "axes \"{}\" are not distinct letters of \"xyz\" in that order (\"xy\", \"xyz\", …)",
+                    c.axes
+                ));
+            }
+        }
+        for sp in &self.springs {
+            let err = |why: String| Err(Error::new(format!("spring \"{}\"", sp.name), why));
+            if sp.name.is_empty() || names.contains(&sp.name.as_str()) {
+                return err("has no name, or one already used by a closure or spring".into());
+            }
+            names.push(&sp.name);
+            for (role, body, point) in [
+                ("A", &sp.body_a, &sp.point_a),
+                ("B", &sp.body_b, &sp.point_b),
+            ] {
+                if self.body_index(body).is_none() {
+                    return err(format!("body {role} \"{body}\" does not exist"));
+                }
+                if !finite(point) {
+                    return err(format!("point {point:?} on body \"{body}\" is not finite"));
+                }
+            }
+            if !(sp.stiffness.is_finite() && sp.stiffness >= 0.0) {
+                return err(format!(
+                    "stiffness {} is not a finite number ≥ 0",
+                    sp.stiffness
+                ));
+            }
+            if !(sp.rest_length.is_finite() && sp.rest_length >= 0.0) {
+                return err(format!(
+                    "rest length {} is not a finite number ≥ 0",
+                    sp.rest_length
+                ));
+            }
+        }
+        let moving = |what: &str, j: &str| -> Result<(), Error> {
+            match self.joints.iter().find(|k| k.name == j) {
+                Some(k) if k.moves() => Ok(()),
+                Some(_) => Err(Error::joint(
+                    j,
+                    format!("is fixed: it has no coordinate to be {what}"),
+                )),
+                None => Err(Error::new(
+                    robot(),
+                    format!("{what} joint \"{j}\" does not exist"),
+                )),
+            }
+        };
+        for (k, j) in self.dependent.iter().enumerate() {
+            moving("dependent", j)?;
+            if self.dependent[..k].contains(j) {
+                return Err(Error::joint(j, "is declared dependent twice".into()));
+            }
+        }
+        for (j, v) in &self.start {
+            moving("started", j)?;
+            if !v.is_finite() {
+                return Err(Error::joint(j, format!("start position {v} is not finite")));
+            }
+        }
+        for (j, v) in &self.torques {
+            moving("driven", j)?;
+            if !v.is_finite() {
+                return Err(Error::joint(j, format!("start torque {v} is not finite")));
+            }
+        }
+        if !self.order.is_empty() {
+            for (k, j) in self.order.iter().enumerate() {
+                moving("ordered", j)?;
+                if self.order[..k].contains(j) {
+                    return Err(Error::joint(
+                        j,
+                        "is listed twice in the coordinate order".into(),
+                    ));
+                }
+            }
+            if let Some(j) = self
+                .joints
+                .iter()
+                .find(|j| j.moves() && !self.order.contains(&j.name))
+            {
+                return Err(Error::joint(
+                    &j.name,
+                    "is missing from the coordinate order".into(),
+                ));
+            }
+        }
+        let residuals: usize = self.closures.iter().map(|c| c.axis_indices().len()).sum();
+        if residuals != self.dependent.len() {
+            return Err(Error::new(
+                robot(),
+                format!(
+                    "its closures have {residuals} residuals but {} joints are declared dependent (`.dependent([…])`): as many of each are needed, so that initialisation knows which coordinates to solve for",
+                    self.dependent.len()
+                ),
+            ));
         }
         Ok(())
     }
@@ -633,12 +905,58 @@ impl Mechanism {
                 leaf: tree.child_joints[b].is_empty(),
             })
             .collect();
+        // Closures and springs move with their bodies: onto the host, the point placed by
+        // the folded body's offset.
+        let on_host = |body: &str, point: &V3<f64>| {
+            let b = self.body_index(body).expect("validated");
+            let o = &offset[b];
+            (
+                self.bodies[host[b]].name.clone(),
+                add(&mat_vec(&o.rotation, point), &o.xyz),
+            )
+        };
+        let closures = self
+            .closures
+            .iter()
+            .map(|c| {
+                let (body_a, point_a) = on_host(&c.body_a, &c.point_a);
+                let (body_b, point_b) = on_host(&c.body_b, &c.point_b);
+                Closure {
+                    body_a,
+                    point_a,
+                    body_b,
+                    point_b,
+                    ..c.clone()
+                }
+            })
+            .collect();
+        let springs = self
+            .springs
+            .iter()
+            .map(|sp| {
+                let (body_a, point_a) = on_host(&sp.body_a, &sp.point_a);
+                let (body_b, point_b) = on_host(&sp.body_b, &sp.point_b);
+                Spring {
+                    body_a,
+                    point_a,
+                    body_b,
+                    point_b,
+                    ..sp.clone()
+                }
+            })
+            .collect();
         Ok(Merged {
             mechanism: Mechanism {
                 name: self.name.clone(),
                 bodies,
                 joints,
                 gravity: self.gravity,
+                closures,
+                springs,
+                dependent: self.dependent.clone(),
+                start: self.start.clone(),
+                torques: self.torques.clone(),
+                order: self.order.clone(),
             },
             frames,
         })

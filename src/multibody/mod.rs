@@ -17,7 +17,7 @@ pub mod spatial;
 pub mod urdf;
 
 pub use dynamics::Model;
-pub use mechanism::{Body, Error, Joint, JointKind, Limit, Mechanism, Origin};
+pub use mechanism::{Body, Closure, Error, Joint, JointKind, Limit, Mechanism, Origin, Spring};
 
 #[cfg(test)]
 mod tests;

@@ -10,7 +10,7 @@
 //! so the text is exact by construction; `mbfmu build --urdf` also compares the compiled
 //! crate's mechanism with the URDF's.
 
-use super::mechanism::{Body, Joint, JointKind, Mechanism, Origin};
+use super::mechanism::{Body, Closure, Joint, JointKind, Mechanism, Origin, Spring};
 
 /// The same value, bit for bit (`-0.0` is not `0.0` here, unlike `==`).
 fn same<T: std::fmt::Debug>(a: &T, b: &T) -> bool {
@@ -137,9 +137,40 @@ fn joint(j: &Joint) -> String {
     s
 }
 
-/// The builder expression of `m` (`Mechanism::new(…).body(…)….joint(…)`), indented for
-/// the body of a function, with `Body`, `Joint`, `JointKind`, `Limit`, `Mechanism` and
-/// `Origin` in scope. Bodies and joints in their order in `m`.
+fn closure(c: &Closure) -> String {
+    format!(
+        "\n        .closure({:?}, {:?}, {}, {:?}, {}, {:?})",
+        c.name,
+        c.body_a,
+        v3(&c.point_a),
+        c.body_b,
+        v3(&c.point_b),
+        c.axes
+    )
+}
+
+fn spring(sp: &Spring) -> String {
+    format!(
+        "\n        .spring({:?}, {:?}, {}, {:?}, {}, {:?}, {:?})",
+        sp.name,
+        sp.body_a,
+        v3(&sp.point_a),
+        sp.body_b,
+        v3(&sp.point_b),
+        sp.stiffness,
+        sp.rest_length
+    )
+}
+
+fn names(list: &[String]) -> String {
+    let quoted: Vec<String> = list.iter().map(|n| format!("{n:?}")).collect();
+    format!("&[{}]", quoted.join(", "))
+}
+
+/// The builder expression of `m` (`Mechanism::new(…).body(…)….joint(…)`, then its loop
+/// closures, springs, dependent joints, start positions and torques, coordinate order),
+/// indented for the body of a function, with `Body`, `Joint`, `JointKind`, `Limit`,
+/// `Mechanism` and `Origin` in scope. Bodies and joints in their order in `m`.
 pub fn builder(m: &Mechanism) -> String {
     let mut s = format!("Mechanism::new({:?})", m.name);
     if !same(&Mechanism::new("").gravity, &m.gravity) {
@@ -150,6 +181,24 @@ pub fn builder(m: &Mechanism) -> String {
     }
     for j in &m.joints {
         s += &format!("\n        .joint({})", joint(j));
+    }
+    for c in &m.closures {
+        s += &closure(c);
+    }
+    for sp in &m.springs {
+        s += &spring(sp);
+    }
+    if !m.dependent.is_empty() {
+        s += &format!("\n        .dependent({})", names(&m.dependent));
+    }
+    for (j, v) in &m.start {
+        s += &format!("\n        .start({j:?}, {v:?})");
+    }
+    for (j, v) in &m.torques {
+        s += &format!("\n        .torque({j:?}, {v:?})");
+    }
+    if !m.order.is_empty() {
+        s += &format!("\n        .order({})", names(&m.order));
     }
     s
 }

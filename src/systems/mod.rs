@@ -1,7 +1,9 @@
 //! The textbook systems, one file each: physics only, no FMI.
 
+pub mod andrews_squeezer;
 mod compound_pendulum;
 mod double_pendulum;
+pub mod four_bar;
 mod mass_spring_damper;
 mod nonlinear_bicycle;
 mod projectile;
@@ -17,8 +19,10 @@ pub mod springy_pendulum;
 mod two_mass_chain;
 mod whipple_bicycle;
 
+pub use andrews_squeezer::AndrewsSqueezer;
 pub use compound_pendulum::CompoundPendulum;
 pub use double_pendulum::DoublePendulum;
+pub use four_bar::FourBar;
 pub use mass_spring_damper::MassSpringDamper;
 pub use nonlinear_bicycle::NonlinearBicycle;
 pub use projectile::Projectile;
@@ -89,5 +93,7 @@ mod tests {
         writes_every_component::<NonlinearBicycle>();
         writes_every_component::<RotatingHoopBead>();
         writes_every_component::<PulledPendulum>();
+        writes_every_component::<FourBar>();
+        writes_every_component::<AndrewsSqueezer>();
     }
 }
