@@ -31,6 +31,7 @@ pub mod chain;
 pub mod floors;
 /// Needs the `cli` feature (serde_json talks to the Pinocchio child).
 #[cfg(feature = "cli")]
+#[cfg(feature = "cli")]
 pub mod robots;
 pub mod speed;
 pub mod springy_rigid;
