@@ -79,3 +79,35 @@ def tmc_exact(t, m1, m2, k1, k2, c2, x1, x2, v1, v2, F, **_ignored):
 
 def tmc_energy(m1, m2, k1, k2, x1, x2, v1, v2, **_ignored):
     return 0.5 * m1 * v1**2 + 0.5 * m2 * v2**2 + 0.5 * k1 * x1**2 + 0.5 * k2 * (x2 - x1) ** 2
+
+
+# ---------------------------------------------------------------------------------------
+# Loop closures: the four-bar's position analysis, Andrews' squeezer's reference
+# ---------------------------------------------------------------------------------------
+
+# The four-bar of src/systems/four_bar.rs (link lengths are compiled into the FMU, not
+# parameters): crank a, coupler b, rocker c, ground d (m).
+FOUR_BAR = dict(a=0.1, b=0.35, c=0.3, d=0.4)
+
+
+def freudenstein_rocker(theta2, a, b, c, d):
+    """θ4 from θ2 by Freudenstein's equation K1 cos θ4 − K2 cos θ2 + K3 = cos(θ2 − θ4)
+    (K1 = d/a, K2 = d/c, K3 = (a² − b² + c² + d²)/(2ac)), solved in tan(θ4/2): the open
+    configuration (B above the ground link while the crank is up)."""
+    k1, k2 = d / a, d / c
+    k3 = (a * a - b * b + c * c + d * d) / (2 * a * c)
+    s, co = np.sin(theta2), np.cos(theta2)
+    P = co - k1 - k2 * co + k3
+    Q = -2 * s
+    R = k1 - (k2 + 1) * co + k3
+    return 2 * np.arctan((-Q - np.sqrt(Q * Q - 4 * P * R)) / (2 * P))
+
+
+# The IVP test set's andrews problem (Hairer & Wanner, Solving ODEs II, VII.7): the
+# reference positions at t = 0.03 s and the consistent multipliers at t = 0.
+ANDREWS_COORDINATES = ["beta", "Theta", "gamma", "Phi", "delta", "Omega", "epsilon"]
+ANDREWS_REFERENCE = [0.1581077119629904e2, -0.1575637105984298e2, 0.4082224013073101e-1,
+                     -0.5347301163226948, 0.5244099658805304, 0.5347301163226948,
+                     0.1048080741042263e1]
+ANDREWS_LAMBDA0 = [98.5668703962410896057654982170, -6.12268834425566265503114393122,
+                   0.0, 0.0, 0.0, 0.0]
