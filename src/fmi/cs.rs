@@ -61,6 +61,11 @@ impl From<integrators::ImplicitFailure> for Stop {
 /// with its Jacobian costs a hundred evaluations of f).
 pub const DOSTEP_WORK: u64 = 5_000_000;
 
+/// [`DOSTEP_WORK`] for `M`, divided by what its evaluations cost ([`System::EVALUATION_WEIGHT`]).
+fn work_bound<M: System>() -> u64 {
+    DOSTEP_WORK / M::EVALUATION_WEIGHT.max(1)
+}
+
 /// How a doStep ended when it did not fail on its arguments.
 #[derive(Debug, PartialEq)]
 pub enum StepOutcome {
@@ -155,7 +160,8 @@ impl<M: System> Instance<M> {
     fn log_work(&self, before: u64) {
         let done = self.stats().work(self.data.x.len()) - before;
         self.logger.debug(&format!(
-            "fmi2DoStep: work {done} state-component evaluations (bound {DOSTEP_WORK})"
+            "fmi2DoStep: work {done} state-component evaluations (bound {})",
+            work_bound::<M>()
         ));
     }
 
@@ -220,7 +226,7 @@ impl<M: System> Instance<M> {
         let d = &mut self.data;
         let work = self.work.get_mut();
         let stats = &mut d.memory.stats;
-        stats.work_limit = stats.work(d.x.len()).saturating_add(DOSTEP_WORK);
+        stats.work_limit = stats.work(d.x.len()).saturating_add(work_bound::<M>());
         let (u, p) = (&d.u, &d.params);
         let (mut t, x) = (current, copied(&mut work.x, &d.x));
         let result = if d.method == Method::Rk4 && M::event_indicator(t, x, u, p).is_none() {

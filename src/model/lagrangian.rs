@@ -78,6 +78,9 @@ pub trait Lagrangian: 'static {
     /// ([`System::explicit_time`]).
     const TIME_IN_FORCES_OR_OUTPUTS: bool = true;
 
+    /// See [`System::EVALUATION_WEIGHT`].
+    const EVALUATION_WEIGHT: u64 = 1;
+
     /// Kinetic energy `T(t, q, q̇, p)`. `t` is a scalar (not `f64`) so that the dual
     /// numbers carry ∂/∂t through it (rheonomic systems); most systems ignore it.
     fn kinetic<S: Scalar>(t: S, q: &[S], qd: &[S], p: &[S]) -> S;
@@ -680,6 +683,7 @@ impl<L: Lagrangian> System for L {
     const DESCRIPTION: &'static str = <L as Lagrangian>::DESCRIPTION;
     const EQUATIONS: &'static [&'static str] = <L as Lagrangian>::EQUATIONS;
     const SECOND_ORDER: bool = true;
+    const EVALUATION_WEIGHT: u64 = L::EVALUATION_WEIGHT;
 
     fn parameters() -> Vec<Var> {
         <L as Lagrangian>::parameters()
