@@ -80,7 +80,9 @@ pub mod p {
 /// The coordinates, in the test set's order.
 pub const COORDINATES: [&str; 7] = ["beta", "Theta", "gamma", "Phi", "delta", "Omega", "epsilon"];
 
-/// The test set's consistent initial positions (its velocities are zero).
+/// The test set's consistent initial positions (its velocities are zero), as it prints
+/// them.
+#[allow(clippy::excessive_precision)]
 pub const START: [f64; 7] = [
     -0.0617138900142764496358948458001,
     0.0,
