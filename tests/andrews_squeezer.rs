@@ -19,7 +19,7 @@ use support::Rng;
 
 /// The test set's M(q), f(q, q̇) (spring, drive and velocity terms), g(q) and G = ∂g/∂q,
 /// transcribed from its formulas (with q = (β, Θ, γ, Φ, δ, Ω, ε)).
-#[allow(clippy::type_complexity)]
+#[allow(clippy::type_complexity, clippy::needless_range_loop)] // indexed as the test set is
 fn test_set(q: &[f64], qd: &[f64]) -> ([[f64; 7]; 7], [f64; 7], [f64; 6], [[f64; 7]; 6]) {
     let (sibe, sith, siga, siph, side, siom, siep) = (
         q[0].sin(),
@@ -195,6 +195,7 @@ fn mass_matrix_forces_and_constraints_equal_the_test_sets_formulas() {
 /// The test set's consistent initial values also give the accelerations and multipliers
 /// at t = 0 (its y₁₅…y₂₇): the λ-method on the mechanism gives them again.
 #[test]
+#[allow(clippy::excessive_precision)] // the test set's digits, as it prints them
 fn initial_accelerations_and_multipliers_are_the_test_sets() {
     let (u, p) = (inputs(), params());
     let qdd_ref = [

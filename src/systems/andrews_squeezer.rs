@@ -80,8 +80,8 @@ pub mod p {
 /// The coordinates, in the test set's order.
 pub const COORDINATES: [&str; 7] = ["beta", "Theta", "gamma", "Phi", "delta", "Omega", "epsilon"];
 
-/// The test set's consistent initial positions (its velocities are zero), with its digits as
-/// published (more than an f64 holds: they round to the nearest f64).
+/// The test set's consistent initial positions (its velocities are zero), as it prints
+/// them.
 #[allow(clippy::excessive_precision)]
 pub const START: [f64; 7] = [
     -0.0617138900142764496358948458001,

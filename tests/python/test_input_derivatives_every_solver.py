@@ -24,17 +24,22 @@ def _inputs(model):
     return [v for v in model.md.modelVariables if v.causality == "input" and v.type == "Real"]
 
 
-def _run(model, solver, ders, h=0.05, steps=4):
-    """The states after `steps` doSteps of `h` from the first scene's start, with the given
-    input derivatives {(vr, order): value} set before each step; None if the solver is
-    refused. Returns (statuses of the SetRealInputDerivatives calls, final states)."""
+def _run(model, solver, ders, steps=4):
+    """The states after `steps` doSteps of h = 0.05 s from the first scene's start, with the
+    given input derivatives {(vr, order): value} set before each step; None if the solver is
+    refused. Returns (statuses of the SetRealInputDerivatives calls, final states). A model
+    whose DefaultExperiment is shorter than 0.2 s (AndrewsSqueezer: 0.03 s, its crank at
+    1000 rad/s by then) runs on its own time scale: h a quarter of its stop time, the fixed
+    steps h/50 (else 1 ms, as for every other FMU)."""
+    stop = float(model.md.defaultExperiment.stopTime)
+    h = min(0.05, stop / steps)
     inst = model.instance(f"{model.name}_der_{solver}")
     try:
         inst.setup(tol=1e-10)
         st = inst.call("fmi2SetInteger", (c_uint * 1)(model.vr["solver"]), 1, (c_int * 1)(solver))
         if st != 0:
             return None
-        inst.set(solver_step=1e-3)
+        inst.set(solver_step=h / 50)
         inst.ok("fmi2EnterInitializationMode")
         inst.ok("fmi2ExitInitializationMode")
         statuses = []
