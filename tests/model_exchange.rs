@@ -632,11 +632,10 @@ fn sphere_slide_departs_in_event_mode() {
         -v * theta.sin(),
         1.0,
     ];
-    // A mode outside its declared [0, 1] is refused, as fmi2SetReal refuses it.
-    let e = me
-        .set_continuous_states(&[x[0], x[1], x[2], x[3], 1.5])
-        .unwrap_err();
-    assert!(e.contains("on_surface") && e.contains("outside"), "{e}");
+    // A mode a little past its declared [0, 1] is accepted: CVODE's finite-difference
+    // Jacobian perturbs on_surface = 1 to 1 + 1.5e-8 (refusing it broke fmpy's runs).
+    me.set_continuous_states(&[x[0], x[1], x[2], x[3], 1.0 + 1.5e-8])
+        .unwrap();
     me.set_continuous_states(&x).unwrap();
     me.get_event_indicators(&mut z).unwrap();
     assert!(z[0] < 0.0, "{}", z[0]);

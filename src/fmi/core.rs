@@ -663,17 +663,15 @@ impl<M: System> Instance<M> {
             return Err("a Co-Simulation state holds an event indicator reference".into());
         }
         let before_init = machine::BEFORE_INIT_DONE & s.machine.code() != 0;
-        // Model Exchange's importer sets the states through fmi2SetContinuousStates, which
-        // checks them as fmi2SetReal does.
-        let checked_states = before_init || me;
         for (vr, (slot, var)) in layout.vars.iter().enumerate() {
             let value = match slot.kind {
                 VarKind::Parameter => s.params[slot.index],
                 VarKind::Input => s.u[slot.index],
                 VarKind::SolverStep => s.solver_step,
                 VarKind::SolverMaxSteps => s.max_steps as f64,
-                // After initialisation the states are the integration's: finite only.
-                VarKind::State if checked_states => s.x[slot.index],
+                // After initialisation the states are the integration's (Model Exchange: the
+                // importer's solver's): finite only.
+                VarKind::State if before_init => s.x[slot.index],
                 VarKind::State if !s.x[slot.index].is_finite() => {
                     return Err(format!(
                         "the state {} = {} is not finite",

@@ -77,21 +77,20 @@ impl<M: System> Instance<M> {
         Ok(())
     }
 
-    /// fmi2SetContinuousStates: exactly the model's number of states, every one finite and
-    /// inside its declared [min, max].
+    /// fmi2SetContinuousStates: exactly the model's number of states, every one finite.
     pub fn set_continuous_states(&mut self, x: &[f64]) -> Res {
         const F: &str = "fmi2SetContinuousStates";
         self.require_me(machine::SET_CONTINUOUS_STATES, F)?;
         Self::require_count(F, "nx", x.len(), self.data.x.len())?;
-        // Finite, and inside a declared [min, max] (a mode held constant between events:
-        // SphereSlide's on_surface), as fmi2SetReal checks a value.
-        let layout = &self.info.layout;
-        for (i, &v) in x.iter().enumerate() {
-            let vr = layout.vr_of_slot(VarKind::State, i);
-            layout.vars[vr as usize]
-                .1
-                .check(v)
-                .map_err(|e| format!("{F}: x[{i}]: {e} (value reference {vr})"))?;
+        // Finite only: a solver's iterates and finite-difference Jacobian step past a
+        // declared [min, max] (CVODE perturbs SphereSlide's mode on_surface = 1 to 1 + 1.5e-8),
+        // as Co-Simulation's integration may after initialisation.
+        if let Some(i) = x.iter().position(|v| !v.is_finite()) {
+            return Err(format!(
+                "{F}: x[{i}] = {} for {} is not finite",
+                x[i],
+                self.state_name(i)
+            ));
         }
         self.data.x.copy_from_slice(x);
         Ok(())
