@@ -176,15 +176,19 @@ impl LinearizeRequest {
     }
 }
 
-/// What goes into `M`'s FMU beside the binary (the `package` request).
-fn package<M: System>(traced: Option<String>) -> Result<Records, String> {
+/// What goes into `M`'s FMU beside the binary (the `package` request); `traced` and
+/// `pictures` go on the page (see [`crate::docs::page::page`]).
+fn package<M: System>(
+    traced: Option<String>,
+    pictures: Option<&dyn crate::docs::page::Pictures>,
+) -> Result<Records, String> {
     // The linearisation at the default operating point (the start values).
     let lin = linearize_at::<M>(&[], None, &States::All)?;
     let reference = crate::docs::reference::reference::<M>()?;
     // The page reads the model in its independent states where the constraints allow.
     let page_lin = linearize::reduced::<M>(&lin, None).unwrap_or_else(|_| lin.clone());
     let (documentation, page_files) =
-        crate::docs::page::page::<M>(Some(&page_lin), &reference, traced.as_deref());
+        crate::docs::page::page::<M>(Some(&page_lin), &reference, traced.as_deref(), pictures);
     let mut records: Records = vec![
         ("model_identifier".into(), M::NAME.into()),
         (
@@ -207,7 +211,7 @@ fn package<M: System>(traced: Option<String>) -> Result<Records, String> {
 
 fn answer<M: System>(request: &Records) -> Result<Records, String> {
     match protocol::value(request, "request") {
-        Some("package") => package::<M>(None),
+        Some("package") => package::<M>(None, None),
         Some("linearize") => {
             let a = LinearizeRequest::decode(request)?.answer::<M>()?;
             let mut r: Records = a
@@ -237,7 +241,7 @@ pub fn respond_lagrangian<L: Lagrangian>(request: &str) -> String {
         Some("symbolic") => {}
         // The page with T and V typeset from the code besides the equation lines.
         Some("package") => {
-            match package::<L>(Some(traced_energies::<L>())) {
+            match package::<L>(Some(traced_energies::<L>()), None) {
                 Ok(r) => records.extend(r),
                 Err(e) => records.push(("error".into(), e)),
             }
@@ -329,7 +333,9 @@ fn runs_generated<L: Lagrangian>() -> bool {
     L::generated_eom(0.0, &q, &qd, &u, &p, &mut qdd, &mut lambda)
 }
 
-/// [`respond`] for a declared mechanism (`export_fmu!(mechanism …)`): it also answers
+/// [`respond`] for a declared mechanism (`export_fmu!(mechanism …)`): its page also draws
+/// the mechanism ([`crate::docs::stick`]: in its reference configuration, and in each
+/// scene at three instants of the run); it also answers
 /// `symbolic` with `runs`, the one line `mbfmu build` prints about what the FMU runs (a
 /// mechanism is not traced from its Lagrangian: its q̈ is the articulated-body algorithm),
 /// and `mechanism` with `debug`, the `{:?}` of the mechanism it was built from (every
@@ -367,6 +373,24 @@ pub fn respond_mechanism<R: crate::multibody::fmu::OfMechanism>(request: &str) -
         }
         Some("mechanism") => {
             records.push(("debug".into(), format!("{:?}", D::<R>::mechanism())));
+        }
+        Some("package") => {
+            let built = D::<R>::built();
+            let skeleton = crate::docs::stick::Skeleton::new(&built.mechanism, &built.model);
+            let pictures = skeleton.map(|skeleton| crate::docs::stick::MechanismPictures {
+                name: D::<R>::NAME,
+                skeleton,
+                start: &built.start,
+            });
+            match package::<R>(
+                None,
+                pictures
+                    .as_ref()
+                    .map(|p| p as &dyn crate::docs::page::Pictures),
+            ) {
+                Ok(r) => records.extend(r),
+                Err(e) => records.push(("error".into(), e)),
+            }
         }
         _ => return respond::<R>(request),
     }

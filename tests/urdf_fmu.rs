@@ -63,6 +63,28 @@ fn a_mechanism_describes_what_it_runs_and_what_it_is() {
     // Everything else as any model: the package answer names it.
     let package = ask("package");
     assert_eq!(protocol::value(&package, "model_identifier"), Some("Lift"));
+    // Its page draws it: the picture in its own section, one square per view for the
+    // prismatic joint, and a picture of every scene; the plain `respond` (the in-tree
+    // systems' answer) draws nothing.
+    let page = protocol::value(&package, "documentation").unwrap();
+    assert!(page.contains("<h2 id=\"mechanism\">"), "{page}");
+    assert!(page.contains("<img src=\"mechanism.svg\""), "{page}");
+    let svg = protocol::value(&package, "file:documentation/mechanism.svg").unwrap();
+    assert_eq!(svg.matches("<g class=\"view\"").count(), 2, "{svg}");
+    assert_eq!(
+        svg.matches("<rect class=\"joint prismatic\" data-joint=\"lift\"")
+            .count(),
+        2,
+        "{svg}"
+    );
+    for scene in ["released", "step"] {
+        let file = format!("file:documentation/scene_{scene}_mechanism.svg");
+        assert!(protocol::value(&package, &file).is_some(), "{file}");
+        assert!(page.contains(&format!("<img src=\"scene_{scene}_mechanism.svg\"")));
+    }
+    let plain = mbfmu::describe::respond::<R>(&protocol::encode(&[("request", "package")]));
+    let plain = protocol::parse_response(&plain).unwrap();
+    assert!(protocol::value(&plain, "file:documentation/mechanism.svg").is_none());
 }
 
 fn instance(values: &[(&str, f64)]) -> (Instance<R>, &'static ModelInfo) {

@@ -1,6 +1,8 @@
-//! `documentation/index.html` of an FMU, offline and without script: what the system is, its
-//! equations typeset in MathML ([`mathml`](super::mathml)), its variables, a plot of every
-//! scene drawn at package time ([`svg`](super::svg)) with its invariants, the linearisation
+//! `documentation/index.html` of an FMU, offline and without script: what the system is (a
+//! mechanism's picture too, [`Pictures`]), its equations typeset in MathML
+//! ([`mathml`](super::mathml)), its variables, a plot of every scene drawn at package time
+//! ([`svg`](super::svg)) with its invariants (and the mechanism at instants of the run),
+//! the linearisation
 //! at the default operating point read as natural frequencies and damping ratios, every
 //! solver and what the FMU does with bad input and failed steps, and the reference result.
 
@@ -107,8 +109,26 @@ fn scene_run<M: System>(scene: &Scene) -> Result<Trajectory, String> {
     )
 }
 
-/// The scene's section: plot of its states, and of its invariants' drift where it has any.
-fn scene_section<M: System>(scene: &Scene, files: &mut Vec<(String, String)>) -> String {
+/// What a page draws of its system beside the plots: a mechanism's stick figures
+/// ([`super::stick`]). Each answers its HTML and the files it refers to (`(path in the FMU,
+/// content)`).
+pub trait Pictures {
+    /// The id of the section [`Pictures::reference`] writes, and its name in the page's
+    /// navigation.
+    fn anchor(&self) -> (&'static str, &'static str);
+    /// The section after the description (the system in its reference configuration).
+    fn reference(&self) -> (String, Vec<(String, String)>);
+    /// A figure after a scene's plot, from that scene's run.
+    fn scene(&self, scene: &Scene, run: &Trajectory) -> (String, Vec<(String, String)>);
+}
+
+/// The scene's section: plot of its states, the pictures' figure of the run where there
+/// are pictures, and of its invariants' drift where it has any.
+fn scene_section<M: System>(
+    scene: &Scene,
+    pictures: Option<&dyn Pictures>,
+    files: &mut Vec<(String, String)>,
+) -> String {
     let mut h = format!(
         "<h3 id=\"scene-{0}\">{0}</h3>\n<p>{1}. Stop time {2} s; start values: <code>{3}</code>.</p>\n",
         escape(scene.name),
@@ -168,6 +188,11 @@ fn scene_section<M: System>(scene: &Scene, files: &mut Vec<(String, String)>) ->
         },
         traj.t.len()
     ));
+    if let Some(pictures) = pictures {
+        let (figure, drawn) = pictures.scene(scene, &traj);
+        h.push_str(&figure);
+        files.extend(drawn);
+    }
     if let Some(why) = &traj.failure {
         h.push_str(&format!(
             "<p>The run ends early: {} (doStep answers fmi2Discard there).</p>\n",
@@ -318,11 +343,13 @@ const BAD_INPUT: &str = "<h3>Bad input and failed steps</h3>\n<ul>\n<li>A value 
 
 /// The page and the files it refers to (`(path in the FMU, content)`: the scene plots).
 /// `traced`: the section of T and V typeset from the code (a Lagrangian's, see
-/// [`traced_section`]), after the equation lines.
+/// [`traced_section`]), after the equation lines; `pictures`: drawings of the system (a
+/// mechanism's), a section after the description and a figure in each scene.
 pub fn page<M: System>(
     lin: Option<&Linearization>,
     reference: &Reference,
     traced: Option<&str>,
+    pictures: Option<&dyn Pictures>,
 ) -> (String, Vec<(String, String)>) {
     let layout = Layout::of::<M>();
     let mut files = Vec::new();
@@ -333,10 +360,19 @@ pub fn page<M: System>(
     h.push_str("<style>body{font-family:sans-serif;max-width:64em;margin:2em auto;padding:0 1em;line-height:1.45}table{border-collapse:collapse;margin:.5em 0}td,th{border:1px solid #ccc;padding:.2em .5em;text-align:left;vertical-align:top}code{background:#f4f4f4}ul.eq li{margin:.35em 0}math{font-size:1.1em}mover>mo{padding-bottom:.15em}figure{margin:1em 0}figcaption{font-size:.9em;color:#444}img{max-width:100%;height:auto}nav a{margin-right:1em}</style>\n");
     h.push_str("</head>\n<body>\n");
     h.push_str(&format!(
-        "<h1>{}</h1>\n<p>{}</p>\n<nav><a href=\"#equations\">Equations</a><a href=\"#variables\">Variables</a><a href=\"#scenes\">Scenes</a><a href=\"#linearisation\">Linearisation</a><a href=\"#solvers\">Solvers</a><a href=\"#reference\">Reference result</a></nav>\n",
+        "<h1>{}</h1>\n<p>{}</p>\n<nav>{}<a href=\"#equations\">Equations</a><a href=\"#variables\">Variables</a><a href=\"#scenes\">Scenes</a><a href=\"#linearisation\">Linearisation</a><a href=\"#solvers\">Solvers</a><a href=\"#reference\">Reference result</a></nav>\n",
         escape(M::NAME),
-        escape(M::DESCRIPTION)
+        escape(M::DESCRIPTION),
+        pictures.map_or(String::new(), |p| {
+            let (id, name) = p.anchor();
+            format!("<a href=\"#{id}\">{name}</a>")
+        })
     ));
+    if let Some(pictures) = pictures {
+        let (section, drawn) = pictures.reference();
+        h.push_str(&section);
+        files.extend(drawn);
+    }
     h.push_str(
         "<h2 id=\"equations\">Coordinates, conventions and equations</h2>\n<ul class=\"eq\">\n",
     );
@@ -384,7 +420,7 @@ pub fn page<M: System>(
 
     h.push_str("<h2 id=\"scenes\">Scenes</h2>\n<p>Each scene is a set of start values and a stop time (<code>mbfmu list --json</code>), simulated here when the FMU was built, through the FMU's own code.</p>\n");
     for scene in M::scenes() {
-        h.push_str(&scene_section::<M>(&scene, &mut files));
+        h.push_str(&scene_section::<M>(&scene, pictures, &mut files));
     }
 
     match lin {

@@ -17,7 +17,7 @@ pub struct Series<'a> {
 }
 
 /// 1, 2 or 5 × 10^k ticks covering [lo, hi].
-fn ticks(lo: f64, hi: f64) -> Vec<f64> {
+pub(super) fn ticks(lo: f64, hi: f64) -> Vec<f64> {
     let span = (hi - lo).max(f64::MIN_POSITIVE);
     let raw = span / 5.0;
     let mag = 10f64.powf(raw.log10().floor());
@@ -31,7 +31,8 @@ fn ticks(lo: f64, hi: f64) -> Vec<f64> {
     (first..=last).map(|k| k as f64 * step).collect()
 }
 
-fn label(v: f64) -> String {
+/// A tick's label: four decimals at most, exponent form outside [1e-3, 1e4).
+pub(super) fn label(v: f64) -> String {
     if v == 0.0 {
         "0".into()
     } else if v.abs() >= 1e4 || v.abs() < 1e-3 {

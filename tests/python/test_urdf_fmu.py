@@ -23,17 +23,23 @@ What must hold:
   DOPRI5 at rtol 1e-13 (the integrator's energy error, not the model's: DOPRI5 is not
   symplectic; the model's E is exactly T + V);
 - fmpy's validation passes; names, units and ranges are the URDF's;
+- the page draws the mechanism (documentation/mechanism.svg, loaded by Chromium): one
+  marker per joint in each of its two views, of the joint's kind, where Pinocchio's forward
+  kinematics puts the joint at q = 0, the ends of branches at the FMU's pose outputs (read
+  back through the axes' tick labels, to 0.05 px); every scene has its picture;
 - the double pendulum URDF with DoublePendulum's parameters gives that FMU's trajectory
   (the tolerance is derived at the test).
 """
 
 from __future__ import annotations
 
+import json
 import os
 import pathlib
 import re
 import subprocess
 import time
+import xml.etree.ElementTree as ET
 import zipfile
 from ctypes import c_double, c_uint
 
@@ -385,3 +391,116 @@ def test_the_double_pendulum_urdf_gives_doublependulums_trajectory(robot):
         assert np.abs(b["phi"]).max() > 0.5, "it moves"
         for name, diff in diffs.items():
             assert diff < bound, (solver, name, diff)
+
+
+SVG = "{http://www.w3.org/2000/svg}"
+
+
+def read_view(view):
+    """One view of a stick figure read back: its axes, the px of a metre (px = a + b · value,
+    through the tick labels, each checked on the line), and each marker's centre."""
+    children = list(view)
+    axes = {}
+    for cls in ("htick", "vtick"):
+        ticks = [(float(children[k + 1].text), float(c.get("x1" if cls == "htick" else "y1")))
+                 for k, c in enumerate(children) if c.get("class") == cls]
+        (v0, p0), (v1, p1) = ticks[0], ticks[-1]
+        b = (p1 - p0) / (v1 - v0)
+        a = p0 - b * v0
+        assert all(abs(a + b * v - p) < 0.02 for v, p in ticks), ticks
+        axes[cls] = (a, b)
+    marks = []
+    for e in view.iter():
+        cls = e.get("class") or ""
+        if not (cls.startswith("joint ") or cls == "end"):
+            continue
+        tag = e.tag.removeprefix(SVG)
+        if tag == "circle":
+            x, y = float(e.get("cx")), float(e.get("cy"))
+        elif tag == "rect":
+            x = float(e.get("x")) + float(e.get("width")) / 2
+            y = float(e.get("y")) + float(e.get("height")) / 2
+        else:
+            p = [float(v) for v in re.split(r"[ ,]", e.get("points"))]
+            x, y = p[0], (p[1] + p[5]) / 2
+        (ah, bh), (av, bv) = axes["htick"], axes["vtick"]
+        marks.append((cls, e.get("data-joint") or e.get("data-link"), tag,
+                      ((x - ah) / bh, (y - av) / bv)))
+    return view.get("data-h"), view.get("data-v"), axes["htick"][1], axes["vtick"][1], marks
+
+
+@pytest.mark.parametrize("name", ["ur5", "panda"])
+def test_the_page_draws_the_mechanism_a_marker_per_joint_where_it_is(robot, instances, name, tmp_path):
+    """The page's picture of the mechanism (documentation/mechanism.svg): shown in its own
+    section and loaded by Chromium with every other image of the page (offline, no script);
+    two views at one scale; in each, one marker per joint of the modelDescription, a circle
+    for a joint in rad and a square for one in m, at the joint's place in Pinocchio's forward
+    kinematics at q = 0 (``data.oMi``), and a diamond per end of a branch at the FMU's own
+    pose outputs at q = 0; each scene has its picture, a marker per joint and instant."""
+    from test_documentation_page import MEASURE, WINDOW, run_chromium
+
+    b = robot(name)
+    with zipfile.ZipFile(b.fmu) as z:
+        z.extractall(tmp_path / "fmu")
+    doc = tmp_path / "fmu" / "documentation"
+    html = (doc / "index.html").read_text(encoding="utf-8")
+    section = html[html.index('<h2 id="mechanism">'):html.index('<h2 id="equations">')]
+    assert '<img src="mechanism.svg"' in section, section
+    scenes = re.findall(r'<h3 id="scene-([^"]+)">', html)
+    assert scenes
+    for scene in scenes:
+        assert f'<img src="scene_{scene}_mechanism.svg"' in html, scene
+
+    measured = doc / "measured.html"
+    measured.write_text(html.replace("</body>", MEASURE + "</body>"), encoding="utf-8")
+    dom = run_chromium(tmp_path, "--virtual-time-budget=10000", WINDOW, "--hide-scrollbars",
+                       "--dump-dom", measured.as_uri())
+    images = json.loads(re.search(r'<pre id="mbfmu-measure">(.*?)</pre>', dom, re.S).group(1)
+                        .replace("&lt;", "<").replace("&gt;", ">").replace("&amp;", "&"))["images"]
+    assert ["mechanism.svg", True] in images, images
+    assert all(ok for _, ok in images), images
+
+    n = len(b.joints)
+    inst = instances(b.model, f"{name}_picture")
+    initialised_at(inst, b, np.zeros(n), np.zeros(n), np.zeros(n))
+    tips = [v.name[:-3] for v in b.model.md.modelVariables if v.name.endswith("_q0")]
+    outputs = dict(zip(tips, np.array(inst.get_reals(
+        [f"{t}_{c}" for t in tips for c in "xyz"])).reshape(len(tips), 3)))
+    pm, data = b.ref.model, b.ref.data
+    pin.forwardKinematics(pm, data, b.ref.q(np.zeros(n)))
+    joints = {j: data.oMi[pm.getJointId(j)].translation for j in b.joints}
+
+    views = [g for g in ET.parse(doc / "mechanism.svg").iter(f"{SVG}g") if g.get("class") == "view"]
+    assert len(views) == 2
+    scales = []
+    worst = 0.0
+    for view in views:
+        h, v, bh, bv, marks = read_view(view)
+        assert abs(bh + bv) < 1e-3 * bh, "equal scales, up is up"
+        scales.append(bh)
+        ih, iv = "xyz".index(h), "xyz".index(v)
+        tol = 0.05 / bh  # 0.05 px of rounding, in metres
+        drawn = [m for m in marks if m[0].startswith("joint ")]
+        assert sorted(m[1] for m in drawn) == sorted(b.joints), "one marker per joint"
+        for _, joint, tag, (x, y) in drawn:
+            assert tag == ("rect" if b.model.vars[joint].unit == "m" else "circle"), joint
+            want = joints[joint]
+            worst = max(worst, abs(x - want[ih]), abs(y - want[iv]))
+            assert abs(x - want[ih]) < tol and abs(y - want[iv]) < tol, (joint, h, v, x, y, want)
+        ends = {m[1]: m[3] for m in marks if m[0] == "end"}
+        assert sorted(ends) == sorted(tips)
+        for tip, (x, y) in ends.items():
+            want = outputs[tip]
+            assert abs(x - want[ih]) < tol and abs(y - want[iv]) < tol, (tip, h, v, x, y, want)
+    assert abs(scales[0] - scales[1]) < 1e-3 * scales[0]
+    print(f"{name}: views {[(g.get('data-h'), g.get('data-v')) for g in views]}, "
+          f"{scales[0]:.0f} px/m, joints within {worst:.1e} m of Pinocchio's")
+
+    for scene in scenes:
+        svg = ET.parse(doc / f"scene_{scene}_mechanism.svg")
+        poses = [g for g in svg.iter(f"{SVG}g") if g.get("class") == "pose"]
+        assert len(poses) in (6, 4, 2), (scene, len(poses))  # 3 instants (or fewer) × 2 views
+        for pose in poses:
+            drawn = sorted(e.get("data-joint") for e in pose.iter()
+                           if (e.get("class") or "").startswith("joint "))
+            assert drawn == sorted(b.joints), scene
