@@ -76,3 +76,33 @@ fn a_cheap_system_takes_its_steps() {
     assert_eq!(outcome, StepOutcome::Completed);
     assert!(work < DOSTEP_WORK);
 }
+
+/// A model whose evaluations cost more ([`System::EVALUATION_WEIGHT`]: AndrewsSqueezer's
+/// closed loops run on automatic differentiation) gets the bound divided by that weight,
+/// and its Discard names the bound it applied, not the unweighted one.
+#[test]
+fn a_costly_model_is_bounded_by_its_weighted_work_and_says_so() {
+    type A = mbfmu::systems::AndrewsSqueezer;
+    let weight = <A as System>::EVALUATION_WEIGHT;
+    assert!(weight > 1);
+    let bound = DOSTEP_WORK / weight;
+    let mut inst = started::<A>(10, 1e-3, 1e-13);
+    let (work, outcome, seconds) = step(&mut inst, 0.03);
+    println!("METRIC AndrewsSqueezer RADAU5 rtol 1e-13: doStep of 0.03 s: {work} state-component evaluations in {seconds:.3} s ({outcome:?})");
+    let n = A::states().len() as u64;
+    let one_step = n * (6 * n + 3 * 50 + 1);
+    assert!(work <= bound + one_step, "{work} > {bound}");
+    let StepOutcome::Discarded(why) = outcome else {
+        panic!("RADAU5 at rtol 1e-13 over the whole test set fits the weighted bound?")
+    };
+    assert!(
+        why.contains(&format!("{bound:e} state-component evaluations")),
+        "{why}"
+    );
+    assert!(
+        why.contains(&format!(
+            "divided by this model's cost of an evaluation, {weight}"
+        )),
+        "{why}"
+    );
+}

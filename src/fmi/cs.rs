@@ -648,7 +648,13 @@ fn settle_state<M: System>(
         d.time = t_end;
         return StepOutcome::Completed;
     }
-    failed_step(d, layout, t_end, (t, x, result), finite)
+    failed_step(
+        d,
+        layout,
+        (t_end, work_bound::<M>()),
+        (t, x, result),
+        finite,
+    )
 }
 
 /// [`settle_state`] when the integration failed or the outputs are not finite.
@@ -657,7 +663,7 @@ fn settle_state<M: System>(
 fn failed_step(
     d: &mut Snapshot,
     layout: &Layout,
-    t_end: f64,
+    (t_end, bound): (f64, u64),
     (t, x, result): (f64, &[f64], Result<(), Stop>),
     finite: bool,
 ) -> StepOutcome {
@@ -674,7 +680,8 @@ fn failed_step(
     if stop.work_limit {
         let n = d.x.len() as u64;
         why += &format!(
-            " (the bound on one doStep's work: {DOSTEP_WORK:e} state-component evaluations, where an evaluation of f counts n = {n} and a Jacobian {}; about half a second on the costliest systems here); shorten the communication step or choose a cheaper solver",
+            " (the bound on one doStep's work: {bound:e} state-component evaluations{}, where an evaluation of f counts n = {n} and a Jacobian {}; about half a second on the costliest systems here); shorten the communication step or choose a cheaper solver",
+            if bound == DOSTEP_WORK { String::new() } else { format!(" ({DOSTEP_WORK:e} divided by this model's cost of an evaluation, {})", DOSTEP_WORK / bound) },
             integrators::JACOBIAN_EVALS * n * n
         );
     }
