@@ -377,10 +377,15 @@ pub fn respond_mechanism<R: crate::multibody::fmu::OfMechanism>(request: &str) -
         Some("package") => {
             let built = D::<R>::built();
             let skeleton = crate::docs::stick::Skeleton::new(&built.mechanism, &built.model);
+            // The pictures take q in the model's order (coordinate k is model's order[k]).
+            let mut start = vec![0.0; built.start.len()];
+            for (k, &i) in built.order.iter().enumerate() {
+                start[i] = built.start[k];
+            }
             let pictures = skeleton.map(|skeleton| crate::docs::stick::MechanismPictures {
                 name: D::<R>::NAME,
                 skeleton,
-                start: &built.start,
+                start: &start,
             });
             match package::<R>(
                 None,

@@ -63,18 +63,19 @@ fn a_mechanism_describes_what_it_runs_and_what_it_is() {
     // Everything else as any model: the package answer names it.
     let package = ask("package");
     assert_eq!(protocol::value(&package, "model_identifier"), Some("Lift"));
-    // Its page draws it: the picture in its own section, one square per view for the
-    // prismatic joint, and a picture of every scene; the plain `respond` (the in-tree
+    // Its page draws it: the picture in its own section, one view (a lift along z is
+    // planar: every point on one line) with a square for the prismatic joint, and a picture
+    // of every scene; the plain `respond` (the in-tree
     // systems' answer) draws nothing.
     let page = protocol::value(&package, "documentation").unwrap();
     assert!(page.contains("<h2 id=\"mechanism\">"), "{page}");
     assert!(page.contains("<img src=\"mechanism.svg\""), "{page}");
     let svg = protocol::value(&package, "file:documentation/mechanism.svg").unwrap();
-    assert_eq!(svg.matches("<g class=\"view\"").count(), 2, "{svg}");
+    assert_eq!(svg.matches("<g class=\"view\"").count(), 1, "{svg}");
     assert_eq!(
         svg.matches("<rect class=\"joint prismatic\" data-joint=\"lift\"")
             .count(),
-        2,
+        1,
         "{svg}"
     );
     for scene in ["released", "step"] {

@@ -7,13 +7,18 @@
 //! Every position comes from the model's own forward kinematics
 //! ([`Model::forward_kinematics`], the function the FMU's outputs and energies use), so the
 //! picture is the mechanism the FMU runs. Fixed joints, merged away in the model, are drawn
-//! where their frames sit on the merged bodies (a bend in a link, no marker).
+//! where their frames sit on the merged bodies (a bend in a link, no marker). Loop closures
+//! and springs are drawn from their points: a bar from the body's origin to each point, a
+//! dot where a closure's points meet (two dots and a dashed line where the loop is open), a
+//! dashed line for a spring. A mechanism with closures is drawn in its start configuration
+//! (its loops closed), not at every joint 0.
 //!
 //! Views: the vertical is the axis along gravity (z when there is none), drawn increasing
 //! upwards; the first view puts the lower-indexed of the two other axes across ("front",
 //! x–z for gravity along z), the second the other ("side", y–z); when one of them shows
 //! the mechanism edge on (its thinner extent below 5 % of the largest) and the top view
-//! shows more, the top view replaces it.
+//! shows more, the top view replaces it; a planar mechanism (every point in one plane of
+//! the axes) gets that plane's view alone, twice as wide.
 
 use super::page::Pictures;
 use super::run::Trajectory;
@@ -52,6 +57,8 @@ const BOTTOM: f64 = 70.0;
 const JOINT_R: f64 = 4.5;
 const SQUARE: f64 = 4.5;
 const DIAMOND: f64 = 5.0;
+/// A loop closure's point: a small filled dot.
+const CLOSURE_R: f64 = 3.0;
 /// Joint names: font size and a width per character that over-estimates sans-serif's.
 const NAME_SIZE: f64 = 10.0;
 const CHAR_W: f64 = 6.0;
@@ -119,6 +126,20 @@ pub struct Drawing {
     pub unnamed: Vec<String>,
 }
 
+/// A loop closure's or a spring's two points at one configuration (base frame).
+#[derive(Clone, Debug)]
+struct PairPoints {
+    name: String,
+    closure: bool,
+    body_a: Option<usize>,
+    body_b: Option<usize>,
+    a: [f64; 3],
+    b: [f64; 3],
+    /// The origins of the bodies holding them (the base's: 0).
+    origin_a: [f64; 3],
+    origin_b: [f64; 3],
+}
+
 /// One configuration to draw, and how strongly (1: solid; below: earlier instants).
 pub struct Pose<'a> {
     pub q: &'a [f64],
@@ -179,7 +200,115 @@ impl Rect {
     }
 }
 
+/// A marker of the key under the views.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum KeyMark {
+    Revolute,
+    Prismatic,
+    End,
+    Base,
+    Closure,
+    Spring,
+    /// A line at this opacity (an instant of a scene).
+    Instant(f64),
+}
+
+impl KeyMark {
+    /// The marker's SVG centred at (x, y).
+    fn draw(self, x: f64, y: f64) -> String {
+        let d = DIAMOND;
+        match self {
+            KeyMark::Revolute => format!(
+                "<circle cx=\"{x:.1}\" cy=\"{y:.1}\" r=\"{JOINT_R}\" fill=\"white\" stroke=\"#333\" stroke-width=\"1.8\"/>\n"
+            ),
+            KeyMark::Prismatic => format!(
+                "<rect x=\"{:.1}\" y=\"{:.1}\" width=\"{}\" height=\"{}\" fill=\"white\" stroke=\"#333\" stroke-width=\"1.8\"/>\n",
+                x - SQUARE,
+                y - SQUARE,
+                2.0 * SQUARE,
+                2.0 * SQUARE
+            ),
+            KeyMark::End => format!(
+                "<polygon points=\"{:.1},{:.1} {:.1},{:.1} {:.1},{:.1} {:.1},{:.1}\" fill=\"#888\" stroke=\"#333\"/>\n",
+                x,
+                y - d,
+                x + d,
+                y,
+                x,
+                y + d,
+                x - d,
+                y
+            ),
+            KeyMark::Base => format!(
+                "<polygon points=\"{:.1},{:.1} {:.1},{:.1} {:.1},{:.1}\" fill=\"#888\" stroke=\"#333\"/>\n",
+                x,
+                y - 5.0,
+                x - 7.0,
+                y + 5.0,
+                x + 7.0,
+                y + 5.0
+            ),
+            KeyMark::Closure => format!(
+                "<circle cx=\"{x:.1}\" cy=\"{y:.1}\" r=\"{CLOSURE_R}\" fill=\"#333\"/>\n"
+            ),
+            KeyMark::Spring => format!(
+                "<line x1=\"{:.1}\" x2=\"{:.1}\" y1=\"{y:.1}\" y2=\"{y:.1}\" stroke=\"#555\" stroke-width=\"1.5\" stroke-dasharray=\"4 3\"/>\n",
+                x - 8.0,
+                x + 8.0
+            ),
+            KeyMark::Instant(opacity) => format!(
+                "<line x1=\"{:.1}\" x2=\"{:.1}\" y1=\"{y:.1}\" y2=\"{y:.1}\" stroke=\"#333\" stroke-width=\"2.5\" opacity=\"{opacity}\"/>\n",
+                x - 7.0,
+                x + 7.0
+            ),
+        }
+    }
+}
+
+/// Where each key item's marker goes: left to right from `LEFT` on the row at `y`, a new
+/// row (16 px lower) where the next item would pass `right`.
+fn key_layout(items: &[(KeyMark, String)], y: f64, right: f64) -> Vec<(f64, f64)> {
+    let (mut x, mut y) = (LEFT, y);
+    let mut at = Vec::with_capacity(items.len());
+    for (_, text) in items {
+        let w = 34.0 + 5.8 * text.chars().count() as f64;
+        if x > LEFT && x + w - 24.0 > right {
+            x = LEFT;
+            y += 16.0;
+        }
+        at.push((x, y));
+        x += w;
+    }
+    at
+}
+
 impl<'a> Skeleton<'a> {
+    /// The key's items: the markers this mechanism uses, then the caller's instants.
+    fn key_items(&self, legend: &[(f64, String)]) -> Vec<(KeyMark, String)> {
+        let has = |k: JointKind| self.joints.iter().any(|j| j.kind == k);
+        let mut items = Vec::new();
+        if self.joints.iter().any(|j| j.kind != JointKind::Prismatic) {
+            items.push((KeyMark::Revolute, "revolute / continuous".to_string()));
+        }
+        if has(JointKind::Prismatic) {
+            items.push((KeyMark::Prismatic, "prismatic".to_string()));
+        }
+        items.push((KeyMark::End, "end of a branch".to_string()));
+        items.push((KeyMark::Base, "base".to_string()));
+        if !self.model.closures.is_empty() {
+            items.push((KeyMark::Closure, "loop closure".to_string()));
+        }
+        if !self.model.springs.is_empty() {
+            items.push((KeyMark::Spring, "spring".to_string()));
+        }
+        items.extend(
+            legend
+                .iter()
+                .map(|(o, t)| (KeyMark::Instant(*o), t.clone())),
+        );
+        items
+    }
+
     /// The drawing of `mechanism` (as declared, fixed joints included) whose merged model
     /// is `model`; `None` when they do not match (a mechanism that does not validate).
     pub fn new(mechanism: &Mechanism, model: &'a Model) -> Option<Skeleton<'a>> {
@@ -268,8 +397,49 @@ impl<'a> Skeleton<'a> {
             .collect()
     }
 
+    /// The loop closures' and springs' points at `q`, in the base frame: per pair, the
+    /// origin of the body holding each point (the base's origin for the base), the point
+    /// of body A and the point of body B. Closures first, then springs.
+    fn pair_points(&self, q: &[f64]) -> Vec<PairPoints> {
+        let poses = self.model.forward_kinematics(q);
+        let at = |body: Option<usize>, p: &[f64; 3]| match body {
+            None => (*p, [0.0; 3]),
+            Some(b) => {
+                let (r, o) = &poses[b];
+                (add(o, &mat_vec(r, p)), *o)
+            }
+        };
+        let m = self.model;
+        m.closures
+            .iter()
+            .map(|c| (c, true))
+            .chain(m.springs.iter().map(|sp| (sp, false)))
+            .map(|(pair, closure)| {
+                let (a, origin_a) = at(pair.body_a, &pair.point_a);
+                let (b, origin_b) = at(pair.body_b, &pair.point_b);
+                PairPoints {
+                    name: pair.name.clone(),
+                    closure,
+                    body_a: pair.body_a,
+                    body_b: pair.body_b,
+                    a,
+                    b,
+                    origin_a,
+                    origin_b,
+                }
+            })
+            .collect()
+    }
+
+    /// The original link whose frame is model body `body`'s (the merged body keeps the
+    /// name of the link it starts from).
+    fn link_of(&self, body: usize) -> Option<usize> {
+        let name = self.model.bodies.get(body)?;
+        self.links.iter().position(|l| l == name)
+    }
+
     /// The two views that show the most of these points (see the module's doc).
-    fn views(&self, points: &[[f64; 3]]) -> [View; 2] {
+    fn views(&self, points: &[[f64; 3]]) -> Vec<View> {
         let others: Vec<usize> = (0..3).filter(|&a| a != self.up).collect();
         let front = View {
             h: others[0],
@@ -292,15 +462,23 @@ impl<'a> Skeleton<'a> {
             (hi - lo).max(0.0)
         };
         let largest = (0..3).map(span).fold(0.0, f64::max);
+        // A planar mechanism (every point in one plane of the axes): that plane's view
+        // alone, twice as wide; the others would see it edge on.
+        if let Some(flat) = (0..3).find(|&a| span(a) <= 1e-9 * largest) {
+            return vec![[front, side, top]
+                .into_iter()
+                .find(|v| v.h != flat && v.v != flat)
+                .unwrap_or(front)];
+        }
         let thin = |v: View| span(v.h).min(span(v.v));
         let (tf, ts, tt) = (thin(front), thin(side), thin(top));
         if tf.min(ts) < 0.05 * largest && tt > tf.min(ts) {
             if ts <= tf {
-                return [front, top];
+                return vec![front, top];
             }
-            return [top, side];
+            return vec![top, side];
         }
-        [front, side]
+        vec![front, side]
     }
 
     /// The SVG of these poses (the faint ones first, the solid ones over them), with the
@@ -317,9 +495,13 @@ impl<'a> Skeleton<'a> {
             .iter()
             .map(|p| (self.positions(p.q), p.opacity))
             .collect();
+        let pairs: Vec<Vec<PairPoints>> = poses.iter().map(|p| self.pair_points(p.q)).collect();
         let mut all: Vec<[f64; 3]> = vec![[0.0; 3]];
         for (pts, _) in &placed {
             all.extend(pts.iter().copied());
+        }
+        for pp in pairs.iter().flatten() {
+            all.extend([pp.a, pp.b]);
         }
         let views = self.views(&all);
         let range = |a: usize| {
@@ -332,7 +514,12 @@ impl<'a> Skeleton<'a> {
             .map(|a| range(a).1 - range(a).0)
             .fold(0.0, f64::max)
             .max(1e-3);
-        let usable_w = VIEW_W - 2.0 * INSET;
+        let view_w = if views.len() == 1 {
+            2.0 * VIEW_W + GAP
+        } else {
+            VIEW_W
+        };
+        let usable_w = view_w - 2.0 * INSET;
         let usable_h = VIEW_H_MAX - 2.0 * INSET;
         let mut scale = f64::INFINITY;
         for v in &views {
@@ -351,7 +538,11 @@ impl<'a> Skeleton<'a> {
             .fold(0.0, f64::max);
         let view_h = (tallest * scale + 2.0 * INSET).clamp(VIEW_H_MIN, VIEW_H_MAX);
         let width = LEFT + 2.0 * VIEW_W + GAP + RIGHT;
-        let height = TOP + view_h + BOTTOM;
+        let key_at = key_layout(&self.key_items(legend), TOP + view_h + 55.0, width - RIGHT);
+        let rows = key_at
+            .last()
+            .map_or(0.0, |&(_, y)| y - (TOP + view_h + 55.0));
+        let height = TOP + view_h + BOTTOM + rows;
         let mut s = format!(
             "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{width}\" height=\"{height}\" viewBox=\"0 0 {width} {height}\" font-family=\"sans-serif\" font-size=\"12\">\n<title>{}</title>\n<rect width=\"{width}\" height=\"{height}\" fill=\"white\"/>\n<text x=\"{:.1}\" y=\"18\" text-anchor=\"middle\" font-size=\"14\">{}</text>\n",
             escape(title),
@@ -362,11 +553,11 @@ impl<'a> Skeleton<'a> {
         let mut named = vec![false; self.joints.len()];
         let mut described = Vec::new();
         for (k, view) in views.iter().enumerate() {
-            let left = LEFT + k as f64 * (VIEW_W + GAP);
+            let left = LEFT + k as f64 * (view_w + GAP);
             let (h0, h1) = range(view.h);
             let (v0, v1) = range(view.v);
             let (ch, cv) = (0.5 * (h0 + h1), 0.5 * (v0 + v1));
-            let px = |h: f64| left + 0.5 * VIEW_W + (h - ch) * scale;
+            let px = |h: f64| left + 0.5 * view_w + (h - ch) * scale;
             let py = |v: f64| TOP + 0.5 * view_h - (v - cv) * scale;
             let name = if view.v == self.up {
                 view_names[k]
@@ -383,13 +574,13 @@ impl<'a> Skeleton<'a> {
                 view.axes(),
                 AXES[view.h],
                 AXES[view.v],
-                left + 0.5 * VIEW_W,
+                left + 0.5 * view_w,
                 TOP - 8.0,
                 view.axes(),
                 view.from()
             ));
             // Grid and ticks over the visible ranges.
-            let half_w = 0.5 * VIEW_W / scale;
+            let half_w = 0.5 * view_w / scale;
             let half_h = 0.5 * view_h / scale;
             for t in ticks(ch - half_w, ch + half_w) {
                 let x = px(t);
@@ -404,15 +595,15 @@ impl<'a> Skeleton<'a> {
                 let y = py(t);
                 s.push_str(&format!(
                     "<line class=\"vtick\" x1=\"{left}\" x2=\"{:.2}\" y1=\"{y:.2}\" y2=\"{y:.2}\" stroke=\"#eee\"/><text x=\"{:.1}\" y=\"{:.2}\" text-anchor=\"end\">{}</text>\n",
-                    left + VIEW_W,
+                    left + view_w,
                     left - 5.0,
                     y + 4.0,
                     label(t)
                 ));
             }
             s.push_str(&format!(
-                "<rect x=\"{left}\" y=\"{TOP}\" width=\"{VIEW_W}\" height=\"{view_h:.2}\" fill=\"none\" stroke=\"#333\"/>\n<text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"middle\">{} (m)</text>\n<text transform=\"translate({:.1} {:.1}) rotate(-90)\" text-anchor=\"middle\">{} (m)</text>\n",
-                left + 0.5 * VIEW_W,
+                "<rect x=\"{left}\" y=\"{TOP}\" width=\"{view_w}\" height=\"{view_h:.2}\" fill=\"none\" stroke=\"#333\"/>\n<text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"middle\">{} (m)</text>\n<text transform=\"translate({:.1} {:.1}) rotate(-90)\" text-anchor=\"middle\">{} (m)</text>\n",
+                left + 0.5 * view_w,
                 TOP + view_h + 31.0,
                 AXES[view.h],
                 left - 44.0,
@@ -471,6 +662,52 @@ impl<'a> Skeleton<'a> {
                         .unwrap_or(0);
                     COLOURS[c % COLOURS.len()]
                 };
+                // Loop closures and springs: each point joined to the origin of its body
+                // (a bar to the point it holds), a closure's points marked by a ring (and
+                // joined by a dashed line where the loop is open), a spring a dashed line.
+                let flat = |p: &[f64; 3]| (px(p[view.h]), py(p[view.v]));
+                for pp in &pairs[i] {
+                    for (body, origin, point) in [
+                        (pp.body_a, pp.origin_a, pp.a),
+                        (pp.body_b, pp.origin_b, pp.b),
+                    ] {
+                        let Some(link) = body.and_then(|b| self.link_of(b)) else {
+                            continue;
+                        };
+                        let ((x0, y0), (x1, y1)) = (flat(&origin), flat(&point));
+                        if *opacity == solid {
+                            segments.push([x0, y0, x1, y1]);
+                        }
+                        s.push_str(&format!(
+                            "<line class=\"link\" x1=\"{x0:.2}\" y1=\"{y0:.2}\" x2=\"{x1:.2}\" y2=\"{y1:.2}\" stroke=\"{}\" stroke-width=\"2.5\" stroke-linecap=\"round\"/>\n",
+                            colour_of(link)
+                        ));
+                    }
+                    let ((xa, ya), (xb, yb)) = (flat(&pp.a), flat(&pp.b));
+                    let open = (xa - xb).hypot(ya - yb) > 0.5;
+                    if !pp.closure || open {
+                        s.push_str(&format!(
+                            "<line class=\"{}\" data-pair=\"{}\" x1=\"{xa:.2}\" y1=\"{ya:.2}\" x2=\"{xb:.2}\" y2=\"{yb:.2}\" stroke=\"{}\" stroke-width=\"1.5\" stroke-dasharray=\"4 3\"/>\n",
+                            if pp.closure { "closure-gap" } else { "spring" },
+                            escape(&pp.name),
+                            if pp.closure { "#d62728" } else { "#555" }
+                        ));
+                    }
+                    if pp.closure {
+                        for (x, y) in [(xa, ya), (xb, yb)] {
+                            s.push_str(&format!(
+                                "<circle class=\"closure\" data-pair=\"{}\" cx=\"{x:.2}\" cy=\"{y:.2}\" r=\"{CLOSURE_R}\" fill=\"#333\" stroke=\"white\" stroke-width=\"1\"/>\n",
+                                escape(&pp.name)
+                            ));
+                            if *opacity == solid {
+                                marks.push(Rect::around(x, y, CLOSURE_R + 1.0));
+                            }
+                            if !open {
+                                break;
+                            }
+                        }
+                    }
+                }
                 for &e in &self.ends {
                     let (x, y) = at(e);
                     let d = DIAMOND;
@@ -522,7 +759,7 @@ impl<'a> Skeleton<'a> {
                 let frame = Rect {
                     x0: left + 1.0,
                     y0: TOP + 1.0,
-                    x1: left + VIEW_W - 1.0,
+                    x1: left + view_w - 1.0,
                     y1: TOP + view_h - 1.0,
                 };
                 let mut taken: Vec<Rect> = Vec::new();
@@ -604,61 +841,16 @@ impl<'a> Skeleton<'a> {
             }
             s.push_str("</g>\n");
         }
-        // The key: the markers, then the caller's line (the instants).
-        let ky = TOP + view_h + 55.0;
-        let mut x = LEFT;
-        let key = |s: &mut String, mark: String, text: &str, x: &mut f64| {
-            s.push_str(&mark);
+        // The key: the markers this drawing uses, then the caller's line (the instants),
+        // wrapped onto further rows where a row is full.
+        for ((mark, text), (x, y)) in self.key_items(legend).into_iter().zip(&key_at) {
+            s.push_str(&mark.draw(*x, *y));
             s.push_str(&format!(
                 "<text x=\"{:.1}\" y=\"{:.1}\" font-size=\"11\">{}</text>\n",
-                *x + 10.0,
-                ky + 4.0,
-                escape(text)
+                x + 10.0,
+                y + 4.0,
+                escape(&text)
             ));
-            *x += 34.0 + 5.8 * text.chars().count() as f64;
-        };
-        let mark = format!(
-            "<circle cx=\"{x:.1}\" cy=\"{ky:.1}\" r=\"{JOINT_R}\" fill=\"white\" stroke=\"#333\" stroke-width=\"1.8\"/>\n"
-        );
-        key(&mut s, mark, "revolute / continuous", &mut x);
-        let mark = format!(
-            "<rect x=\"{:.1}\" y=\"{:.1}\" width=\"{}\" height=\"{}\" fill=\"white\" stroke=\"#333\" stroke-width=\"1.8\"/>\n",
-            x - SQUARE,
-            ky - SQUARE,
-            2.0 * SQUARE,
-            2.0 * SQUARE
-        );
-        key(&mut s, mark, "prismatic", &mut x);
-        let d = DIAMOND;
-        let mark = format!(
-            "<polygon points=\"{:.1},{:.1} {:.1},{:.1} {:.1},{:.1} {:.1},{:.1}\" fill=\"#888\" stroke=\"#333\"/>\n",
-            x,
-            ky - d,
-            x + d,
-            ky,
-            x,
-            ky + d,
-            x - d,
-            ky
-        );
-        key(&mut s, mark, "end of a branch", &mut x);
-        let mark = format!(
-            "<polygon points=\"{:.1},{:.1} {:.1},{:.1} {:.1},{:.1}\" fill=\"#888\" stroke=\"#333\"/>\n",
-            x,
-            ky - 5.0,
-            x - 7.0,
-            ky + 5.0,
-            x + 7.0,
-            ky + 5.0
-        );
-        key(&mut s, mark, "base", &mut x);
-        for (opacity, text) in legend {
-            let mark = format!(
-                "<line x1=\"{:.1}\" x2=\"{:.1}\" y1=\"{ky:.1}\" y2=\"{ky:.1}\" stroke=\"#333\" stroke-width=\"2.5\" opacity=\"{opacity}\"/>\n",
-                x - 7.0,
-                x + 7.0
-            );
-            key(&mut s, mark, text, &mut x);
         }
         s.push_str("</svg>\n");
         Drawing {
@@ -703,28 +895,55 @@ impl Pictures for MechanismPictures<'_> {
 
     fn reference(&self) -> (String, Vec<(String, String)>) {
         let sk = &self.skeleton;
+        // With loop closures every joint at 0 leaves the loops open: the picture is the
+        // start configuration instead, the loops closed by consistent initialisation.
+        let closed = !sk.model.closures.is_empty();
         let zero = vec![0.0; sk.joint_count()];
+        let q = if closed { self.start } else { &zero[..] };
         let d = sk.draw(
-            &format!(
-                "{} in its reference configuration (every joint at 0)",
-                self.name
-            ),
-            &[Pose {
-                q: &zero,
-                opacity: 1.0,
-            }],
+            &if closed {
+                format!("{} in its start configuration (loops closed)", self.name)
+            } else {
+                format!(
+                    "{} in its reference configuration (every joint at 0)",
+                    self.name
+                )
+            },
+            &[Pose { q, opacity: 1.0 }],
             true,
             &[],
         );
-        let moved: Vec<String> = sk
-            .joints
-            .iter()
-            .zip(self.start)
-            .filter(|(_, q)| **q != 0.0)
-            .map(|(j, _)| j.name.clone())
-            .collect();
+        let moved: Vec<String> = if closed {
+            Vec::new()
+        } else {
+            sk.joints
+                .iter()
+                .zip(self.start)
+                .filter(|(_, q)| **q != 0.0)
+                .map(|(j, _)| j.name.clone())
+                .collect()
+        };
+        let configuration = if closed {
+            let n = sk.model.closures.len();
+            format!(
+                "The mechanism in its start configuration (the start values, the dependent joints solved so that the {} loop{} close{}; every joint at 0 would leave {} open)",
+                n,
+                if n == 1 { "" } else { "s" },
+                if n == 1 { "s" } else { "" },
+                if n == 1 { "it" } else { "them" },
+            )
+        } else {
+            "The mechanism with every joint at 0 (the frames as the URDF or the builder wrote them)"
+                .to_string()
+        };
+        let pairs = match (sk.model.closures.is_empty(), sk.model.springs.is_empty()) {
+            (true, true) => "",
+            (false, true) => " A loop closure's point is a dot, on the bar from its body's origin.",
+            (true, false) => " A spring is a dashed line between its points.",
+            (false, false) => " A loop closure's point is a dot, on the bar from its body's origin; a spring a dashed line between its points.",
+        };
         let mut caption = format!(
-            "The mechanism with every joint at 0 (the frames as the URDF or the builder wrote them), placed by the FMU's own forward kinematics: {}, at one scale, in metres. {KEY} {} moving joint{}, {} end{} of branches.",
+            "{configuration}, placed by the FMU's own forward kinematics: {}, at one scale, in metres. {KEY}{pairs} {} moving joint{}, {} end{} of branches.",
             d.views,
             sk.joint_count(),
             if sk.joint_count() == 1 { "" } else { "s" },
@@ -745,10 +964,15 @@ impl Pictures for MechanismPictures<'_> {
             ));
         }
         let html = format!(
-            "<h2 id=\"mechanism\">The mechanism</h2>\n<figure><img src=\"mechanism.svg\" width=\"{}\" height=\"{}\" alt=\"{} in its reference configuration: a stick figure in two views\"><figcaption>{caption}</figcaption></figure>\n",
+            "<h2 id=\"mechanism\">The mechanism</h2>\n<figure><img src=\"mechanism.svg\" width=\"{}\" height=\"{}\" alt=\"{} in its {}: a stick figure in two views\"><figcaption>{caption}</figcaption></figure>\n",
             d.width,
             d.height,
-            escape(self.name)
+            escape(self.name),
+            if closed {
+                "start configuration"
+            } else {
+                "reference configuration"
+            }
         );
         (html, vec![("documentation/mechanism.svg".into(), d.svg)])
     }
@@ -902,10 +1126,11 @@ mod tests {
                         pending = Some((true, num("x1")));
                     } else if class == "vtick" {
                         pending = Some((false, num("y1")));
-                    } else if class.starts_with("joint") || class == "end" {
+                    } else if class.starts_with("joint") || class == "end" || class == "closure" {
                         let name = a
                             .get("data-joint")
                             .or_else(|| a.get("data-link"))
+                            .or_else(|| a.get("data-pair"))
                             .unwrap()
                             .clone();
                         let centre = match tag {
@@ -1082,19 +1307,80 @@ mod tests {
         let mechanism = urdf::parse(URDF, "small.urdf").unwrap();
         let model = Model::new(&mechanism).unwrap();
         let skeleton = Skeleton::new(&mechanism, &model).unwrap();
-        // Points in a horizontal plane (gravity along z): the side view y–z sees a line,
-        // the top view x–y replaces it.
-        let flat = [[0.0, 0.0, 0.0], [1.0, 0.5, 0.0], [1.5, 0.2, 0.0]];
-        let views = skeleton.views(&flat);
+        // Points nearly in a horizontal plane (gravity along z; 1 % of the largest extent
+        // up): the side view y–z sees almost a line, the top view x–y replaces it.
+        let thin = [[0.0, 0.0, 0.0], [1.0, 0.5, 0.015], [1.5, 0.2, 0.0]];
+        let views = skeleton.views(&thin);
         assert_eq!(views, [View { h: 0, v: 2 }, View { h: 0, v: 1 }]);
         assert_eq!(views[1].from(), "+z");
-        // In the vertical x–z plane: front and side as usual (the top sees a line too).
-        let upright = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.5], [1.5, 0.0, 0.2]];
+        // Exactly in that plane (a planar mechanism): its view alone.
+        let flat = [[0.0, 0.0, 0.0], [1.0, 0.5, 0.0], [1.5, 0.2, 0.0]];
+        assert_eq!(skeleton.views(&flat), [View { h: 0, v: 1 }]);
+        // Nearly in the vertical x–z plane: front and side as usual (the top sees almost a
+        // line too); exactly in it: the front view alone.
+        let upright = [[0.0, 0.0, 0.0], [1.0, 0.015, 0.5], [1.5, 0.0, 0.2]];
         assert_eq!(
             skeleton.views(&upright),
             [View { h: 0, v: 2 }, View { h: 1, v: 2 }]
         );
+        let upright = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.5], [1.5, 0.0, 0.2]];
+        assert_eq!(skeleton.views(&upright), [View { h: 0, v: 2 }]);
         assert_eq!(View { h: 0, v: 2 }.from(), "−y");
         assert_eq!(View { h: 1, v: 2 }.from(), "+x");
+    }
+
+    /// A closed loop (FourBar, planar in x–y): one view, its plane's; the reference picture
+    /// is the start configuration with the loop closed (one dot where the closure's two
+    /// points meet, no gap line), the dot where forward kinematics puts the coupler's end;
+    /// the same mechanism with its loop open (every joint at 0) shows a gap between two dots.
+    #[test]
+    fn a_closed_loop_is_drawn_closed_in_its_plane() {
+        use crate::multibody::fmu::Declared;
+        use crate::systems::four_bar::FourBarMechanism;
+        let built = FourBarMechanism::built();
+        let skeleton = Skeleton::new(&built.mechanism, &built.model).unwrap();
+        let mut start = vec![0.0; built.start.len()];
+        for (k, &i) in built.order.iter().enumerate() {
+            start[i] = built.start[k];
+        }
+        let pictures = MechanismPictures {
+            name: "FourBar",
+            skeleton: skeleton.clone(),
+            start: &start,
+        };
+        let (html, files) = pictures.reference();
+        assert!(html.contains("start configuration"), "{html}");
+        let svg = &files[0].1;
+        let views = read(svg);
+        assert_eq!(views.len(), 1, "a planar mechanism gets one view");
+        assert_eq!((views[0].h.as_str(), views[0].v.as_str()), ("x", "y"));
+        let (ah, bh) = axis(&views[0].hticks);
+        let (av, bv) = axis(&views[0].vticks);
+        let closure = &built.model.closures[0];
+        let dots = &views[0].marks[&("closure".to_string(), closure.name.clone())];
+        assert_eq!(dots.len(), 1, "the loop is closed: one dot");
+        assert!(!svg.contains("closure-gap"));
+        let pp = &skeleton.pair_points(&start)[0];
+        let (x, y) = dots[0];
+        assert!((x - (ah + bh * pp.a[0])).abs() < 0.02, "{x} vs {}", pp.a[0]);
+        assert!((y - (av + bv * pp.a[1])).abs() < 0.02, "{y} vs {}", pp.a[1]);
+        // (its points coincide in the model, to rounding)
+        assert!((0..3).all(|k| (pp.a[k] - pp.b[k]).abs() < 1e-12), "{pp:?}");
+        let zero = vec![0.0; start.len()];
+        let open = skeleton.draw(
+            "open",
+            &[Pose {
+                q: &zero,
+                opacity: 1.0,
+            }],
+            false,
+            &[],
+        );
+        assert!(open.svg.contains("closure-gap"));
+        let views = read(&open.svg);
+        assert_eq!(
+            views[0].marks[&("closure".to_string(), closure.name.clone())].len(),
+            2
+        );
     }
 }
