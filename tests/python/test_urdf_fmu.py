@@ -371,6 +371,40 @@ def test_names_units_and_ranges_are_the_urdfs(robot):
     assert (crate / "src" / "dynamics.rs").is_file()
 
 
+def test_an_edited_crate_gets_its_dynamics_generated_again(robot, tmp_path):
+    """UR5's crate copied and its forearm made heavier in src/lib.rs: `mbfmu build
+    --manifest-path` finds src/dynamics.rs of another mechanism (its fingerprint), writes it
+    again for the edited one, builds again and runs it; a second build rewrites nothing."""
+    robot("ur5")
+    crate = tmp_path / "ur5_edited"
+    source = cli().parent.parent / "urdf" / "ur5"
+    crate.mkdir()
+    for name in ["Cargo.toml", "Cargo.lock"]:
+        (crate / name).write_bytes((source / name).read_bytes())
+    (crate / "src").mkdir()
+    before = (source / "src" / "dynamics.rs").read_text()
+    (crate / "src" / "dynamics.rs").write_text(before)
+    lib = (source / "src" / "lib.rs").read_text()
+    assert 'Body::new("forearm_link", 2.275)' in lib
+    (crate / "src" / "lib.rs").write_text(lib.replace('Body::new("forearm_link", 2.275)',
+                                                     'Body::new("forearm_link", 2.5)'))
+    env = {**build_env(), "CARGO_TARGET_DIR": str(cli().parent.parent / "urdf-target")}
+    args = [str(cli()), "build", "--manifest-path", str(crate), "--out", str(tmp_path)]
+    res = subprocess.run(args, capture_output=True, text=True, env=env)
+    assert res.returncode == 0, res.stderr
+    print(res.stdout.strip())
+    assert "runs straight-line code generated for this mechanism: 6 moving joints" in res.stdout
+    assert "(src/dynamics.rs rewritten for the edited mechanism)" in res.stdout
+    after = (crate / "src" / "dynamics.rs").read_text()
+    fingerprint = re.compile(r"pub const FINGERPRINT: u64 = (0x[0-9a-f]+);")
+    assert fingerprint.search(after).group(1) != fingerprint.search(before).group(1)
+    res = subprocess.run(args, capture_output=True, text=True, env=env)
+    assert res.returncode == 0, res.stderr
+    assert "runs straight-line code generated for this mechanism" in res.stdout
+    assert "rewritten" not in res.stdout
+    assert (crate / "src" / "dynamics.rs").read_text() == after
+
+
 def test_a_limit_ends_the_step_with_discard(robot, instances, logs):
     """The Panda released from rest with no torque falls onto a joint limit (a finger, a
     prismatic joint limited to [0, 0.04] m, slides onto one): fmi2Discard within the 2 s, at

@@ -238,16 +238,6 @@ fn a_robot_crate_gets_the_committed_aba() {
         );
         assert!(g.source.contains(&line), "{module}");
     }
-    let looped = super::super::Mechanism::new("loop")
-        .body(super::super::Body::massless("base"))
-        .body(super::super::Body::new("a", 1.0).inertia_diag([0.1, 0.1, 0.1]))
-        .joint(super::super::Joint::new(
-            "j",
-            super::super::JointKind::Continuous,
-            "base",
-            "a",
-            super::super::Origin::IDENTITY,
-        ))
-        .closure("c", "a", [1.0, 0.0, 0.0], "base", [1.0, 0.0, 0.0], "z");
+    let looped = crate::systems::four_bar::mechanism();
     assert!(robot_dynamics(&looped, "mbfmu").unwrap().is_none());
 }
