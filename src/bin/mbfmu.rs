@@ -408,14 +408,17 @@ fn build_urdf(urdf: &Path, name: Option<&str>, out: Option<PathBuf>) -> Result<(
             dir.display()
         ));
     }
-    // A tree runs the straight-line dynamics generated for it (src/dynamics.rs, whose
-    // fingerprint must be the compiled mechanism's: stale or unwired code is caught here).
+    // A tree (with a moving joint) runs the straight-line dynamics generated for it
+    // (src/dynamics.rs, whose fingerprint must be the compiled mechanism's: stale or
+    // unwired code is caught here).
     let runs = opened.call(&protocol::encode(&[("request", "symbolic")]))?;
     let runs = protocol::value(&runs, "runs")
         .unwrap_or_default()
         .to_string();
     let generated = runs.starts_with("runs straight-line code generated");
-    if mechanism.closures.is_empty() && !generated {
+    let tree = mechanism.closures.is_empty()
+        && mbfmu::multibody::Model::new(&mechanism).is_ok_and(|m| m.nq() > 0);
+    if tree && !generated {
         return Err(format!(
             "{file}: the compiled crate ({}) does not run its generated dynamics ({runs}): a bug of mbfmu's code generator",
             dir.display()
