@@ -337,7 +337,9 @@ fn runs_generated<L: Lagrangian>() -> bool {
 /// the mechanism ([`crate::docs::stick`]: in its reference configuration, and in each
 /// scene at three instants of the run); it also answers
 /// `symbolic` with `runs`, the one line `mbfmu build` prints about what the FMU runs (a
-/// mechanism is not traced from its Lagrangian: its q̈ is the articulated-body algorithm),
+/// mechanism is not traced from its Lagrangian: its q̈ is the articulated-body algorithm,
+/// or the straight-line code generated for it), and with `dynamics`, that code generated
+/// again, when the crate's is of another mechanism (an edited one) and so not run,
 /// and `mechanism` with `debug`, the `{:?}` of the mechanism it was built from (every
 /// number in its shortest exact form), which `mbfmu build --urdf` compares with the URDF's.
 pub fn respond_mechanism<R: crate::multibody::fmu::OfMechanism>(request: &str) -> String {
@@ -362,12 +364,29 @@ pub fn respond_mechanism<R: crate::multibody::fmu::OfMechanism>(request: &str) -
                     "runs the λ-method on automatic differentiation of its energies: {joints}, {m} loop-closure residuals by forward kinematics, projected after every step"
                 )
             } else {
-                let how = if D::<R>::generated_aba(&z, &z, &z, &mut qdd) {
+                let has = D::<R>::generated_aba(&z, &z, &z, &mut qdd);
+                let current = crate::multibody::fmu::generated_is_current::<D<R>>();
+                let how = if has && current {
                     "straight-line code generated for this mechanism"
                 } else {
                     "the articulated-body algorithm (Featherstone) on its model"
                 };
-                format!("runs {how}: {joints}, q̈ in O(n)")
+                let stale = if has && !current {
+                    " (its generated code is of another mechanism: not run)"
+                } else {
+                    ""
+                };
+                if has && !current {
+                    // Its crate's src/dynamics.rs, regenerated for the mechanism it declares
+                    // now: `mbfmu build` writes it and builds again.
+                    if let Ok(Some(g)) = crate::multibody::codegen::robot_dynamics(
+                        &D::<R>::built().mechanism,
+                        "mbfmu",
+                    ) {
+                        records.push(("dynamics".into(), g.source));
+                    }
+                }
+                format!("runs {how}: {joints}, q̈ in O(n){stale}")
             };
             records.push(("runs".into(), runs));
         }

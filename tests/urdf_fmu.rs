@@ -342,5 +342,20 @@ fn every_bad_urdf_gives_one_line_and_no_file() {
     assert!(lib.contains("mbfmu::mechanism_fmu!("), "{lib}");
     assert!(lib.contains(".joint(Joint::new(\"j2\", JointKind::Continuous, \"a\", \"b\", Origin::new([0.0, 0.0, -1.0], [0.0, 0.0, 0.0]))"), "{lib}");
     assert!(lib.contains("mbfmu::export_fmu!(mechanism Two);"), "{lib}");
+    // and its q̈ generated as straight-line code, run while it is of this mechanism.
+    assert!(lib.contains("\nmod dynamics;\n"), "{lib}");
+    assert!(
+        lib.contains("const GENERATED_FROM: Option<u64> = Some(dynamics::FINGERPRINT);"),
+        "{lib}"
+    );
+    assert!(lib.contains("dynamics::aba(q, qd, tau, qdd);"), "{lib}");
+    let dynamics = std::fs::read_to_string(crate_dir.join("src/dynamics.rs")).unwrap();
+    let model = mbfmu::multibody::Model::new(&mbfmu::multibody::urdf::parse(GOOD, "good").unwrap())
+        .unwrap();
+    assert!(dynamics.contains(&format!(
+        "pub const FINGERPRINT: u64 = {:#018x};",
+        mbfmu::multibody::codegen::fingerprint(&model)
+    )));
+    assert!(dynamics.contains("pub fn aba<S: Scalar>(q: &[S], qd: &[S], tau: &[S], qdd: &mut [S])"));
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -400,11 +400,27 @@ fn build_urdf(urdf: &Path, name: Option<&str>, out: Option<PathBuf>) -> Result<(
     let manifest = own_model::manifest(&dir)?;
     let shared = target_dir().join("urdf-target");
     let library = own_model::build_cdylib_in(&manifest, false, Some(&shared))?;
-    let compiled =
-        ModelLibrary::open(&library)?.call(&protocol::encode(&[("request", "mechanism")]))?;
+    let opened = ModelLibrary::open(&library)?;
+    let compiled = opened.call(&protocol::encode(&[("request", "mechanism")]))?;
     if protocol::value(&compiled, "debug") != Some(format!("{mechanism:?}").as_str()) {
         return Err(format!(
             "{file}: the compiled mechanism ({}) differs from the URDF's: a bug of mbfmu's source printer",
+            dir.display()
+        ));
+    }
+    // A tree (with a moving joint) runs the straight-line dynamics generated for it
+    // (src/dynamics.rs, whose fingerprint must be the compiled mechanism's: stale or
+    // unwired code is caught here).
+    let runs = opened.call(&protocol::encode(&[("request", "symbolic")]))?;
+    let runs = protocol::value(&runs, "runs")
+        .unwrap_or_default()
+        .to_string();
+    let generated = runs.starts_with("runs straight-line code generated");
+    let tree = mechanism.closures.is_empty()
+        && mbfmu::multibody::Model::new(&mechanism).is_ok_and(|m| m.nq() > 0);
+    if tree && !generated {
+        return Err(format!(
+            "{file}: the compiled crate ({}) does not run its generated dynamics ({runs}): a bug of mbfmu's code generator",
             dir.display()
         ));
     }
@@ -420,7 +436,7 @@ fn build_urdf(urdf: &Path, name: Option<&str>, out: Option<PathBuf>) -> Result<(
     let fmu = packaged?;
     let size = std::fs::metadata(&fmu).map(|m| m.len()).unwrap_or(0);
     println!(
-        "wrote {} ({} joints, {:.1} MB, {:.0} s)",
+        "wrote {} ({} joints, {:.1} MB, {:.0} s): {runs}",
         fmu.display(),
         mbfmu::multibody::Model::new(&mechanism)
             .map(|m| m.nq())

@@ -109,6 +109,13 @@ pub trait Declared: 'static {
         false
     }
 
+    /// The [`fingerprint`](super::codegen::fingerprint) of the model
+    /// [`Declared::generated_aba`]'s code was generated from (its `FINGERPRINT`): with
+    /// `Some`, that code runs only while the declared mechanism's model has this fingerprint
+    /// ([`Built::fingerprint`]); a mechanism edited since, or a stale generated file, runs
+    /// [`Model::aba`] instead. `None` (the default): not checked.
+    const GENERATED_FROM: Option<u64> = None;
+
     /// The scenes, given those made for every mechanism ([`Built::scenes`]): those by
     /// default; a declaration may add its own or replace them.
     fn scenes(generated: Vec<Scene>) -> Vec<Scene> {
@@ -200,6 +207,9 @@ pub struct Built {
     pub scenes: Vec<Scene>,
     /// Viscous damping per coordinate.
     pub damping: Vec<f64>,
+    /// [`codegen::fingerprint`](super::codegen::fingerprint) of `model`: generated code
+    /// runs only on the model it was generated from ([`Declared::GENERATED_FROM`]).
+    pub fingerprint: u64,
 }
 
 /// Index of the `limit_events` parameter.
@@ -585,6 +595,7 @@ impl Built {
         );
         Ok(Built {
             damping,
+            fingerprint: super::codegen::fingerprint(&model),
             model,
             mechanism,
             order,
@@ -782,6 +793,12 @@ fn unmodelled_by_joint(mechanism: &Mechanism) -> Vec<(&'static str, Vec<String>,
     lines
 }
 
+/// Whether `D`'s [`Declared::generated_aba`] may run: it was generated from the model `D`
+/// declares (or does not say from which, [`Declared::GENERATED_FROM`] `None`).
+pub fn generated_is_current<D: Declared>() -> bool {
+    !matches!(D::GENERATED_FROM, Some(f) if f != D::built().fingerprint)
+}
+
 /// A declared mechanism as a [`Lagrangian`] (hence a `System` and an FMU).
 pub struct Robot<D>(PhantomData<D>);
 
@@ -871,8 +888,9 @@ impl<D: Declared> Lagrangian for Robot<D> {
             return false;
         }
         let b = D::built();
+        let generated = !matches!(D::GENERATED_FROM, Some(f) if f != b.fingerprint);
         if b.natural_order && b.model.springs.is_empty() {
-            if !D::generated_aba(q, qd, u, qdd) {
+            if !(generated && D::generated_aba(q, qd, u, qdd)) {
                 qdd.copy_from_slice(&b.model.aba(q, qd, u));
             }
             return true;
@@ -884,7 +902,7 @@ impl<D: Declared> Lagrangian for Robot<D> {
             .map(|(&t, g)| t - g)
             .collect();
         let mut a = vec![S::zero(); q.len()];
-        if !D::generated_aba(&q, &qd, &tau, &mut a) {
+        if !(generated && D::generated_aba(&q, &qd, &tau, &mut a)) {
             a = b.model.aba(&q, &qd, &tau);
         }
         for (k, &i) in b.order.iter().enumerate() {

@@ -214,8 +214,17 @@ pub fn write_mechanism_crate(
         .iter()
         .map(|line| format!("{line:?}"))
         .collect();
+    let dynamics =
+        crate::multibody::codegen::robot_dynamics(mechanism, "mbfmu").map_err(|e| e.to_string())?;
+    let (dynamics_mod, dynamics_hook) = if dynamics.is_some() {
+        (DYNAMICS_MOD, DYNAMICS_HOOK)
+    } else {
+        ("", "")
+    };
     let fill = |t: &str| {
-        t.replace("{{NAME}}", name)
+        t.replace("{{DYNAMICS_MOD}}", dynamics_mod)
+            .replace("{{DYNAMICS_HOOK}}", dynamics_hook)
+            .replace("{{NAME}}", name)
             .replace("{{TYPE}}", &type_name)
             .replace("{{CRATE}}", &crate_name)
             .replace("{{SOURCE}}", from.source)
@@ -233,11 +242,38 @@ pub fn write_mechanism_crate(
         (dir.join("README.md"), fill(MECHANISM_README)),
         (dir.join(".gitignore"), "/target\n".to_string()),
     ];
+    if let Some(g) = dynamics {
+        files.push((dir.join(DYNAMICS_FILE), g.source));
+    }
     if let Ok(lock) = std::fs::read_to_string(mbfmu_source.join("Cargo.lock")) {
         files.push((dir.join("Cargo.lock"), lock));
     }
     write_files(files)
 }
+
+/// Where a mechanism's crate keeps its generated forward dynamics
+/// ([`codegen::robot_dynamics`](crate::multibody::codegen::robot_dynamics)).
+pub const DYNAMICS_FILE: &str = "src/dynamics.rs";
+
+/// The module declaration of [`DYNAMICS_FILE`] in a mechanism crate's lib.rs.
+const DYNAMICS_MOD: &str = "
+/// q̈ generated for `mechanism()` below (straight-line code; `mbfmu build` rewrites it when
+/// the mechanism changes, and until then the articulated-body algorithm runs instead).
+#[rustfmt::skip]
+#[allow(dead_code, clippy::all, clippy::approx_constant, clippy::excessive_precision, clippy::unreadable_literal)]
+mod dynamics;
+";
+
+/// The `Declared` items that run [`DYNAMICS_FILE`] (while its fingerprint is the
+/// mechanism's).
+const DYNAMICS_HOOK: &str = ",
+    {
+        const GENERATED_FROM: Option<u64> = Some(dynamics::FINGERPRINT);
+        fn generated_aba<S: mbfmu::model::Scalar>(q: &[S], qd: &[S], tau: &[S], qdd: &mut [S]) -> bool {
+            dynamics::aba(q, qd, tau, qdd);
+            true
+        }
+    }";
 
 /// Writes each file whose content differs, creating folders; returns those written.
 fn write_files(files: Vec<(PathBuf, String)>) -> Result<Vec<PathBuf>, String> {
@@ -373,9 +409,22 @@ pub fn build_generated(manifest: &Path, quiet: bool) -> Result<(PathBuf, String)
         Ok(records) => records,
         Err(why) => return Ok((library, format!("runs on automatic differentiation: {why}"))),
     };
-    // A mechanism (`export_fmu!(mechanism …)`) says what it runs; nothing to generate.
+    // A mechanism (`export_fmu!(mechanism …)`) says what it runs; its generated dynamics,
+    // when those of its crate are of another mechanism (it was edited), are written and
+    // the crate built again.
     if let Some(runs) = protocol::value(&records, "runs") {
-        return Ok((library, runs.to_string()));
+        let Some(dynamics) = protocol::value(&records, "dynamics") else {
+            return Ok((library, runs.to_string()));
+        };
+        let path = dir.join(DYNAMICS_FILE);
+        std::fs::write(&path, dynamics).map_err(|e| format!("{}: {e}", path.display()))?;
+        library = build_cdylib(manifest, quiet)?;
+        let records = ask_symbolic(&library)??;
+        let runs = protocol::value(&records, "runs").unwrap_or_default();
+        return Ok((
+            library,
+            format!("{runs} ({DYNAMICS_FILE} rewritten for the edited mechanism)"),
+        ));
     }
     let get = |key: &str| {
         protocol::value(&records, key)

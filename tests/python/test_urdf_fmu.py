@@ -18,7 +18,10 @@ What must hold:
 - the directional derivatives of ``der(J_dot)`` with respect to the states and inputs equal
   ``pin.computeABADerivatives`` (``ddq_dq``, ``ddq_dv``, ``Minv``) to 1e-8 relative to
   max(1, the largest entry of the block) (both exact: dual numbers against Pinocchio's
-  analytic derivatives; the bound leaves the mass matrix's conditioning room);
+  analytic derivatives; the bound leaves the mass matrix's conditioning room); those with
+  respect to the inputs, M⁻¹, inverted, equal ``pin.crba`` to 1e-10;
+- the FMU runs the straight-line q̈ generated into its crate (``src/dynamics.rs``): the
+  build says so (it checks the compiled crate's generated code is of the URDF's mechanism);
 - no damping, no input: ``E`` constant over 10 s on UR5 and Panda to 1e-9 relative, with
   DOPRI5 at rtol 1e-13 (the integrator's energy error, not the model's: DOPRI5 is not
   symplectic; the model's E is exactly T + V);
@@ -256,6 +259,39 @@ def test_directional_derivatives_equal_pinocchios_aba_derivatives(robot, instanc
     assert worst < 1e-8, worst
 
 
+@pytest.mark.parametrize("name", ["ur5", "panda", "damped"])
+def test_mass_matrix_through_the_fmu_equals_pinocchios_crba(robot, instances, name):
+    """The FMU's mass matrix: q̈ = M⁻¹ (τ − d q̇ − b(q, q̇)) is affine in the inputs τ
+    (``tau_J``), so the directional derivatives of ``der(J_dot)`` along each input are the
+    columns of M⁻¹; inverted, they must equal ``pin.crba`` (its upper triangle,
+    symmetrised) at 10 random states to 1e-10 relative to max(1, the largest entry).
+    Measured: see the printed line."""
+    b = robot(name)
+    model, ref = b.model, b.ref
+    pm, data = ref.model, ref.data
+    n = len(b.joints)
+    uvr = vrs(model, [f"der({j}_dot)" for j in b.joints])
+    inst = instances(model, f"{name}_crba")
+    ix = np.ix_(ref.v_index, ref.v_index)
+    worst = 0.0
+    for k, (q, qd, tau) in enumerate(random_points(b, 10, seed=11 + n)):
+        if k:
+            inst.ok("fmi2Reset")
+        initialised_at(inst, b, q, qd, tau)
+        minv = np.zeros((n, n))
+        for c, j in enumerate(b.joints):
+            out = (c_double * n)()
+            inst.ok("fmi2GetDirectionalDerivative", uvr, n, vrs(model, [f"tau_{j}"]), 1,
+                    (c_double * 1)(1.0), out)
+            minv[:, c] = out
+        m = np.linalg.inv(minv)
+        crba = pin.crba(pm, data, ref.q(q))
+        want = (np.triu(crba) + np.triu(crba, 1).T)[ix]
+        worst = max(worst, np.abs(m - want).max() / max(1.0, np.abs(want).max()))
+    print(f"{name}: worst relative difference of the FMU's M from pin.crba {worst:.2e}")
+    assert worst < 1e-10, worst
+
+
 def simulate(fmu, start, stop, outputs, rtol, interval=0.01):
     return fmpy.simulate_fmu(str(fmu), start_values=start, stop_time=stop, output_interval=interval,
                              relative_tolerance=rtol, output=outputs)
@@ -291,6 +327,8 @@ def test_fmu_validates_and_is_small(robot, name):
     size = b.fmu.stat().st_size
     print(f"{name}: {size / 1e6:.2f} MB, built in {b.seconds:.0f} s")
     assert size < 5e6, size
+    # It runs the q̈ generated for it (the build checked that code is of this mechanism).
+    assert "runs straight-line code generated for this mechanism" in b.stdout, b.stdout
     with zipfile.ZipFile(b.fmu) as z:
         names = set(z.namelist())
     assert {"modelDescription.xml", "documentation/index.html",
@@ -329,7 +367,42 @@ def test_names_units_and_ranges_are_the_urdfs(robot):
     res = subprocess.run([str(cli()), "build", "--manifest-path", str(crate)], capture_output=True,
                          text=True, env=env)
     assert res.returncode == 0, res.stderr
-    assert "runs the articulated-body algorithm (Featherstone) on its model: 6 moving joints" in res.stdout
+    assert "runs straight-line code generated for this mechanism: 6 moving joints" in res.stdout
+    assert (crate / "src" / "dynamics.rs").is_file()
+
+
+def test_an_edited_crate_gets_its_dynamics_generated_again(robot, tmp_path):
+    """UR5's crate copied and its forearm made heavier in src/lib.rs: `mbfmu build
+    --manifest-path` finds src/dynamics.rs of another mechanism (its fingerprint), writes it
+    again for the edited one, builds again and runs it; a second build rewrites nothing."""
+    robot("ur5")
+    crate = tmp_path / "ur5_edited"
+    source = cli().parent.parent / "urdf" / "ur5"
+    crate.mkdir()
+    for name in ["Cargo.toml", "Cargo.lock"]:
+        (crate / name).write_bytes((source / name).read_bytes())
+    (crate / "src").mkdir()
+    before = (source / "src" / "dynamics.rs").read_text()
+    (crate / "src" / "dynamics.rs").write_text(before)
+    lib = (source / "src" / "lib.rs").read_text()
+    assert 'Body::new("forearm_link", 2.275)' in lib
+    (crate / "src" / "lib.rs").write_text(lib.replace('Body::new("forearm_link", 2.275)',
+                                                     'Body::new("forearm_link", 2.5)'))
+    env = {**build_env(), "CARGO_TARGET_DIR": str(cli().parent.parent / "urdf-target")}
+    args = [str(cli()), "build", "--manifest-path", str(crate), "--out", str(tmp_path)]
+    res = subprocess.run(args, capture_output=True, text=True, env=env)
+    assert res.returncode == 0, res.stderr
+    print(res.stdout.strip())
+    assert "runs straight-line code generated for this mechanism: 6 moving joints" in res.stdout
+    assert "(src/dynamics.rs rewritten for the edited mechanism)" in res.stdout
+    after = (crate / "src" / "dynamics.rs").read_text()
+    fingerprint = re.compile(r"pub const FINGERPRINT: u64 = (0x[0-9a-f]+);")
+    assert fingerprint.search(after).group(1) != fingerprint.search(before).group(1)
+    res = subprocess.run(args, capture_output=True, text=True, env=env)
+    assert res.returncode == 0, res.stderr
+    assert "runs straight-line code generated for this mechanism" in res.stdout
+    assert "rewritten" not in res.stdout
+    assert (crate / "src" / "dynamics.rs").read_text() == after
 
 
 def test_a_limit_ends_the_step_with_discard(robot, instances, logs):

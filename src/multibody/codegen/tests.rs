@@ -205,3 +205,39 @@ fn generated_jacobians_equal_model_aba_jacobians() {
         }
     }
 }
+
+/// The `aba` a robot's crate gets ([`robot_dynamics`]) is the committed, tested one of the
+/// same model where snapping within [`EXACT_SNAP`] and [`SNAP`] agree (Panda: its angles
+/// are exact doubles), but for the path it names the library by; not where they do not
+/// (UR5's 1.57079632679, which [`SNAP`] takes: tests/urdf_crate.rs compiles UR5's crate
+/// and compares its q̈ with `Model::aba`); its `FINGERPRINT` is the model's; a mechanism
+/// with loop closures gets none.
+#[test]
+fn a_robot_crate_gets_the_committed_aba() {
+    let function = |source: &str| {
+        let at = source.find("pub fn aba<").expect("an aba");
+        let end = at + source[at..].find("\n}\n").expect("its end");
+        source[at..end].to_string()
+    };
+    for module in ["ur5", "panda"] {
+        let path = generated_dir().join(format!("urdf/{module}.urdf"));
+        let mechanism = super::super::urdf::load(&path).unwrap();
+        let g = robot_dynamics(&mechanism, "mbfmu")
+            .unwrap()
+            .expect("a tree");
+        let committed = std::fs::read_to_string(generated_dir().join(format!("{module}.rs")));
+        let same = function(&g.source) == function(&committed.unwrap());
+        assert_eq!(same, module == "panda", "{module}");
+        assert!(g.source.contains("use mbfmu::model::Scalar;"));
+        assert!(!g.source.contains("crate::"));
+        assert!(!g.source.contains("aba_derivatives"));
+        let model = Model::new(&mechanism).unwrap();
+        let line = format!(
+            "pub const FINGERPRINT: u64 = {:#018x};",
+            fingerprint(&model)
+        );
+        assert!(g.source.contains(&line), "{module}");
+    }
+    let looped = crate::systems::four_bar::mechanism();
+    assert!(robot_dynamics(&looped, "mbfmu").unwrap().is_none());
+}
