@@ -24,6 +24,7 @@ use super::page::Pictures;
 use super::run::Trajectory;
 use super::svg::{label, ticks};
 use crate::model::Scene;
+use crate::multibody::dynamics::Axis;
 use crate::multibody::mechanism::{JointKind, Mechanism};
 use crate::multibody::spatial::{add, mat_vec};
 use crate::multibody::Model;
@@ -89,6 +90,9 @@ pub struct Skeleton<'a> {
     ends: Vec<usize>,
     /// The vertical axis (along gravity).
     up: usize,
+    /// The axis normal to the plane the mechanism moves in, when it is planar by its joints:
+    /// every rotation about that axis, every translation across it.
+    normal: Option<usize>,
 }
 
 /// One view: which axis runs across and which up.
@@ -365,8 +369,19 @@ impl<'a> Skeleton<'a> {
                 .max_by(|&a, &b| g[a].abs().total_cmp(&g[b].abs()))
                 .unwrap_or(2)
         };
+        let poses = model.forward_kinematics(&vec![0.0; model.nq()]);
+        let normal = (0..3).find(|&k| {
+            (0..model.nq()).all(|i| {
+                let along = mat_vec(&poses[i].0, &model.axis[i])[k].abs();
+                match model.kinds[i] {
+                    Axis::Rotation => along > 1.0 - 1e-9,
+                    Axis::Translation => along < 1e-9,
+                }
+            })
+        });
         Some(Skeleton {
             model,
+            normal,
             hosts,
             links: mechanism.bodies.iter().map(|b| b.name.clone()).collect(),
             chains,
@@ -462,9 +477,10 @@ impl<'a> Skeleton<'a> {
             (hi - lo).max(0.0)
         };
         let largest = (0..3).map(span).fold(0.0, f64::max);
-        // A planar mechanism (every point in one plane of the axes): that plane's view
-        // alone, twice as wide; the others would see it edge on.
-        if let Some(flat) = (0..3).find(|&a| span(a) <= 1e-9 * largest) {
+        // A planar mechanism (its joints move it in a plane of the axes, and every point is
+        // in that plane): that plane's view alone, twice as wide; the others would see it
+        // edge on. (A spatial arm that happens to lie in a plane keeps two views.)
+        if let Some(flat) = self.normal.filter(|&a| span(a) <= 1e-9 * largest) {
             return vec![[front, side, top]
                 .into_iter()
                 .find(|v| v.h != flat && v.v != flat)
@@ -1308,23 +1324,23 @@ mod tests {
         let model = Model::new(&mechanism).unwrap();
         let skeleton = Skeleton::new(&mechanism, &model).unwrap();
         // Points nearly in a horizontal plane (gravity along z; 1 % of the largest extent
-        // up): the side view y–z sees almost a line, the top view x–y replaces it.
+        // up): the side view y–z sees almost a line, the top view x–y replaces it; the
+        // same exactly in the plane (this mechanism's joints are not planar: it only
+        // happens to lie flat).
         let thin = [[0.0, 0.0, 0.0], [1.0, 0.5, 0.015], [1.5, 0.2, 0.0]];
-        let views = skeleton.views(&thin);
-        assert_eq!(views, [View { h: 0, v: 2 }, View { h: 0, v: 1 }]);
-        assert_eq!(views[1].from(), "+z");
-        // Exactly in that plane (a planar mechanism): its view alone.
         let flat = [[0.0, 0.0, 0.0], [1.0, 0.5, 0.0], [1.5, 0.2, 0.0]];
-        assert_eq!(skeleton.views(&flat), [View { h: 0, v: 1 }]);
-        // Nearly in the vertical x–z plane: front and side as usual (the top sees almost a
-        // line too); exactly in it: the front view alone.
-        let upright = [[0.0, 0.0, 0.0], [1.0, 0.015, 0.5], [1.5, 0.0, 0.2]];
+        for points in [thin, flat] {
+            let views = skeleton.views(&points);
+            assert_eq!(views, [View { h: 0, v: 2 }, View { h: 0, v: 1 }]);
+            assert_eq!(views[1].from(), "+z");
+        }
+        // In the vertical x–z plane: front and side as usual (the top sees a line too).
+        let upright = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.5], [1.5, 0.0, 0.2]];
         assert_eq!(
             skeleton.views(&upright),
             [View { h: 0, v: 2 }, View { h: 1, v: 2 }]
         );
-        let upright = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.5], [1.5, 0.0, 0.2]];
-        assert_eq!(skeleton.views(&upright), [View { h: 0, v: 2 }]);
+        assert_eq!(skeleton.normal, None);
         assert_eq!(View { h: 0, v: 2 }.from(), "−y");
         assert_eq!(View { h: 1, v: 2 }.from(), "+x");
     }
@@ -1351,6 +1367,7 @@ mod tests {
         let (html, files) = pictures.reference();
         assert!(html.contains("start configuration"), "{html}");
         let svg = &files[0].1;
+        assert_eq!(skeleton.normal, Some(2), "FourBar turns about z");
         let views = read(svg);
         assert_eq!(views.len(), 1, "a planar mechanism gets one view");
         assert_eq!((views[0].h.as_str(), views[0].v.as_str()), ("x", "y"));
