@@ -80,6 +80,7 @@ class Spec:
         self.states = [int(self.floats[d]["derivative"]) for d in self.derivatives]
         self.outputs = [int(e.get("valueReference")) for e in ms.findall("Output")]
         self.nz = len(ms.findall("EventIndicator"))
+        self.step = float(root.find("DefaultExperiment").get("stepSize"))
         self.inputs = [vr for vr, v in self.floats.items() if v["causality"] == "input"]
         self.params = [vr for vr, v in self.floats.items() if v["causality"] == "parameter"
                        and v["name"] not in ("solver_step",)]
@@ -245,7 +246,9 @@ class Sequence:
     def do_step(self):
         r = self.rng
         kind = r.random()
-        h, t = r.choice([0.01, 0.1, 0.37]), self.time
+        # Steps of 1, 3 and 10 times the DefaultExperiment's stepSize (the stiff
+        # AndrewsSqueezer's 0.37 s steps cost half a second each).
+        h, t = self.spec.step * r.choice([1, 3, 10]), self.time
         if kind < 0.15:
             h = r.choice([0.0, -0.1, float("nan"), float("inf")])
         elif kind < 0.25:
@@ -293,8 +296,11 @@ class Sequence:
             var = s.floats[vr]
             v = float(var.get("start", 0.0)) + r.uniform(-0.1, 0.1)
             v = min(max(v, float(var.get("min", -math.inf))), float(var.get("max", math.inf)))
-            valid = self.state in ("Instantiated", "Init", "Event", "CT") or (
-                self.state == "Step" and not self.failed)
+            # (after a discarded step a Co-Simulation instance takes no input: the core's
+            # stepFailed, as in FMI 2.0)
+            valid = self.state in ("Instantiated", "Init", "CT") or (
+                self.state == "Event" and self.iface == "ME") or (
+                self.state in ("Step", "Event") and not self.failed)
         elif kind < 0.6:
             vr = s.time
             v, valid = 1.0, False
