@@ -224,7 +224,9 @@ CALLS3 = int(os.environ.get("MBFMU_RANDOM_CALLS3", "150"))
 @pytest.mark.parametrize("name", FMUS3)
 def test_random_fmi3_call_sequences(name):
     """O1 (a crash or a hang of the subprocess), O2, O3, O4 of random_calls3.py, on
-    SEQUENCES3 sequences of up to CALLS3 calls of the FMI 3.0 twin of each FMU."""
+    SEQUENCES3 sequences of up to CALLS3 calls of the FMI 3.0 twin of each FMU (at most
+    MBFMU_RANDOM_BUDGET3 = 20 s of them per FMU after the first 10: the stiff
+    AndrewsSqueezer's doSteps are slow)."""
     import json
     import subprocess
     import sys
