@@ -439,13 +439,14 @@ fn build_urdf(urdf: &Path, name: Option<&str>, out: Option<PathBuf>) -> Result<(
     let fmu = packaged?;
     let size = std::fs::metadata(&fmu).map(|m| m.len()).unwrap_or(0);
     println!(
-        "wrote {} ({} joints, {:.1} MB, {:.0} s)",
+        "wrote {} ({} joints, {:.1} MB, {:.0} s; FMI 3.0: {})",
         fmu.display(),
         mbfmu::multibody::Model::new(&mechanism)
             .map(|m| m.nq())
             .unwrap_or(0),
         size as f64 / 1e6,
-        started.elapsed().as_secs_f64()
+        started.elapsed().as_secs_f64(),
+        fmi3_path(&fmu).display()
     );
     Ok(())
 }
