@@ -195,6 +195,10 @@ fn package<M: System>(
             "model_description".into(),
             crate::xml::model_description::<M>(),
         ),
+        (
+            "model_description3".into(),
+            crate::xml::model_description3::<M>(),
+        ),
         ("documentation".into(), documentation),
         ("resource:linearization.json".into(), to_json(&lin)),
         ("resource:linearized_model.py".into(), to_py(&lin)),

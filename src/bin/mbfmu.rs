@@ -308,7 +308,11 @@ fn build(args: BuildArgs) -> Result<(), String> {
                 .join("target/fmu")
         });
         let fmu = package::package_library(&library, &out)?;
-        println!("wrote {}", fmu.display());
+        println!(
+            "wrote {} (FMI 3.0: {})",
+            fmu.display(),
+            fmi3_path(&fmu).display()
+        );
         return Ok(());
     }
     let entries = select(&args.models, args.all)?;
@@ -339,7 +343,13 @@ fn build(args: BuildArgs) -> Result<(), String> {
                 e.name
             ));
         }
-        bar.suspend(|| println!("wrote {}", fmu.display()));
+        bar.suspend(|| {
+            println!(
+                "wrote {} (FMI 3.0: {})",
+                fmu.display(),
+                fmi3_path(&fmu).display()
+            )
+        });
         bar.inc(1);
     }
     bar.finish_and_clear();
@@ -428,23 +438,39 @@ fn build_urdf(urdf: &Path, name: Option<&str>, out: Option<PathBuf>) -> Result<(
     let partial = out.join(format!(".{name}.fmu.partial-{}", std::process::id()));
     let packaged = package::package_library(&library, &partial).and_then(|fmu| {
         let fmu_path = out.join(format!("{name}.fmu"));
-        std::fs::rename(&fmu, &fmu_path)
-            .map_err(|e| format!("{}: {e}", fmu_path.display()))
-            .map(|()| fmu_path)
+        std::fs::rename(&fmu, &fmu_path).map_err(|e| format!("{}: {e}", fmu_path.display()))?;
+        // The FMI 3.0 FMU, beside in <out>3.
+        let fmu3 = package::fmi3_dir(&partial).join(format!("{name}.fmu"));
+        if fmu3.exists() {
+            let dir3 = package::fmi3_dir(&out);
+            std::fs::create_dir_all(&dir3).map_err(|e| format!("{}: {e}", dir3.display()))?;
+            let fmu3_path = dir3.join(format!("{name}.fmu"));
+            std::fs::rename(&fmu3, &fmu3_path)
+                .map_err(|e| format!("{}: {e}", fmu3_path.display()))?;
+        }
+        Ok(fmu_path)
     });
     let _ = std::fs::remove_dir_all(&partial);
+    let _ = std::fs::remove_dir_all(package::fmi3_dir(&partial));
     let fmu = packaged?;
     let size = std::fs::metadata(&fmu).map(|m| m.len()).unwrap_or(0);
     println!(
-        "wrote {} ({} joints, {:.1} MB, {:.0} s): {runs}",
+        "wrote {} ({} joints, {:.1} MB, {:.0} s; FMI 3.0: {}): {runs}",
         fmu.display(),
         mbfmu::multibody::Model::new(&mechanism)
             .map(|m| m.nq())
             .unwrap_or(0),
         size as f64 / 1e6,
-        started.elapsed().as_secs_f64()
+        started.elapsed().as_secs_f64(),
+        fmi3_path(&fmu).display()
     );
     Ok(())
+}
+
+/// The FMI 3.0 FMU written beside the FMI 2.0 one at `fmu` ([`package::fmi3_dir`]).
+fn fmi3_path(fmu: &Path) -> PathBuf {
+    let dir = fmu.parent().unwrap_or(Path::new("."));
+    package::fmi3_dir(dir).join(fmu.file_name().unwrap_or_default())
 }
 
 fn xml(check: bool) -> Result<(), String> {

@@ -62,6 +62,9 @@ pub(super) struct Work {
     /// buffer each for the right-hand side, the Jacobian and the event indicator.
     pub(super) u_at: [Vec<f64>; 3],
     pub(super) integrators: Workspace,
+    /// doStep ends right after the first event inside it (FMI 3.0's early return,
+    /// [`Instance::do_step_until_event`]).
+    pub(super) stop_at_event: bool,
 }
 
 pub(super) type Res<T = ()> = Result<T, String>;

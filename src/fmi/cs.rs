@@ -151,7 +151,20 @@ impl<M: System> Instance<M> {
         if self.logger.debug_enabled() {
             self.log_work(work);
         }
+        // Stopped after an event (`stop_at_event`): the step ends there.
+        let early = self.work.get_mut().stop_at_event && result.is_ok() && t < t_end;
+        let t_end = if early { t } else { t_end };
         Ok(self.settle(current, t_end, t, result))
+    }
+
+    /// doStep as [`Instance::do_step`], but ending right after the first event inside the
+    /// step (the event applied, the state and time there): FMI 3.0's early return. The time
+    /// reached is [`Instance::time`]; `current + h` when no event came.
+    pub fn do_step_until_event(&mut self, current: f64, h: f64) -> Res<StepOutcome> {
+        self.work.get_mut().stop_at_event = true;
+        let outcome = self.do_step(current, h);
+        self.work.get_mut().stop_at_event = false;
+        outcome
     }
 
     /// The work of the doStep that began with `before` done (logAll), for importers and
@@ -259,7 +272,15 @@ impl<M: System> Instance<M> {
                 self.adaptive_max_step,
             );
             let scratch = (&mut work.x0, &mut work.duals, &mut work.integrators);
-            integrate_general::<M>(d, (&mut t, x), t_end, settings, scratch, &mut work.u_at)
+            let stop_at_event = work.stop_at_event;
+            integrate_general::<M>(
+                d,
+                (&mut t, x),
+                (t_end, stop_at_event),
+                settings,
+                scratch,
+                &mut work.u_at,
+            )
         };
         d.memory.stats.work_limit = 0;
         if result.is_ok() {
@@ -427,7 +448,7 @@ const MAX_BISECTIONS: usize = 200;
 fn integrate_general<M: System>(
     d: &mut Snapshot,
     (t, x): (&mut f64, &mut [f64]),
-    t_end: f64,
+    (t_end, stop_at_event): (f64, bool),
     settings: &Settings,
     (x0, duals, work): (&mut Vec<f64>, &mut Duals, &mut Workspace),
     [u_rhs, u_jac, u_event]: &mut [Vec<f64>; 3],
@@ -490,7 +511,7 @@ fn integrate_general<M: System>(
         advance_locating_events::<M>(
             &mut problem,
             (t, x),
-            t_end,
+            (t_end, stop_at_event),
             settings,
             memory,
             (inputs, p, u_event),
@@ -508,7 +529,7 @@ fn integrate_general<M: System>(
 fn advance_locating_events<M: System>(
     problem: &mut Problem,
     (t, x): (&mut f64, &mut [f64]),
-    t_end: f64,
+    (t_end, stop_at_event): (f64, bool),
     settings: &Settings,
     memory: &mut Memory,
     (inputs, p, u_buf): (Inputs, &[f64], &mut Vec<f64>),
@@ -592,7 +613,7 @@ fn advance_locating_events<M: System>(
                 work_limit: false,
             });
         }
-        if *t >= t_end {
+        if *t >= t_end || stop_at_event {
             return Ok(());
         }
     }

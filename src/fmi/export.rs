@@ -1,4 +1,4 @@
-//! `export_fmu!`: the `fmi2*` symbols of one FMU's cdylib, Co-Simulation's and Model
+//! `export_fmu!`: the `fmi2*` and `fmi3*` symbols of one FMU's cdylib, Co-Simulation's and Model
 //! Exchange's (one binary serves both interfaces; fmi2Instantiate's fmuType picks one).
 //!
 //! Thin on purpose: each symbol forwards to the generic function of the same name in
@@ -10,7 +10,7 @@
 //! ([`package::protocol`](crate::package::protocol)): the FMU's interface comes from the
 //! binary it ships.
 
-/// Defines the complete FMI 2.0 C API, Co-Simulation and Model Exchange, for one
+/// Defines the complete FMI 2.0 and FMI 3.0 C APIs, Co-Simulation and Model Exchange, for one
 /// [`System`](crate::model::System).
 ///
 /// `export_fmu!(lagrangian MyModel)` for a [`Lagrangian`](crate::model::lagrangian::Lagrangian)
@@ -394,6 +394,776 @@ macro_rules! export_fmu {
                 v: *mut *const c_char,
             ) -> Status {
                 capi::get_string_status::<E>(c, kind, v)
+            }
+        }
+
+        /// The FMI 3.0 symbols (`fmi3Functions.h`, every one): forwards to
+        /// `capi::fmi3*`; clocks, configuration mode and scheduled execution answer fmi3Error.
+        pub mod fmi3_symbols {
+            #![allow(non_snake_case, clippy::missing_safety_doc, clippy::too_many_arguments)]
+            use super::ExportedModel as E;
+            use ::std::ffi::{c_char, c_int, c_void};
+            use $crate::fmi::capi::{self, FmuState};
+            use $crate::fmi::capi::fmi3::{Bool3, IntermediateUpdate};
+            use $crate::fmi::machine3;
+            use $crate::fmi::{Interface, LogMessage3, Status};
+            type Instance = capi::Component;
+
+            #[no_mangle]
+            pub extern "C" fn fmi3GetVersion() -> *const c_char {
+                capi::fmi3::get_version()
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3SetDebugLogging(
+                c: Instance,
+                on: Bool3,
+                n: usize,
+                cats: *const *const c_char,
+            ) -> Status {
+                capi::fmi3::set_debug_logging::<E>(c, on, n, cats)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3InstantiateModelExchange(
+                name: *const c_char,
+                token: *const c_char,
+                _resources: *const c_char,
+                _visible: Bool3,
+                logging_on: Bool3,
+                env: *mut c_void,
+                log: Option<LogMessage3>,
+            ) -> Instance {
+                capi::fmi3::instantiate::<E>(
+                    "fmi3InstantiateModelExchange",
+                    Interface::ModelExchange,
+                    name,
+                    token,
+                    logging_on,
+                    (false, false, 0),
+                    env,
+                    log,
+                    None,
+                )
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3InstantiateCoSimulation(
+                name: *const c_char,
+                token: *const c_char,
+                _resources: *const c_char,
+                _visible: Bool3,
+                logging_on: Bool3,
+                event_mode_used: Bool3,
+                early_return_allowed: Bool3,
+                _required: *const u32,
+                n_required: usize,
+                env: *mut c_void,
+                log: Option<LogMessage3>,
+                intermediate_update: Option<IntermediateUpdate>,
+            ) -> Instance {
+                capi::fmi3::instantiate::<E>(
+                    "fmi3InstantiateCoSimulation",
+                    Interface::CoSimulation,
+                    name,
+                    token,
+                    logging_on,
+                    (event_mode_used != 0, early_return_allowed != 0, n_required),
+                    env,
+                    log,
+                    intermediate_update,
+                )
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3InstantiateScheduledExecution(
+                name: *const c_char,
+                _token: *const c_char,
+                _resources: *const c_char,
+                _visible: Bool3,
+                _logging_on: Bool3,
+                env: *mut c_void,
+                log: Option<LogMessage3>,
+                _clock_update: *const c_void,
+                _lock: *const c_void,
+                _unlock: *const c_void,
+            ) -> Instance {
+                capi::fmi3::instantiate_scheduled_execution(name, env, log)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3FreeInstance(
+                c: Instance,
+            ) {
+                capi::fmi3::free_instance::<E>(c)
+            }
+            #[no_mangle]
+            pub extern "C" fn fmi3EnterInitializationMode(
+                c: Instance,
+                tol_defined: Bool3,
+                tol: f64,
+                start: f64,
+                stop_defined: Bool3,
+                stop: f64,
+            ) -> Status {
+                capi::fmi3::enter_initialization_mode::<E>(c, tol_defined, tol, start, stop_defined, stop)
+            }
+            #[no_mangle]
+            pub extern "C" fn fmi3ExitInitializationMode(
+                c: Instance,
+            ) -> Status {
+                capi::fmi3::exit_initialization_mode::<E>(c)
+            }
+            #[no_mangle]
+            pub extern "C" fn fmi3EnterEventMode(
+                c: Instance,
+            ) -> Status {
+                capi::fmi3::enter_event_mode::<E>(c)
+            }
+            #[no_mangle]
+            pub extern "C" fn fmi3Terminate(
+                c: Instance,
+            ) -> Status {
+                capi::fmi3::terminate::<E>(c)
+            }
+            #[no_mangle]
+            pub extern "C" fn fmi3Reset(
+                c: Instance,
+            ) -> Status {
+                capi::fmi3::reset::<E>(c)
+            }
+            #[no_mangle]
+            pub extern "C" fn fmi3EvaluateDiscreteStates(
+                c: Instance,
+            ) -> Status {
+                capi::fmi3::evaluate_discrete_states::<E>(c)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3GetFloat64(
+                c: Instance,
+                vr: *const u32,
+                nvr: usize,
+                v: *mut f64,
+                nv: usize,
+            ) -> Status {
+                capi::fmi3::get_float64::<E>(c, vr, nvr, v, nv)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3SetFloat64(
+                c: Instance,
+                vr: *const u32,
+                nvr: usize,
+                v: *const f64,
+                nv: usize,
+            ) -> Status {
+                capi::fmi3::set_float64::<E>(c, vr, nvr, v, nv)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3GetInt32(
+                c: Instance,
+                vr: *const u32,
+                nvr: usize,
+                v: *mut i32,
+                nv: usize,
+            ) -> Status {
+                capi::fmi3::get_int32::<E>(c, vr, nvr, v, nv)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3SetInt32(
+                c: Instance,
+                vr: *const u32,
+                nvr: usize,
+                v: *const i32,
+                nv: usize,
+            ) -> Status {
+                capi::fmi3::set_int32::<E>(c, vr, nvr, v, nv)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3GetInt64(
+                c: Instance,
+                vr: *const u32,
+                nvr: usize,
+                v: *mut i64,
+                nv: usize,
+            ) -> Status {
+                capi::fmi3::get_int64::<E>(c, vr, nvr, v, nv)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3SetInt64(
+                c: Instance,
+                vr: *const u32,
+                nvr: usize,
+                v: *const i64,
+                nv: usize,
+            ) -> Status {
+                capi::fmi3::set_int64::<E>(c, vr, nvr, v, nv)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3GetFloat32(
+                c: Instance,
+                vr: *const u32,
+                nvr: usize,
+                _v: *mut f32,
+                _nv: usize,
+            ) -> Status {
+                capi::fmi3::no_such_type::<E>(c, "fmi3GetFloat32", machine3::GET, vr, nvr)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3SetFloat32(
+                c: Instance,
+                vr: *const u32,
+                nvr: usize,
+                _v: *const f32,
+                _nv: usize,
+            ) -> Status {
+                capi::fmi3::no_such_type::<E>(c, "fmi3SetFloat32", machine3::SET, vr, nvr)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3GetInt8(
+                c: Instance,
+                vr: *const u32,
+                nvr: usize,
+                _v: *mut i8,
+                _nv: usize,
+            ) -> Status {
+                capi::fmi3::no_such_type::<E>(c, "fmi3GetInt8", machine3::GET, vr, nvr)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3SetInt8(
+                c: Instance,
+                vr: *const u32,
+                nvr: usize,
+                _v: *const i8,
+                _nv: usize,
+            ) -> Status {
+                capi::fmi3::no_such_type::<E>(c, "fmi3SetInt8", machine3::SET, vr, nvr)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3GetUInt8(
+                c: Instance,
+                vr: *const u32,
+                nvr: usize,
+                _v: *mut u8,
+                _nv: usize,
+            ) -> Status {
+                capi::fmi3::no_such_type::<E>(c, "fmi3GetUInt8", machine3::GET, vr, nvr)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3SetUInt8(
+                c: Instance,
+                vr: *const u32,
+                nvr: usize,
+                _v: *const u8,
+                _nv: usize,
+            ) -> Status {
+                capi::fmi3::no_such_type::<E>(c, "fmi3SetUInt8", machine3::SET, vr, nvr)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3GetInt16(
+                c: Instance,
+                vr: *const u32,
+                nvr: usize,
+                _v: *mut i16,
+                _nv: usize,
+            ) -> Status {
+                capi::fmi3::no_such_type::<E>(c, "fmi3GetInt16", machine3::GET, vr, nvr)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3SetInt16(
+                c: Instance,
+                vr: *const u32,
+                nvr: usize,
+                _v: *const i16,
+                _nv: usize,
+            ) -> Status {
+                capi::fmi3::no_such_type::<E>(c, "fmi3SetInt16", machine3::SET, vr, nvr)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3GetUInt16(
+                c: Instance,
+                vr: *const u32,
+                nvr: usize,
+                _v: *mut u16,
+                _nv: usize,
+            ) -> Status {
+                capi::fmi3::no_such_type::<E>(c, "fmi3GetUInt16", machine3::GET, vr, nvr)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3SetUInt16(
+                c: Instance,
+                vr: *const u32,
+                nvr: usize,
+                _v: *const u16,
+                _nv: usize,
+            ) -> Status {
+                capi::fmi3::no_such_type::<E>(c, "fmi3SetUInt16", machine3::SET, vr, nvr)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3GetUInt32(
+                c: Instance,
+                vr: *const u32,
+                nvr: usize,
+                _v: *mut u32,
+                _nv: usize,
+            ) -> Status {
+                capi::fmi3::no_such_type::<E>(c, "fmi3GetUInt32", machine3::GET, vr, nvr)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3SetUInt32(
+                c: Instance,
+                vr: *const u32,
+                nvr: usize,
+                _v: *const u32,
+                _nv: usize,
+            ) -> Status {
+                capi::fmi3::no_such_type::<E>(c, "fmi3SetUInt32", machine3::SET, vr, nvr)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3GetUInt64(
+                c: Instance,
+                vr: *const u32,
+                nvr: usize,
+                _v: *mut u64,
+                _nv: usize,
+            ) -> Status {
+                capi::fmi3::no_such_type::<E>(c, "fmi3GetUInt64", machine3::GET, vr, nvr)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3SetUInt64(
+                c: Instance,
+                vr: *const u32,
+                nvr: usize,
+                _v: *const u64,
+                _nv: usize,
+            ) -> Status {
+                capi::fmi3::no_such_type::<E>(c, "fmi3SetUInt64", machine3::SET, vr, nvr)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3GetBoolean(
+                c: Instance,
+                vr: *const u32,
+                nvr: usize,
+                _v: *mut Bool3,
+                _nv: usize,
+            ) -> Status {
+                capi::fmi3::no_such_type::<E>(c, "fmi3GetBoolean", machine3::GET, vr, nvr)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3SetBoolean(
+                c: Instance,
+                vr: *const u32,
+                nvr: usize,
+                _v: *const Bool3,
+                _nv: usize,
+            ) -> Status {
+                capi::fmi3::no_such_type::<E>(c, "fmi3SetBoolean", machine3::SET, vr, nvr)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3GetString(
+                c: Instance,
+                vr: *const u32,
+                nvr: usize,
+                _v: *mut *const c_char,
+                _nv: usize,
+            ) -> Status {
+                capi::fmi3::no_such_type::<E>(c, "fmi3GetString", machine3::GET, vr, nvr)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3SetString(
+                c: Instance,
+                vr: *const u32,
+                nvr: usize,
+                _v: *const *const c_char,
+                _nv: usize,
+            ) -> Status {
+                capi::fmi3::no_such_type::<E>(c, "fmi3SetString", machine3::SET, vr, nvr)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3GetBinary(
+                c: Instance,
+                vr: *const u32,
+                nvr: usize,
+                _sizes: *mut usize,
+                _v: *mut *const u8,
+                _nv: usize,
+            ) -> Status {
+                capi::fmi3::no_such_type::<E>(c, "fmi3GetBinary", machine3::GET, vr, nvr)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3SetBinary(
+                c: Instance,
+                vr: *const u32,
+                nvr: usize,
+                _sizes: *const usize,
+                _v: *const *const u8,
+                _nv: usize,
+            ) -> Status {
+                capi::fmi3::no_such_type::<E>(c, "fmi3SetBinary", machine3::SET, vr, nvr)
+            }
+            #[no_mangle]
+            pub extern "C" fn fmi3GetClock(
+                c: Instance,
+                _vr: *const u32,
+                _nvr: usize,
+                _v: *mut Bool3,
+            ) -> Status {
+                capi::fmi3::not_offered::<E>(c, "fmi3GetClock", "the models have no clocks")
+            }
+            #[no_mangle]
+            pub extern "C" fn fmi3SetClock(
+                c: Instance,
+                _vr: *const u32,
+                _nvr: usize,
+                _v: *const Bool3,
+            ) -> Status {
+                capi::fmi3::not_offered::<E>(c, "fmi3SetClock", "the models have no clocks")
+            }
+            #[no_mangle]
+            pub extern "C" fn fmi3GetNumberOfVariableDependencies(
+                c: Instance,
+                _vr: u32,
+                _n: *mut usize,
+            ) -> Status {
+                capi::fmi3::not_offered::<E>(c, "fmi3GetNumberOfVariableDependencies", "the dependencies are in modelDescription.xml")
+            }
+            #[no_mangle]
+            pub extern "C" fn fmi3GetVariableDependencies(
+                c: Instance,
+                _dependent: u32,
+                _element_of_dependent: *mut usize,
+                _independents: *mut u32,
+                _element_of_independents: *mut usize,
+                _kinds: *mut c_int,
+                _n: usize,
+            ) -> Status {
+                capi::fmi3::not_offered::<E>(c, "fmi3GetVariableDependencies", "the dependencies are in modelDescription.xml")
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3GetFMUState(
+                c: Instance,
+                s: *mut FmuState,
+            ) -> Status {
+                capi::fmi3::get_fmu_state::<E>(c, s)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3SetFMUState(
+                c: Instance,
+                s: FmuState,
+            ) -> Status {
+                capi::fmi3::set_fmu_state::<E>(c, s)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3FreeFMUState(
+                c: Instance,
+                s: *mut FmuState,
+            ) -> Status {
+                capi::fmi3::free_fmu_state::<E>(c, s)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3SerializedFMUStateSize(
+                c: Instance,
+                s: FmuState,
+                size: *mut usize,
+            ) -> Status {
+                capi::fmi3::serialized_fmu_state_size::<E>(c, s, size)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3SerializeFMUState(
+                c: Instance,
+                s: FmuState,
+                bytes: *mut u8,
+                size: usize,
+            ) -> Status {
+                capi::fmi3::serialize_fmu_state::<E>(c, s, bytes, size)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3DeserializeFMUState(
+                c: Instance,
+                bytes: *const u8,
+                size: usize,
+                s: *mut FmuState,
+            ) -> Status {
+                capi::fmi3::deserialize_fmu_state::<E>(c, bytes, size, s)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3GetDirectionalDerivative(
+                c: Instance,
+                unknowns: *const u32,
+                n_unknowns: usize,
+                knowns: *const u32,
+                n_knowns: usize,
+                seed: *const f64,
+                n_seed: usize,
+                sensitivity: *mut f64,
+                n_sensitivity: usize,
+            ) -> Status {
+                capi::fmi3::get_directional_derivative::<E>(
+                    c,
+                    capi::fmi3::Seeds {
+                    unknowns,
+                    n_unknowns,
+                    knowns,
+                    n_knowns,
+                    seed,
+                    n_seed,
+                    sensitivity,
+                    n_sensitivity,
+                },
+                )
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3GetAdjointDerivative(
+                c: Instance,
+                unknowns: *const u32,
+                n_unknowns: usize,
+                knowns: *const u32,
+                n_knowns: usize,
+                seed: *const f64,
+                n_seed: usize,
+                sensitivity: *mut f64,
+                n_sensitivity: usize,
+            ) -> Status {
+                capi::fmi3::get_adjoint_derivative::<E>(
+                    c,
+                    capi::fmi3::Seeds {
+                    unknowns,
+                    n_unknowns,
+                    knowns,
+                    n_knowns,
+                    seed,
+                    n_seed,
+                    sensitivity,
+                    n_sensitivity,
+                },
+                )
+            }
+            #[no_mangle]
+            pub extern "C" fn fmi3EnterConfigurationMode(
+                c: Instance,
+            ) -> Status {
+                capi::fmi3::not_offered::<E>(c, "fmi3EnterConfigurationMode", "the models have no structural parameters")
+            }
+            #[no_mangle]
+            pub extern "C" fn fmi3ExitConfigurationMode(
+                c: Instance,
+            ) -> Status {
+                capi::fmi3::not_offered::<E>(c, "fmi3ExitConfigurationMode", "the models have no structural parameters")
+            }
+            #[no_mangle]
+            pub extern "C" fn fmi3GetIntervalDecimal(
+                c: Instance,
+                _vr: *const u32,
+                _nvr: usize,
+                _intervals: *mut f64,
+                _qualifiers: *mut c_int,
+            ) -> Status {
+                capi::fmi3::not_offered::<E>(c, "fmi3GetIntervalDecimal", "the models have no clocks")
+            }
+            #[no_mangle]
+            pub extern "C" fn fmi3GetIntervalFraction(
+                c: Instance,
+                _vr: *const u32,
+                _nvr: usize,
+                _counters: *mut u64,
+                _resolutions: *mut u64,
+                _qualifiers: *mut c_int,
+            ) -> Status {
+                capi::fmi3::not_offered::<E>(c, "fmi3GetIntervalFraction", "the models have no clocks")
+            }
+            #[no_mangle]
+            pub extern "C" fn fmi3GetShiftDecimal(
+                c: Instance,
+                _vr: *const u32,
+                _nvr: usize,
+                _shifts: *mut f64,
+            ) -> Status {
+                capi::fmi3::not_offered::<E>(c, "fmi3GetShiftDecimal", "the models have no clocks")
+            }
+            #[no_mangle]
+            pub extern "C" fn fmi3GetShiftFraction(
+                c: Instance,
+                _vr: *const u32,
+                _nvr: usize,
+                _counters: *mut u64,
+                _resolutions: *mut u64,
+            ) -> Status {
+                capi::fmi3::not_offered::<E>(c, "fmi3GetShiftFraction", "the models have no clocks")
+            }
+            #[no_mangle]
+            pub extern "C" fn fmi3SetIntervalDecimal(
+                c: Instance,
+                _vr: *const u32,
+                _nvr: usize,
+                _intervals: *const f64,
+            ) -> Status {
+                capi::fmi3::not_offered::<E>(c, "fmi3SetIntervalDecimal", "the models have no clocks")
+            }
+            #[no_mangle]
+            pub extern "C" fn fmi3SetIntervalFraction(
+                c: Instance,
+                _vr: *const u32,
+                _nvr: usize,
+                _counters: *const u64,
+                _resolutions: *const u64,
+            ) -> Status {
+                capi::fmi3::not_offered::<E>(c, "fmi3SetIntervalFraction", "the models have no clocks")
+            }
+            #[no_mangle]
+            pub extern "C" fn fmi3SetShiftDecimal(
+                c: Instance,
+                _vr: *const u32,
+                _nvr: usize,
+                _shifts: *const f64,
+            ) -> Status {
+                capi::fmi3::not_offered::<E>(c, "fmi3SetShiftDecimal", "the models have no clocks")
+            }
+            #[no_mangle]
+            pub extern "C" fn fmi3SetShiftFraction(
+                c: Instance,
+                _vr: *const u32,
+                _nvr: usize,
+                _counters: *const u64,
+                _resolutions: *const u64,
+            ) -> Status {
+                capi::fmi3::not_offered::<E>(c, "fmi3SetShiftFraction", "the models have no clocks")
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3UpdateDiscreteStates(
+                c: Instance,
+                need_update: *mut Bool3,
+                terminate: *mut Bool3,
+                nominals_changed: *mut Bool3,
+                values_changed: *mut Bool3,
+                next_defined: *mut Bool3,
+                next: *mut f64,
+            ) -> Status {
+                capi::fmi3_me::update_discrete_states::<E>(
+                    c,
+                    need_update,
+                    terminate,
+                    nominals_changed,
+                    values_changed,
+                    next_defined,
+                    next,
+                )
+            }
+            #[no_mangle]
+            pub extern "C" fn fmi3EnterContinuousTimeMode(
+                c: Instance,
+            ) -> Status {
+                capi::fmi3_me::enter_continuous_time_mode::<E>(c)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3CompletedIntegratorStep(
+                c: Instance,
+                no_prior: Bool3,
+                enter_event_mode: *mut Bool3,
+                terminate: *mut Bool3,
+            ) -> Status {
+                capi::fmi3_me::completed_integrator_step::<E>(c, no_prior, enter_event_mode, terminate)
+            }
+            #[no_mangle]
+            pub extern "C" fn fmi3SetTime(
+                c: Instance,
+                time: f64,
+            ) -> Status {
+                capi::fmi3_me::set_time::<E>(c, time)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3SetContinuousStates(
+                c: Instance,
+                x: *const f64,
+                nx: usize,
+            ) -> Status {
+                capi::fmi3_me::set_continuous_states::<E>(c, x, nx)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3GetContinuousStateDerivatives(
+                c: Instance,
+                dx: *mut f64,
+                nx: usize,
+            ) -> Status {
+                capi::fmi3_me::get_continuous_state_derivatives::<E>(c, dx, nx)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3GetEventIndicators(
+                c: Instance,
+                z: *mut f64,
+                ni: usize,
+            ) -> Status {
+                capi::fmi3_me::get_event_indicators::<E>(c, z, ni)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3GetContinuousStates(
+                c: Instance,
+                x: *mut f64,
+                nx: usize,
+            ) -> Status {
+                capi::fmi3_me::get_continuous_states::<E>(c, x, nx)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3GetNominalsOfContinuousStates(
+                c: Instance,
+                nominals: *mut f64,
+                nx: usize,
+            ) -> Status {
+                capi::fmi3_me::get_nominals_of_continuous_states::<E>(c, nominals, nx)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3GetNumberOfEventIndicators(
+                c: Instance,
+                n: *mut usize,
+            ) -> Status {
+                capi::fmi3_me::get_number_of_event_indicators::<E>(c, n)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3GetNumberOfContinuousStates(
+                c: Instance,
+                n: *mut usize,
+            ) -> Status {
+                capi::fmi3_me::get_number_of_continuous_states::<E>(c, n)
+            }
+            #[no_mangle]
+            pub extern "C" fn fmi3EnterStepMode(
+                c: Instance,
+            ) -> Status {
+                capi::fmi3_cs::enter_step_mode::<E>(c)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3GetOutputDerivatives(
+                c: Instance,
+                vr: *const u32,
+                nvr: usize,
+                orders: *const i32,
+                v: *mut f64,
+                nv: usize,
+            ) -> Status {
+                capi::fmi3_cs::get_output_derivatives::<E>(c, vr, nvr, orders, v, nv)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi3DoStep(
+                c: Instance,
+                current: f64,
+                h: f64,
+                no_prior: Bool3,
+                event_handling_needed: *mut Bool3,
+                terminate: *mut Bool3,
+                early_return: *mut Bool3,
+                last_successful_time: *mut f64,
+            ) -> Status {
+                capi::fmi3_cs::do_step::<E>(
+                    c,
+                    current,
+                    h,
+                    no_prior,
+                    event_handling_needed,
+                    terminate,
+                    early_return,
+                    last_successful_time,
+                )
+            }
+            #[no_mangle]
+            pub extern "C" fn fmi3ActivateModelPartition(
+                c: Instance,
+                _clock: u32,
+                _time: f64,
+            ) -> Status {
+                capi::fmi3::not_offered::<E>(c, "fmi3ActivateModelPartition", "no Scheduled Execution: the models have no clocks")
             }
         }
     };

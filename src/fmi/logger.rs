@@ -16,6 +16,14 @@ pub type CallbackLogger = unsafe extern "C" fn(
     ...
 );
 
+/// `fmi3LogMessageCallback`: not variadic, no instance name (the environment knows it).
+pub type LogMessage3 = unsafe extern "C" fn(
+    env: *mut c_void,
+    status: c_int,
+    category: *const c_char,
+    message: *const c_char,
+);
+
 /// `fmi2CallbackFunctions`, laid out as in fmi2FunctionTypes.h.
 #[repr(C)]
 pub struct CallbackFunctions {
@@ -29,6 +37,11 @@ pub struct CallbackFunctions {
 /// Sends lines to the environment's logger.
 pub struct Logger {
     callback: Option<CallbackLogger>,
+    /// FMI 3.0's callback (an instance made by fmi3Instantiate*): used instead of `callback`.
+    callback3: Option<LogMessage3>,
+    /// FMI 3.0: the fmi3 function being called. The core names the FMI 2.0 function in
+    /// its messages ("fmi2GetReal: …"); a message to an FMI 3.0 importer names this one.
+    fmi3_function: Cell<Option<&'static str>>,
     env: *mut c_void,
     instance_name: CString,
     logging_on: bool,
@@ -49,11 +62,41 @@ impl Logger {
     ) -> Self {
         Logger {
             callback,
+            callback3: None,
+            fmi3_function: Cell::new(None),
             env,
             instance_name: to_cstring(instance_name),
             logging_on,
             enabled: ALL_CATEGORIES,
             warned: Cell::new(false),
+        }
+    }
+
+    /// A logger for an FMI 3.0 instance: lines go to its `logMessage` callback.
+    pub fn fmi3(
+        callback: Option<LogMessage3>,
+        env: *mut c_void,
+        instance_name: &str,
+        logging_on: bool,
+    ) -> Self {
+        let mut logger = Logger::new(None, env, instance_name, logging_on);
+        logger.callback3 = callback;
+        logger
+    }
+
+    /// FMI 3.0: the function now running (see `fmi3_function`).
+    pub fn set_fmi3_function(&self, function: &'static str) {
+        self.fmi3_function.set(Some(function));
+    }
+
+    /// A message as an FMI 3.0 importer reads it: a leading "fmi2Xxx:" names the fmi3
+    /// function called instead.
+    fn renamed(&self, message: &str) -> String {
+        match (self.fmi3_function.get(), message.split_once(": ")) {
+            (Some(f), Some((head, rest))) if head.starts_with("fmi2") && !head.contains(' ') => {
+                format!("{f}: {rest}")
+            }
+            _ => message.to_string(),
         }
     }
 
@@ -123,6 +166,21 @@ impl Logger {
     }
 
     fn emit(&self, status: Status, category: &str, message: &str) {
+        if let Some(callback) = self.callback3 {
+            let category = to_cstring(category);
+            let message = to_cstring(&self.renamed(message));
+            // SAFETY: the environment gave us this callback in fmi3Instantiate* and
+            // promised it stays valid for the instance's life; the strings live in this frame.
+            unsafe {
+                callback(
+                    self.env,
+                    status as c_int,
+                    category.as_ptr(),
+                    message.as_ptr(),
+                )
+            };
+            return;
+        }
         let Some(callback) = self.callback else {
             return;
         };

@@ -146,6 +146,13 @@ impl<M: System> Instance<M> {
         Ok(Status::Ok)
     }
 
+    /// The event indicator at the held time and states, as fmi2GetEventIndicators gives it
+    /// (FMI 3.0 also reads it as a variable, in either interface).
+    pub fn event_indicator_value(&self) -> f64 {
+        let d = &self.data;
+        M::event_indicator(d.time, &d.x, &d.u, &d.params).unwrap_or(NO_EVENT_INDICATOR)
+    }
+
     /// Logs why `function` answers fmi2Discard: `what` = `value` is not finite here.
     #[cold]
     fn discard(&self, function: &str, what: &str, value: f64) -> Status {

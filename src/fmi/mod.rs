@@ -1,4 +1,4 @@
-//! The FMI 2.0 boundary: Co-Simulation and Model Exchange from one binary.
+//! The FMI boundary: FMI 2.0 and FMI 3.0, Co-Simulation and Model Exchange, from one binary.
 //!
 //! Call flow, from the C symbol down to the physics:
 //! 1. [`export_fmu!`](crate::export_fmu) (in `export.rs`) defines every `fmi2*` symbol of one
@@ -13,7 +13,10 @@
 //!    derivatives, FMU state and its checked blob in `snapshot.rs`, the state machines of
 //!    both interfaces in `machine.rs`), `cs.rs` (doStep around an integrator) and `me.rs`
 //!    (time, continuous states, derivatives, event indicators, event mode).
-//! 4. The [`System`](crate::model::System) computes `ẋ` and the outputs.
+//! 4. FMI 3.0 is a second front-end over the same core: `export_fmu!` also defines every
+//!    `fmi3*` symbol, forwarding to `capi/fmi3*.rs`, which check FMI 3.0's state machine
+//!    (`machine3.rs`) and call the same [`Instance`].
+//! 5. The [`System`](crate::model::System) computes `ẋ` and the outputs.
 
 pub mod capi;
 mod core;
@@ -22,12 +25,13 @@ mod export;
 mod inputs;
 mod logger;
 mod machine;
+pub mod machine3;
 mod me;
 mod snapshot;
 
 pub use cs::{StepOutcome, DOSTEP_WORK};
 pub use inputs::MAX_INPUT_DERIVATIVE_ORDER;
-pub use logger::{CallbackFunctions, CallbackLogger, Logger};
+pub use logger::{CallbackFunctions, CallbackLogger, LogMessage3, Logger};
 pub use machine::{Interface, Machine};
 pub use me::{EventInfo, NO_EVENT_INDICATOR};
 

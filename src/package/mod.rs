@@ -24,6 +24,29 @@ pub fn platform() -> &'static str {
     }
 }
 
+/// The FMI 3.0 platform tuple of the machine building the FMU (`binaries/<tuple>/`).
+pub fn platform3() -> &'static str {
+    match (std::env::consts::OS, std::env::consts::ARCH) {
+        ("linux", "x86") => "x86-linux",
+        ("linux", "aarch64") => "aarch64-linux",
+        ("windows", "x86_64") => "x86_64-windows",
+        ("windows", "x86") => "x86-windows",
+        ("macos", "aarch64") => "aarch64-darwin",
+        ("macos", _) => "x86_64-darwin",
+        _ => "x86_64-linux",
+    }
+}
+
+/// Where the FMI 3.0 FMUs go beside the FMI 2.0 ones in `out_dir`: the sibling folder
+/// named with a 3 (`target/fmu` → `target/fmu3`).
+pub fn fmi3_dir(out_dir: &Path) -> std::path::PathBuf {
+    let name = out_dir
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "fmu".into());
+    out_dir.with_file_name(format!("{name}3"))
+}
+
 /// The shared-library file name cargo gives a cdylib crate named `crate_name`.
 pub fn library_file(crate_name: &str) -> String {
     let stem = crate_name.replace('-', "_");
@@ -47,6 +70,38 @@ pub fn write_fmu(
     resources: &[(String, String)],
     files: &[(String, String)],
 ) -> Result<(), String> {
+    let contents = Contents {
+        model_identifier,
+        model_description,
+        documentation,
+        library,
+        resources,
+        files,
+    };
+    write_fmu_in(out, platform(), &contents)
+}
+
+/// What an FMU holds (see [`write_fmu`]).
+struct Contents<'a> {
+    model_identifier: &'a str,
+    model_description: &'a str,
+    documentation: &'a str,
+    library: &'a Path,
+    resources: &'a [(String, String)],
+    files: &'a [(String, String)],
+}
+
+/// [`write_fmu`] with the binary under `binaries/<platform>/` (FMI 2.0's folder names or
+/// FMI 3.0's tuples).
+fn write_fmu_in(out: &Path, platform: &str, c: &Contents) -> Result<(), String> {
+    let Contents {
+        model_identifier,
+        model_description,
+        documentation,
+        library,
+        resources,
+        files,
+    } = *c;
     let binary =
         std::fs::read(library).map_err(|e| format!("cannot read {}: {e}", library.display()))?;
     let ext = library.extension().and_then(|e| e.to_str()).unwrap_or("so");
@@ -64,7 +119,7 @@ pub fn write_fmu(
     let mut entries: Vec<(String, &[u8])> = vec![
         ("modelDescription.xml".into(), model_description.as_bytes()),
         (
-            format!("binaries/{}/{model_identifier}.{ext}", platform()),
+            format!("binaries/{platform}/{model_identifier}.{ext}"),
             &binary,
         ),
         ("documentation/index.html".into(), documentation.as_bytes()),
@@ -96,8 +151,10 @@ pub fn is_model_identifier(name: &str) -> bool {
         && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
 }
 
-/// Writes `<out_dir>/<model identifier>.fmu` from the cdylib `library` alone: its
-/// `mbfmu_describe` gives the XML, the documentation and the resources.
+/// Writes `<out_dir>/<model identifier>.fmu` (FMI 2.0) and, when the model describes
+/// itself in FMI 3.0 too, `<out_dir>3/<model identifier>.fmu` ([`fmi3_dir`]) from the
+/// cdylib `library` alone: its `mbfmu_describe` gives the XML, the documentation and the
+/// resources. Returns the FMI 2.0 FMU's path.
 pub fn package_library(library: &Path, out_dir: &Path) -> Result<std::path::PathBuf, String> {
     let records =
         ModelLibrary::open(library)?.call(&protocol::encode(&[("request", "package")]))?;
@@ -120,14 +177,20 @@ pub fn package_library(library: &Path, out_dir: &Path) -> Result<std::path::Path
         .filter_map(|(k, v)| Some((k.strip_prefix("file:")?.to_string(), v.clone())))
         .collect();
     let fmu = out_dir.join(format!("{identifier}.fmu"));
-    write_fmu(
-        &fmu,
-        identifier,
-        get("model_description")?,
-        get("documentation")?,
+    let mut contents = Contents {
+        model_identifier: identifier,
+        model_description: get("model_description")?,
+        documentation: get("documentation")?,
         library,
-        &resources,
-        &files,
-    )?;
+        resources: &resources,
+        files: &files,
+    };
+    write_fmu_in(&fmu, platform(), &contents)?;
+    // The FMI 3.0 FMU: the same binary and files, FMI 3.0's description and platform folder.
+    if let Some(description3) = protocol::value(&records, "model_description3") {
+        contents.model_description = description3;
+        let fmu3 = fmi3_dir(out_dir).join(format!("{identifier}.fmu"));
+        write_fmu_in(&fmu3, platform3(), &contents)?;
+    }
     Ok(fmu)
 }

@@ -4,8 +4,11 @@
 //! the document's content (with the GUID left out), so any change to the interface
 //! changes the GUID and an FMU binary rejects an XML it was not built with.
 
+mod fmi3;
 mod structure;
 mod units;
+
+pub use fmi3::model_description3;
 
 pub use structure::{dependencies, Dependencies};
 

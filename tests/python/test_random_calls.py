@@ -211,3 +211,41 @@ def test_a_restored_blob_with_a_refused_solver_is_refused_in_every_machine_state
     finally:
         inst.free()
     print(f"METRIC {name}: {tried} blobs with a refused solver ({refused}) refused")
+
+
+# -- FMI 3.0: the same oracles through the fmi3 functions (random_calls3.py) --
+
+FMU3_DIR = fs.fmu_dir().with_name(fs.fmu_dir().name + "3")
+FMUS3 = sorted(p.stem for p in FMU3_DIR.glob("*.fmu"))
+SEQUENCES3 = int(os.environ.get("MBFMU_RANDOM_SEQUENCES3", "40"))
+CALLS3 = int(os.environ.get("MBFMU_RANDOM_CALLS3", "150"))
+
+
+@pytest.mark.parametrize("name", FMUS3)
+def test_random_fmi3_call_sequences(name):
+    """O1 (a crash or a hang of the subprocess), O2, O3, O4 of random_calls3.py, on
+    SEQUENCES3 sequences of up to CALLS3 calls of the FMI 3.0 twin of each FMU (at most
+    MBFMU_RANDOM_BUDGET3 = 20 s of them per FMU after the first 10: the stiff
+    AndrewsSqueezer's doSteps are slow)."""
+    import json
+    import subprocess
+    import sys
+
+    cmd = [sys.executable, str(fs.HERE / "random_calls3.py"), name, str(FMU3_DIR), "0",
+           str(SEQUENCES3), str(CALLS3)]
+    t0 = time.monotonic()
+    try:
+        done = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    except subprocess.TimeoutExpired:
+        pytest.fail(f"{name}: FMI 3.0 random calls hung (O1): {' '.join(cmd)}", pytrace=False)
+    if done.returncode != 0:
+        pytest.fail(f"{name}: FMI 3.0 random calls crashed (O1, exit {done.returncode}): "
+                    f"{done.stderr[-3000:]}\nreplay: {' '.join(cmd)}", pytrace=False)
+    out = json.loads(done.stdout.strip().splitlines()[-1])
+    print(f"METRIC FMI3 random calls {name}: {out['sequences']} sequences, {out['calls']} calls, "
+          f"{len(out['failures'])} failures ({time.monotonic() - t0:.1f} s)")
+    if out["failures"]:
+        shown = "\n".join(f"seed {f['seed']} {f['message']}" for f in out["failures"][:3])
+        pytest.fail(f"{name}: {len(out['failures'])} of {out['sequences']} FMI 3.0 sequences "
+                    f"failed:\n{shown}\nreplay: {' '.join(cmd[:3])} <seed> 1 {CALLS3}",
+                    pytrace=False)

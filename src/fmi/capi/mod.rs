@@ -10,6 +10,9 @@
 //! - returns fmi2Warning from a call that logged a warning and would return fmi2OK.
 
 mod cs;
+pub mod fmi3;
+pub mod fmi3_cs;
+pub mod fmi3_me;
 mod me;
 
 pub use cs::*;
@@ -242,6 +245,17 @@ pub unsafe fn free_instance<E: Export>(c: Component) {
         return;
     }
     let _ = catch_unwind(AssertUnwindSafe(|| {
+        free_states_of(c);
+        drop(Box::from_raw(c as *mut Inst<E>))
+    }));
+}
+
+/// Frees every FMU state instance `c` made that the importer did not free.
+///
+/// # Safety
+/// Called while freeing `c`: no call of it runs.
+pub(crate) unsafe fn free_states_of(c: Component) {
+    {
         let owned: Vec<usize> = {
             let mut map = states();
             let owned: Vec<usize> = map
@@ -259,8 +273,7 @@ pub unsafe fn free_instance<E: Export>(c: Component) {
             // registry just now, so freed exactly once.
             drop(Box::from_raw(state as *mut StateBox));
         }
-        drop(Box::from_raw(c as *mut Inst<E>))
-    }));
+    }
 }
 
 /// # Safety
@@ -455,48 +468,88 @@ unsafe fn state_ref<'a, E: Export>(
 /// # Safety
 /// `state` points to an `fmi2FMUstate` (NULL or one of ours).
 pub unsafe fn get_fmu_state<E: Export>(c: Component, state: *mut FmuState) -> Status {
-    call::<E>(c, "fmi2GetFMUstate", |inst| {
-        inst.require(machine::FMU_STATE, "fmi2GetFMUstate")?;
-        if state.is_null() {
-            return Err("fmi2GetFMUstate: FMUstate is NULL".into());
-        }
-        let snapshot = inst.snapshot();
-        if (*state).is_null() {
-            *state = new_state::<E>(c, snapshot);
-        } else {
-            state_ref::<E>(c, *state, Use::Own, "fmi2GetFMUstate")?.snapshot = snapshot;
-        }
-        Ok(Status::Ok)
+    const F: &str = "fmi2GetFMUstate";
+    call::<E>(c, F, |inst| {
+        inst.require(machine::FMU_STATE, F)?;
+        get_fmu_state_of::<E>(c, inst, state, F)
     })
+}
+
+/// The body of fmi2GetFMUstate and fmi3GetFMUState: `c` is the instance's handle (the
+/// owner recorded for the state).
+///
+/// # Safety
+/// As [`get_fmu_state`].
+pub(crate) unsafe fn get_fmu_state_of<E: Export>(
+    c: Component,
+    inst: &mut Inst<E>,
+    state: *mut FmuState,
+    function: &str,
+) -> Result<Status, String> {
+    if state.is_null() {
+        return Err(format!("{function}: FMUstate is NULL"));
+    }
+    let snapshot = inst.snapshot();
+    if (*state).is_null() {
+        *state = new_state::<E>(c, snapshot);
+    } else {
+        state_ref::<E>(c, *state, Use::Own, function)?.snapshot = snapshot;
+    }
+    Ok(Status::Ok)
 }
 
 /// # Safety
 /// `state` is NULL or one of ours.
 pub unsafe fn set_fmu_state<E: Export>(c: Component, state: FmuState) -> Status {
-    call::<E>(c, "fmi2SetFMUstate", |inst| {
-        let b = state_ref::<E>(c, state, Use::Read, "fmi2SetFMUstate")?;
-        ok(inst.restore(&b.snapshot))
-    })
+    const F: &str = "fmi2SetFMUstate";
+    call::<E>(c, F, |inst| set_fmu_state_of::<E>(c, inst, state, F))
+}
+
+/// The body of fmi2SetFMUstate and fmi3SetFMUState.
+///
+/// # Safety
+/// As [`set_fmu_state`].
+pub(crate) unsafe fn set_fmu_state_of<E: Export>(
+    c: Component,
+    inst: &mut Inst<E>,
+    state: FmuState,
+    function: &str,
+) -> Result<Status, String> {
+    let b = state_ref::<E>(c, state, Use::Read, function)?;
+    ok(inst.restore(&b.snapshot))
 }
 
 /// # Safety
 /// `state` points to an `fmi2FMUstate` (NULL or one of ours).
 pub unsafe fn free_fmu_state<E: Export>(c: Component, state: *mut FmuState) -> Status {
-    call::<E>(c, "fmi2FreeFMUstate", |inst| {
-        inst.require(machine::FMU_STATE, "fmi2FreeFMUstate")?;
-        if state.is_null() {
-            return Err("fmi2FreeFMUstate: FMUstate is NULL".into());
-        }
-        if (*state).is_null() {
-            return Ok(Status::Ok);
-        }
-        state_ref::<E>(c, *state, Use::Own, "fmi2FreeFMUstate")?;
-        states().remove(&(*state as usize));
-        // SAFETY: a live Box<StateBox> of this instance, just taken out of the registry.
-        drop(Box::from_raw(*state as *mut StateBox));
-        *state = std::ptr::null_mut();
-        Ok(Status::Ok)
+    const F: &str = "fmi2FreeFMUstate";
+    call::<E>(c, F, |inst| {
+        inst.require(machine::FMU_STATE, F)?;
+        free_fmu_state_of::<E>(c, state, F)
     })
+}
+
+/// The body of fmi2FreeFMUstate and fmi3FreeFMUState.
+///
+/// # Safety
+/// As [`free_fmu_state`].
+pub(crate) unsafe fn free_fmu_state_of<E: Export>(
+    c: Component,
+    state: *mut FmuState,
+    function: &str,
+) -> Result<Status, String> {
+    if state.is_null() {
+        return Err(format!("{function}: FMUstate is NULL"));
+    }
+    if (*state).is_null() {
+        return Ok(Status::Ok);
+    }
+    state_ref::<E>(c, *state, Use::Own, function)?;
+    states().remove(&(*state as usize));
+    // SAFETY: a live Box<StateBox> of this instance, just taken out of the registry.
+    drop(Box::from_raw(*state as *mut StateBox));
+    *state = std::ptr::null_mut();
+    Ok(Status::Ok)
 }
 
 /// # Safety
@@ -506,15 +559,30 @@ pub unsafe fn serialized_fmu_state_size<E: Export>(
     state: FmuState,
     size: *mut usize,
 ) -> Status {
-    call::<E>(c, "fmi2SerializedFMUstateSize", |inst| {
-        inst.require(machine::FMU_STATE, "fmi2SerializedFMUstateSize")?;
-        let b = state_ref::<E>(c, state, Use::Read, "fmi2SerializedFMUstateSize")?;
-        if size.is_null() {
-            return Err("fmi2SerializedFMUstateSize: size is NULL".into());
-        }
-        *size = inst.serialize(&b.snapshot).len();
-        Ok(Status::Ok)
+    const F: &str = "fmi2SerializedFMUstateSize";
+    call::<E>(c, F, |inst| {
+        inst.require(machine::FMU_STATE, F)?;
+        serialized_fmu_state_size_of::<E>(c, inst, state, size, F)
     })
+}
+
+/// The body of fmi2SerializedFMUstateSize and fmi3SerializedFMUStateSize.
+///
+/// # Safety
+/// As [`serialized_fmu_state_size`].
+pub(crate) unsafe fn serialized_fmu_state_size_of<E: Export>(
+    c: Component,
+    inst: &Inst<E>,
+    state: FmuState,
+    size: *mut usize,
+    function: &str,
+) -> Result<Status, String> {
+    let b = state_ref::<E>(c, state, Use::Read, function)?;
+    if size.is_null() {
+        return Err(format!("{function}: size is NULL"));
+    }
+    *size = inst.serialize(&b.snapshot).len();
+    Ok(Status::Ok)
 }
 
 /// # Safety
@@ -525,25 +593,36 @@ pub unsafe fn serialize_fmu_state<E: Export>(
     bytes: *mut c_char,
     size: usize,
 ) -> Status {
-    call::<E>(c, "fmi2SerializeFMUstate", |inst| {
-        inst.require(machine::FMU_STATE, "fmi2SerializeFMUstate")?;
-        let b = state_ref::<E>(c, state, Use::Read, "fmi2SerializeFMUstate")?;
-        let blob = inst.serialize(&b.snapshot);
-        if size != blob.len() {
-            return Err(format!(
-                "fmi2SerializeFMUstate: size {size} differs from fmi2SerializedFMUstateSize = {}",
-                blob.len()
-            ));
-        }
-        let out = slice_mut(
-            bytes as *mut u8,
-            size,
-            "serializedState[]",
-            "fmi2SerializeFMUstate",
-        )?;
-        out.copy_from_slice(&blob);
-        Ok(Status::Ok)
+    const F: &str = "fmi2SerializeFMUstate";
+    call::<E>(c, F, |inst| {
+        inst.require(machine::FMU_STATE, F)?;
+        serialize_fmu_state_of::<E>(c, inst, state, bytes as *mut u8, size, F)
     })
+}
+
+/// The body of fmi2SerializeFMUstate and fmi3SerializeFMUState.
+///
+/// # Safety
+/// As [`serialize_fmu_state`].
+pub(crate) unsafe fn serialize_fmu_state_of<E: Export>(
+    c: Component,
+    inst: &Inst<E>,
+    state: FmuState,
+    bytes: *mut u8,
+    size: usize,
+    function: &str,
+) -> Result<Status, String> {
+    let b = state_ref::<E>(c, state, Use::Read, function)?;
+    let blob = inst.serialize(&b.snapshot);
+    if size != blob.len() {
+        return Err(format!(
+            "{function}: size {size} differs from the serialized size {}",
+            blob.len()
+        ));
+    }
+    let out = slice_mut(bytes, size, "serializedState[]", function)?;
+    out.copy_from_slice(&blob);
+    Ok(Status::Ok)
 }
 
 /// # Safety
@@ -554,25 +633,36 @@ pub unsafe fn deserialize_fmu_state<E: Export>(
     size: usize,
     state: *mut FmuState,
 ) -> Status {
-    call::<E>(c, "fmi2DeSerializeFMUstate", |inst| {
-        inst.require(machine::FMU_STATE, "fmi2DeSerializeFMUstate")?;
-        if state.is_null() {
-            return Err("fmi2DeSerializeFMUstate: FMUstate is NULL".into());
-        }
-        let blob = slice(
-            bytes as *const u8,
-            size,
-            "serializedState[]",
-            "fmi2DeSerializeFMUstate",
-        )?;
-        let snapshot = inst.deserialize(blob)?;
-        if (*state).is_null() {
-            *state = new_state::<E>(c, snapshot);
-        } else {
-            state_ref::<E>(c, *state, Use::Own, "fmi2DeSerializeFMUstate")?.snapshot = snapshot;
-        }
-        Ok(Status::Ok)
+    const F: &str = "fmi2DeSerializeFMUstate";
+    call::<E>(c, F, |inst| {
+        inst.require(machine::FMU_STATE, F)?;
+        deserialize_fmu_state_of::<E>(c, inst, bytes as *const u8, size, state, F)
     })
+}
+
+/// The body of fmi2DeSerializeFMUstate and fmi3DeserializeFMUState.
+///
+/// # Safety
+/// As [`deserialize_fmu_state`].
+pub(crate) unsafe fn deserialize_fmu_state_of<E: Export>(
+    c: Component,
+    inst: &Inst<E>,
+    bytes: *const u8,
+    size: usize,
+    state: *mut FmuState,
+    function: &str,
+) -> Result<Status, String> {
+    if state.is_null() {
+        return Err(format!("{function}: FMUstate is NULL"));
+    }
+    let blob = slice(bytes, size, "serializedState[]", function)?;
+    let snapshot = inst.deserialize(blob)?;
+    if (*state).is_null() {
+        *state = new_state::<E>(c, snapshot);
+    } else {
+        state_ref::<E>(c, *state, Use::Own, function)?.snapshot = snapshot;
+    }
+    Ok(Status::Ok)
 }
 
 /// # Safety

@@ -1,0 +1,184 @@
+//! The FMI 3.0 Model Exchange functions, and fmi3UpdateDiscreteStates of both interfaces
+//! (see [`fmi3`](super::fmi3) for what each does first).
+
+use super::fmi3::{call3, put, Bool3};
+use super::{ok, slice, slice_mut, Component};
+use crate::fmi::machine::Interface;
+use crate::fmi::machine3;
+use crate::fmi::{Export, Status};
+
+const ME: Interface = Interface::ModelExchange;
+
+/// fmi3UpdateDiscreteStates. Model Exchange: the event at the time and states set (the
+/// core's fmi2NewDiscreteStates). Co-Simulation: the event was applied inside doStep;
+/// nothing is left to update.
+///
+/// # Safety
+/// The six out-pointers point to writable values.
+pub unsafe fn update_discrete_states<E: Export>(
+    c: Component,
+    discrete_states_need_update: *mut Bool3,
+    terminate_simulation: *mut Bool3,
+    nominals_changed: *mut Bool3,
+    values_changed: *mut Bool3,
+    next_event_time_defined: *mut Bool3,
+    next_event_time: *mut f64,
+) -> Status {
+    const F: &str = "fmi3UpdateDiscreteStates";
+    call3::<E>(c, F, machine3::UPDATE_DISCRETE_STATES, |f| {
+        if [
+            discrete_states_need_update,
+            terminate_simulation,
+            nominals_changed,
+            values_changed,
+            next_event_time_defined,
+        ]
+        .iter()
+        .any(|p| p.is_null())
+            || next_event_time.is_null()
+        {
+            return Err(format!("{F}: an out argument is NULL"));
+        }
+        let info = match f.core.interface() {
+            Interface::ModelExchange => f.core.new_discrete_states()?,
+            Interface::CoSimulation => crate::fmi::EventInfo::default(),
+        };
+        put(discrete_states_need_update, info.new_discrete_states_needed);
+        put(terminate_simulation, info.terminate_simulation);
+        put(nominals_changed, info.nominals_of_continuous_states_changed);
+        put(values_changed, info.values_of_continuous_states_changed);
+        put(next_event_time_defined, info.next_event_time.is_some());
+        *next_event_time = info.next_event_time.unwrap_or(0.0);
+        Ok(Status::Ok)
+    })
+}
+
+pub fn enter_continuous_time_mode<E: Export>(c: Component) -> Status {
+    const F: &str = "fmi3EnterContinuousTimeMode";
+    call3::<E>(c, F, machine3::ENTER_CONTINUOUS_TIME_MODE, |f| {
+        f.require_interface(ME, F)?;
+        ok(f.core.enter_continuous_time_mode())
+    })
+}
+
+/// # Safety
+/// `enter_event_mode` and `terminate_simulation` point to writable fmi3Booleans.
+pub unsafe fn completed_integrator_step<E: Export>(
+    c: Component,
+    _no_set_prior: Bool3,
+    enter_event_mode: *mut Bool3,
+    terminate_simulation: *mut Bool3,
+) -> Status {
+    const F: &str = "fmi3CompletedIntegratorStep";
+    call3::<E>(c, F, machine3::COMPLETED_INTEGRATOR_STEP, |f| {
+        f.require_interface(ME, F)?;
+        if enter_event_mode.is_null() || terminate_simulation.is_null() {
+            return Err(format!(
+                "{F}: enterEventMode or terminateSimulation is NULL"
+            ));
+        }
+        let (enter, terminate) = f.core.completed_integrator_step()?;
+        put(enter_event_mode, enter);
+        put(terminate_simulation, terminate);
+        Ok(Status::Ok)
+    })
+}
+
+pub fn set_time<E: Export>(c: Component, time: f64) -> Status {
+    const F: &str = "fmi3SetTime";
+    call3::<E>(c, F, machine3::SET_TIME, |f| {
+        f.require_interface(ME, F)?;
+        ok(f.core.set_time(time))
+    })
+}
+
+/// # Safety
+/// `x` points to `nx` values when `nx > 0`.
+pub unsafe fn set_continuous_states<E: Export>(c: Component, x: *const f64, nx: usize) -> Status {
+    const F: &str = "fmi3SetContinuousStates";
+    call3::<E>(c, F, machine3::SET_CONTINUOUS_STATES, |f| {
+        f.require_interface(ME, F)?;
+        let x = slice(x, nx, "continuousStates[]", F)?;
+        ok(f.core.set_continuous_states(x))
+    })
+}
+
+/// # Safety
+/// `x` points to `nx` writable values when `nx > 0`.
+pub unsafe fn get_continuous_states<E: Export>(c: Component, x: *mut f64, nx: usize) -> Status {
+    const F: &str = "fmi3GetContinuousStates";
+    call3::<E>(c, F, machine3::ANY, |f| {
+        f.require_interface(ME, F)?;
+        let x = slice_mut(x, nx, "continuousStates[]", F)?;
+        ok(f.core.get_continuous_states(x))
+    })
+}
+
+/// # Safety
+/// As [`get_continuous_states`].
+pub unsafe fn get_continuous_state_derivatives<E: Export>(
+    c: Component,
+    dx: *mut f64,
+    nx: usize,
+) -> Status {
+    const F: &str = "fmi3GetContinuousStateDerivatives";
+    call3::<E>(c, F, machine3::ANY, |f| {
+        f.require_interface(ME, F)?;
+        let dx = slice_mut(dx, nx, "derivatives[]", F)?;
+        f.core.get_derivatives(dx)
+    })
+}
+
+/// # Safety
+/// `z` points to `ni` writable values when `ni > 0`.
+pub unsafe fn get_event_indicators<E: Export>(c: Component, z: *mut f64, ni: usize) -> Status {
+    const F: &str = "fmi3GetEventIndicators";
+    call3::<E>(c, F, machine3::ANY, |f| {
+        f.require_interface(ME, F)?;
+        let z = slice_mut(z, ni, "eventIndicators[]", F)?;
+        f.core.get_event_indicators(z)
+    })
+}
+
+/// # Safety
+/// As [`get_continuous_states`].
+pub unsafe fn get_nominals_of_continuous_states<E: Export>(
+    c: Component,
+    nominals: *mut f64,
+    nx: usize,
+) -> Status {
+    const F: &str = "fmi3GetNominalsOfContinuousStates";
+    call3::<E>(c, F, machine3::ANY, |f| {
+        f.require_interface(ME, F)?;
+        let nominals = slice_mut(nominals, nx, "nominals[]", F)?;
+        ok(f.core.get_nominals(nominals))
+    })
+}
+
+/// fmi3GetNumberOfEventIndicators (either interface: the count is the model's).
+///
+/// # Safety
+/// `n` points to a writable `size_t`.
+pub unsafe fn get_number_of_event_indicators<E: Export>(c: Component, n: *mut usize) -> Status {
+    const F: &str = "fmi3GetNumberOfEventIndicators";
+    call3::<E>(c, F, machine3::COUNTS, |f| {
+        if n.is_null() {
+            return Err(format!("{F}: nEventIndicators is NULL"));
+        }
+        *n = f.core.number_of_event_indicators();
+        Ok(Status::Ok)
+    })
+}
+
+/// # Safety
+/// `n` points to a writable `size_t`.
+pub unsafe fn get_number_of_continuous_states<E: Export>(c: Component, n: *mut usize) -> Status {
+    const F: &str = "fmi3GetNumberOfContinuousStates";
+    call3::<E>(c, F, machine3::COUNTS, |f| {
+        if n.is_null() {
+            return Err(format!("{F}: nContinuousStates is NULL"));
+        }
+        *n = f.core.info.layout.n_states;
+        Ok(Status::Ok)
+    })
+}

@@ -1,0 +1,127 @@
+//! The state machine of FMI 3.0, Co-Simulation (standard, section 4.3) and Model Exchange
+//! (section 3.3), as the FMI 3.0 front-end ([`capi::fmi3`](super::capi::fmi3)) checks it
+//! before it calls the shared core.
+//!
+//! FMI 3.0 differs from FMI 2.0 ([`machine`](super::machine)): Co-Simulation has Step Mode
+//! instead of stepComplete/stepFailed, and an Event Mode of its own when the importer
+//! instantiated with `eventModeUsed`; fmi3EnterInitializationMode takes the experiment
+//! (there is no fmi3SetupExperiment). The FMI 3.0 state is derived from the core's
+//! ([`State3::of`]): the core runs the FMI 2.0 machine underneath (Step Mode is its
+//! stepComplete, or stepFailed after a discarded step), and the one state FMI 2.0 has no
+//! counterpart for, Co-Simulation's Event Mode, is a flag of the FMI 3.0 instance.
+
+use super::machine::Machine;
+
+/// States of an FMI 3.0 instance (Configuration and Reconfiguration Mode and the Clock
+/// states never occur: the models have no structural parameters and no clocks).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum State3 {
+    Instantiated = 1 << 0,
+    InitializationMode = 1 << 1,
+    EventMode = 1 << 2,
+    ContinuousTimeMode = 1 << 3,
+    StepMode = 1 << 4,
+    Terminated = 1 << 5,
+    /// After a panic was caught (the core's error state): only reading, reset and free.
+    Error = 1 << 6,
+}
+
+use State3::*;
+
+const ALL: [State3; 7] = [
+    Instantiated,
+    InitializationMode,
+    EventMode,
+    ContinuousTimeMode,
+    StepMode,
+    Terminated,
+    Error,
+];
+
+impl State3 {
+    /// The FMI 3.0 state of an instance whose core is in `core`; `cs_event_mode`: a
+    /// Co-Simulation instance in Event Mode.
+    pub fn of(core: Machine, cs_event_mode: bool) -> State3 {
+        match core {
+            Machine::Instantiated => Instantiated,
+            Machine::InitializationMode => InitializationMode,
+            Machine::StepComplete | Machine::StepFailed if cs_event_mode => EventMode,
+            Machine::StepComplete | Machine::StepFailed => StepMode,
+            Machine::EventMode => EventMode,
+            Machine::ContinuousTimeMode => ContinuousTimeMode,
+            Machine::Terminated => Terminated,
+            Machine::Error => Error,
+        }
+    }
+
+    pub fn code(self) -> u32 {
+        self as u32
+    }
+}
+
+const fn mask(states: &[State3]) -> u32 {
+    let mut m = 0;
+    let mut i = 0;
+    while i < states.len() {
+        m |= states[i] as u32;
+        i += 1;
+    }
+    m
+}
+
+pub const ANY: u32 = mask(&ALL);
+pub const ENTER_INIT: u32 = mask(&[Instantiated]);
+pub const EXIT_INIT: u32 = mask(&[InitializationMode]);
+/// Model Exchange from Continuous-Time Mode; Co-Simulation (eventModeUsed) from Step Mode.
+pub const ENTER_EVENT_MODE: u32 = mask(&[ContinuousTimeMode, StepMode]);
+pub const TERMINATE: u32 = mask(&[EventMode, ContinuousTimeMode, StepMode]);
+pub const GET: u32 = mask(&[
+    InitializationMode,
+    EventMode,
+    ContinuousTimeMode,
+    StepMode,
+    Terminated,
+    Error,
+]);
+pub const SET: u32 = mask(&[
+    Instantiated,
+    InitializationMode,
+    EventMode,
+    ContinuousTimeMode,
+    StepMode,
+]);
+pub const FMU_STATE: u32 = ANY;
+pub const DERIVATIVES: u32 = mask(&[
+    InitializationMode,
+    EventMode,
+    ContinuousTimeMode,
+    StepMode,
+    Terminated,
+]);
+pub const UPDATE_DISCRETE_STATES: u32 = mask(&[EventMode]);
+pub const EVALUATE_DISCRETE_STATES: u32 =
+    mask(&[InitializationMode, EventMode, ContinuousTimeMode, StepMode]);
+// Model Exchange.
+pub const ENTER_CONTINUOUS_TIME_MODE: u32 = mask(&[EventMode]);
+pub const COMPLETED_INTEGRATOR_STEP: u32 = mask(&[ContinuousTimeMode]);
+pub const SET_TIME: u32 = mask(&[EventMode, ContinuousTimeMode]);
+pub const SET_CONTINUOUS_STATES: u32 = mask(&[ContinuousTimeMode]);
+pub const COUNTS: u32 = ANY;
+// Co-Simulation.
+pub const ENTER_STEP_MODE: u32 = mask(&[EventMode]);
+pub const DO_STEP: u32 = mask(&[StepMode]);
+pub const OUTPUT_DERIVATIVES: u32 = mask(&[StepMode, Terminated, Error]);
+
+/// Names of the states a mask admits, for error messages.
+pub fn describe(mask: u32) -> String {
+    let names: Vec<String> = ALL
+        .into_iter()
+        .filter(|s| mask & s.code() != 0)
+        .map(|s| format!("{s:?}"))
+        .collect();
+    if names.is_empty() {
+        "none".into()
+    } else {
+        names.join(", ")
+    }
+}

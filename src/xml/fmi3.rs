@@ -1,0 +1,259 @@
+//! The FMI 3.0 modelDescription.xml of a [`System`]: the same variables, value references,
+//! units and dependencies as the FMI 2.0 one ([`super::model_description`]), in FMI 3.0's
+//! form, for the same binary (its fmi3 symbols, `capi::fmi3`).
+//!
+//! What FMI 3.0 adds: `time`, the independent variable, at the first free value reference,
+//! and the event indicator (a model with one) at the next, referenced by `<EventIndicator>`
+//! ([`extra_vrs`]). The instantiationToken is the FMI 2.0 GUID: one binary, one model.
+//! Enumerations are FMI 3.0's `<Enumeration>` (read with fmi3GetInt64).
+
+use super::{close, empty, fmi_attributes, fmt_real, has_start, open, s, units, W};
+use super::{dependencies, GENERATION_TOOL};
+use crate::fmi::capi::fmi3::extra_vrs;
+use crate::integrators::Method;
+use crate::model::{Layout, Probe, System, VarKind};
+use quick_xml::events::{BytesDecl, Event};
+use quick_xml::Writer;
+use std::io::Cursor;
+
+/// Log categories of the FMI 3.0 description (the names fmi3SetDebugLogging accepts are
+/// FMI 2.0's: [`super::LOG_CATEGORIES`]).
+const CATEGORIES3: &[(&str, &str)] = &[
+    ("logStatusWarning", "Calls that returned fmi3Warning"),
+    (
+        "logStatusDiscard",
+        "Calls that returned fmi3Discard (a step that could not be completed)",
+    ),
+    (
+        "logStatusError",
+        "Calls that returned fmi3Error (bad arguments, illegal call sequence)",
+    ),
+    ("logStatusFatal", "Calls that returned fmi3Fatal"),
+    ("logAll", "Every FMI call, for debugging"),
+];
+
+/// The FMI 3.0 model description of `M`.
+pub fn model_description3<M: System>() -> String {
+    let layout = Layout::of::<M>();
+    let deps = dependencies::<M>(&layout);
+    let probe = Probe::of::<M>(&layout);
+    let guid = super::guid::<M>();
+    let (stop, tol, step) = M::default_experiment();
+    let mut w = Writer::new_with_indent(Cursor::new(Vec::new()), b' ', 2);
+    w.write_event(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)))
+        .expect("write to memory");
+    assert_eq!(
+        super::LOG_CATEGORIES.len(),
+        CATEGORIES3.len(),
+        "the same categories"
+    );
+
+    open(
+        &mut w,
+        "fmiModelDescription",
+        &[
+            ("fmiVersion", s("3.0")),
+            ("modelName", s(M::NAME)),
+            ("instantiationToken", guid),
+            ("description", s(M::DESCRIPTION)),
+            ("generationTool", s(GENERATION_TOOL)),
+        ],
+    );
+    let common = |w: &mut W, tag: &str, extra: Vec<(&str, String)>| {
+        let mut attrs = vec![
+            ("modelIdentifier", s(M::NAME)),
+            ("needsExecutionTool", s(false)),
+            ("canBeInstantiatedOnlyOncePerProcess", s(false)),
+            ("canGetAndSetFMUState", s(true)),
+            ("canSerializeFMUState", s(true)),
+            ("providesDirectionalDerivatives", s(true)),
+            ("providesAdjointDerivatives", s(true)),
+        ];
+        attrs.extend(extra);
+        empty(w, tag, &attrs);
+    };
+    // A constrained system needs fmi3CompletedIntegratorStep: it asks for the step events
+    // that project.
+    common(
+        &mut w,
+        "ModelExchange",
+        vec![("needsCompletedIntegratorStep", s(probe.projects))],
+    );
+    common(
+        &mut w,
+        "CoSimulation",
+        vec![
+            ("canHandleVariableCommunicationStepSize", s(true)),
+            (
+                "maxOutputDerivativeOrder",
+                s(crate::model::jacobian::output_derivative_order::<M>()),
+            ),
+            ("providesIntermediateUpdate", s(true)),
+            ("mightReturnEarlyFromDoStep", s(probe.event_indicators > 0)),
+            ("canReturnEarlyAfterIntermediateUpdate", s(true)),
+            ("hasEventMode", s(true)),
+        ],
+    );
+
+    units::write_unit_definitions(&mut w, &layout);
+
+    open(&mut w, "TypeDefinitions", &[]);
+    open(&mut w, "EnumerationType", &[("name", s("Solver"))]);
+    for m in Method::ALL {
+        empty(
+            &mut w,
+            "Item",
+            &[
+                ("name", s(m.name())),
+                ("value", s(m.code())),
+                ("description", s(m.description())),
+            ],
+        );
+    }
+    close(&mut w, "EnumerationType");
+    close(&mut w, "TypeDefinitions");
+
+    open(&mut w, "LogCategories", &[]);
+    for (name, description) in CATEGORIES3 {
+        empty(
+            &mut w,
+            "Category",
+            &[("name", s(name)), ("description", s(description))],
+        );
+    }
+    close(&mut w, "LogCategories");
+
+    empty(
+        &mut w,
+        "DefaultExperiment",
+        &[
+            ("startTime", s("0")),
+            ("stopTime", fmt_real(stop)),
+            ("tolerance", fmt_real(tol)),
+            ("stepSize", fmt_real(step)),
+        ],
+    );
+
+    let (time_vr, indicator_vr) = extra_vrs(layout.vars.len(), probe.event_indicators);
+    open(&mut w, "ModelVariables", &[]);
+    empty(
+        &mut w,
+        "Float64",
+        &[
+            ("name", s("time")),
+            ("valueReference", s(time_vr)),
+            ("description", s("Simulation time")),
+            ("causality", s("independent")),
+            ("variability", s("continuous")),
+            ("unit", s("s")),
+        ],
+    );
+    for (vr, (slot, var)) in layout.vars.iter().enumerate() {
+        let mut attrs = vec![
+            ("name", s(&var.name)),
+            ("valueReference", s(vr)),
+            ("description", s(&var.description)),
+        ];
+        let (causality, variability, mut initial) = fmi_attributes(*slot);
+        if var.dependent {
+            initial = Some("approx");
+        }
+        attrs.push(("causality", s(causality)));
+        attrs.push(("variability", s(variability)));
+        if let Some(initial) = initial {
+            attrs.push(("initial", s(initial)));
+        }
+        if slot.kind == VarKind::SolverMethod {
+            attrs.push(("declaredType", s("Solver")));
+            attrs.push(("start", s(var.start as i32)));
+            empty(&mut w, "Enumeration", &attrs);
+        } else if matches!(slot.kind, VarKind::SolverMaxSteps | VarKind::MeProjection) {
+            for (name, bound) in [("min", var.min), ("max", var.max)] {
+                if let Some(bound) = bound {
+                    attrs.push((name, s(bound as i32)));
+                }
+            }
+            attrs.push(("start", s(var.start as i32)));
+            empty(&mut w, "Int32", &attrs);
+        } else {
+            if let Some(unit) = &var.unit {
+                attrs.push(("unit", s(unit)));
+                if let Some(display) = units::display_unit(unit) {
+                    attrs.push(("displayUnit", s(display)));
+                }
+            }
+            if let Some(min) = var.min {
+                attrs.push(("min", fmt_real(min)));
+            }
+            if let Some(max) = var.max {
+                attrs.push(("max", fmt_real(max)));
+            }
+            if let Some(nominal) = var.nominal {
+                attrs.push(("nominal", fmt_real(nominal)));
+            }
+            if has_start(slot.kind) {
+                attrs.push(("start", fmt_real(var.start)));
+            }
+            if slot.kind == VarKind::Derivative {
+                attrs.push((
+                    "derivative",
+                    s(layout.vr_of_slot(VarKind::State, slot.index)),
+                ));
+            }
+            if slot.kind == VarKind::State && probe.reinit[slot.index] {
+                attrs.push(("reinit", s(true)));
+            }
+            empty(&mut w, "Float64", &attrs);
+        }
+    }
+    if let Some(vr) = indicator_vr {
+        empty(
+            &mut w,
+            "Float64",
+            &[
+                ("name", s("event_indicator")),
+                ("valueReference", s(vr)),
+                (
+                    "description",
+                    s("The model's event indicator: an event where it changes sign"),
+                ),
+                ("causality", s("local")),
+                ("variability", s("continuous")),
+                ("initial", s("calculated")),
+            ],
+        );
+    }
+    close(&mut w, "ModelVariables");
+
+    // FMI 2.0's dependency lists name variables by index (value reference + 1); FMI 3.0's
+    // by value reference.
+    let vrs = |on: &[usize]| -> String {
+        on.iter()
+            .map(|i| (i - 1).to_string())
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    open(&mut w, "ModelStructure", &[]);
+    for (tag, list) in [
+        ("Output", &deps.outputs),
+        ("ContinuousStateDerivative", &deps.derivatives),
+        ("InitialUnknown", &deps.initial_unknowns),
+    ] {
+        for (index, on) in list {
+            empty(
+                &mut w,
+                tag,
+                &[("valueReference", s(index - 1)), ("dependencies", vrs(on))],
+            );
+        }
+    }
+    if let Some(vr) = indicator_vr {
+        empty(&mut w, "EventIndicator", &[("valueReference", s(vr))]);
+    }
+    close(&mut w, "ModelStructure");
+    close(&mut w, "fmiModelDescription");
+
+    let mut text = String::from_utf8(w.into_inner().into_inner()).expect("utf-8");
+    text.push('\n');
+    text
+}
