@@ -32,6 +32,25 @@ const CATEGORIES3: &[(&str, &str)] = &[
     ("logAll", "Every FMI call, for debugging"),
 ];
 
+/// A description written for FMI 2.0 in FMI 3.0's words: the functions it names are their
+/// FMI 3.0 counterparts (fmi2SetupExperiment's tolerance is fmi3EnterInitializationMode's,
+/// fmi2NewDiscreteStates is fmi3UpdateDiscreteStates, …; the statuses and the other
+/// functions keep their names with a 3).
+fn fmi3_words(text: &str) -> String {
+    const RENAMED: [(&str, &str); 5] = [
+        ("fmi2SetupExperiment", "fmi3EnterInitializationMode"),
+        ("fmi2NewDiscreteStates", "fmi3UpdateDiscreteStates"),
+        ("fmi2GetDerivatives", "fmi3GetContinuousStateDerivatives"),
+        ("fmi2GetReal", "fmi3GetFloat64"),
+        ("fmi2SetReal", "fmi3SetFloat64"),
+    ];
+    let mut t = text.to_string();
+    for (old, new) in RENAMED {
+        t = t.replace(old, new);
+    }
+    t.replace("fmi2", "fmi3")
+}
+
 /// The FMI 3.0 model description of `M`.
 pub fn model_description3<M: System>() -> String {
     let layout = Layout::of::<M>();
@@ -55,7 +74,7 @@ pub fn model_description3<M: System>() -> String {
             ("fmiVersion", s("3.0")),
             ("modelName", s(M::NAME)),
             ("instantiationToken", guid),
-            ("description", s(M::DESCRIPTION)),
+            ("description", fmi3_words(M::DESCRIPTION)),
             ("generationTool", s(GENERATION_TOOL)),
         ],
     );
@@ -106,7 +125,7 @@ pub fn model_description3<M: System>() -> String {
             &[
                 ("name", s(m.name())),
                 ("value", s(m.code())),
-                ("description", s(m.description())),
+                ("description", fmi3_words(m.description())),
             ],
         );
     }
@@ -152,7 +171,7 @@ pub fn model_description3<M: System>() -> String {
         let mut attrs = vec![
             ("name", s(&var.name)),
             ("valueReference", s(vr)),
-            ("description", s(&var.description)),
+            ("description", fmi3_words(&var.description)),
         ];
         let (causality, variability, mut initial) = fmi_attributes(*slot);
         if var.dependent {
@@ -256,4 +275,26 @@ pub fn model_description3<M: System>() -> String {
     let mut text = String::from_utf8(w.into_inner().into_inner()).expect("utf-8");
     text.push('\n');
     text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The FMI 3.0 description speaks of FMI 3.0's functions and statuses only.
+    #[test]
+    fn the_fmi3_description_names_no_fmi2_function() {
+        for xml in [
+            model_description3::<crate::systems::MassSpringDamper>(),
+            model_description3::<crate::systems::SphereSlide>(),
+            model_description3::<crate::systems::AndrewsSqueezer>(),
+        ] {
+            assert!(xml.contains("fmi3EnterInitializationMode"), "{xml}");
+            assert!(!xml.contains("fmi2"), "{xml}");
+        }
+        assert_eq!(
+            fmi3_words("fmi2SetupExperiment, then fmi2DoStep answers fmi2Discard"),
+            "fmi3EnterInitializationMode, then fmi3DoStep answers fmi3Discard"
+        );
+    }
 }
