@@ -752,3 +752,74 @@ fn a_plain_run_equals_fmi2_bit_for_bit() {
     }
     unsafe { fmi2FreeInstance(c2) };
 }
+
+/// fmi3GetAdjointDerivative checks its unknowns even when there is no known to seed: an
+/// unknown value reference and a variable that is no unknown (the Integer `me_projection`)
+/// are refused with one line each (FMI 3.0: unknowns are Float64 outputs, derivatives or
+/// states). Found by random call sequences: with nKnowns = 0 both were answered fmi3OK.
+#[test]
+fn adjoint_with_no_knowns_still_checks_its_unknowns() {
+    let f = Fmu3::me(9);
+    f.init();
+    let seed = [1.0];
+    let mut out = [0.0; 1];
+    for bad in [u32::MAX, vr("me_projection")] {
+        let s = unsafe {
+            fmi3GetAdjointDerivative(
+                f.c,
+                &bad,
+                1,
+                std::ptr::null(),
+                0,
+                seed.as_ptr(),
+                1,
+                out.as_mut_ptr(),
+                0,
+            )
+        };
+        assert_eq!(s, Status::Error, "unknown {bad}");
+    }
+    assert_eq!(f.errors(), 2);
+    // A proper unknown with no knowns: nothing to compute, fmi3OK.
+    let good = vr("der(x)");
+    let s = unsafe {
+        fmi3GetAdjointDerivative(
+            f.c,
+            &good,
+            1,
+            std::ptr::null(),
+            0,
+            seed.as_ptr(),
+            1,
+            out.as_mut_ptr(),
+            0,
+        )
+    };
+    assert_eq!(s, Status::Ok);
+}
+
+/// A Co-Simulation instance made with eventModeUsed that restores a state in Event Mode
+/// stays in Event Mode: fmi3DoStep is refused until fmi3EnterStepMode, which is allowed.
+#[test]
+fn set_fmu_state_in_event_mode_stays_in_event_mode() {
+    let f = Fmu3::cs(10, true, false);
+    f.init(); // eventModeUsed: Event Mode after initialisation
+    let mut state: *mut c_void = std::ptr::null_mut();
+    assert_eq!(unsafe { fmi3GetFMUState(f.c, &mut state) }, Status::Ok);
+    assert_eq!(fmi3EnterStepMode(f.c), Status::Ok);
+    assert_eq!(f.step(0.0, 0.1).0, Status::Ok);
+    assert_eq!(fmi3EnterEventMode(f.c), Status::Ok);
+    assert_eq!(unsafe { fmi3SetFMUState(f.c, state) }, Status::Ok);
+    assert_eq!(f.get(time_vr()), 0.0);
+    assert_eq!(f.errors(), 0);
+    let (status, ..) = f.step(0.0, 0.1);
+    assert_eq!(status, Status::Error, "doStep in Event Mode");
+    assert_eq!(f.errors(), 1);
+    assert_eq!(fmi3EnterStepMode(f.c), Status::Ok, "Event Mode → Step Mode");
+    assert_eq!(f.step(0.0, 0.1).0, Status::Ok);
+    // Restored from Step Mode, it stays in Step Mode.
+    assert_eq!(unsafe { fmi3SetFMUState(f.c, state) }, Status::Ok);
+    assert_eq!(f.step(0.0, 0.1).0, Status::Ok);
+    assert_eq!(f.errors(), 1);
+    assert_eq!(unsafe { fmi3FreeFMUState(f.c, &mut state) }, Status::Ok);
+}

@@ -558,18 +558,7 @@ impl<M: System> Instance<M> {
                 }
             }
         }
-        for &vr in unknowns {
-            let slot = self.slot(F, vr)?;
-            if !matches!(
-                slot.kind,
-                VarKind::State | VarKind::Derivative | VarKind::Output
-            ) {
-                return Err(format!(
-                    "{F}: {} (value reference {vr}) is not an unknown: use outputs or state derivatives",
-                    self.name(vr)
-                ));
-            }
-        }
+        self.check_unknowns(F, unknowns)?;
         let zeros_p = zeroed(zeros_p, d.params.len());
         let (df, dg) = (
             zeroed(df, d.x.len()),
@@ -594,6 +583,24 @@ impl<M: System> Instance<M> {
             let (vr, v) = (unknowns[i], dv_unknown[i]);
             drop(work);
             return Err(self.not_finite(F, vr, v));
+        }
+        Ok(())
+    }
+
+    /// Every unknown of a derivative request is a state, a state derivative or an output;
+    /// checked whatever the counts (an adjoint with no knowns still names its unknowns).
+    pub fn check_unknowns(&self, function: &str, unknowns: &[u32]) -> Res {
+        for &vr in unknowns {
+            let slot = self.slot(function, vr)?;
+            if !matches!(
+                slot.kind,
+                VarKind::State | VarKind::Derivative | VarKind::Output
+            ) {
+                return Err(format!(
+                    "{function}: {} (value reference {vr}) is not an unknown: use outputs or state derivatives",
+                    self.name(vr)
+                ));
+            }
         }
         Ok(())
     }

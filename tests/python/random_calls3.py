@@ -468,8 +468,12 @@ class Sequence:
         elif choice == 1:
             p, state, t, failed = r.choice(self.states_made)
             self.call("fmi3SetFMUState", self.c, p, expect={OK})
-            # A state taken in Co-Simulation's Event Mode comes back in Step Mode.
-            self.state = "Step" if (state == "Event" and self.iface == "CS") else state
+            # Co-Simulation: Step Mode and Event Mode share the restored core state; the
+            # instance stays in the one it was in (only fmi3EnterStepMode leaves Event Mode).
+            if self.iface == "CS" and state in ("Step", "Event"):
+                self.state = "Event" if self.state == "Event" else "Step"
+            else:
+                self.state = state
             self.time, self.failed = t, failed
         elif choice == 2:
             i = r.randrange(len(self.states_made))

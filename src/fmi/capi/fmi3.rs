@@ -10,12 +10,13 @@
 //!
 //! Variables: the value references of FMI 2.0, plus `time` (the independent variable) at
 //! the first free value reference and, for a model with an event indicator, the indicator
-//! at the next one ([`extra_vrs`]). Types: Float64 (FMI 2.0's Real), Int32 (Integer) and
-//! Int64 (the Enumeration `solver`: FMI 3.0 reads enumerations as Int64); every other type
-//! answers fmi3Error for any value reference.
+//! at the next one ([`Layout::fmi3_extra_vrs`](crate::model::Layout::fmi3_extra_vrs)).
+//! Types: Float64 (FMI 2.0's Real), Int32 (Integer) and Int64 (the Enumeration `solver`:
+//! FMI 3.0 reads enumerations as Int64); every other type answers fmi3Error for any value
+//! reference.
 
 use super::{free_states_of, ok, slice, slice_mut, Component, FmuState};
-use crate::fmi::machine::Interface;
+use crate::fmi::machine::{Interface, Machine};
 use crate::fmi::machine3::{self, State3};
 use crate::fmi::{Export, Instance, Logger, Status};
 use crate::model::{System, VarKind};
@@ -653,8 +654,9 @@ pub unsafe fn get_fmu_state<E: Export>(c: Component, state: *mut FmuState) -> St
     })
 }
 
-/// Restores the core; an FMI 3.0 instance comes back in Step Mode (Co-Simulation) — a
-/// state taken in Co-Simulation's Event Mode is taken at the same time and values.
+/// Restores the core. The FMI 3.0 mode does not change (a Co-Simulation instance in Event
+/// Mode stays there: only fmi3EnterStepMode leaves it), unless the restored core cannot be
+/// in it.
 ///
 /// # Safety
 /// `state` is NULL or one of ours.
@@ -662,7 +664,10 @@ pub unsafe fn set_fmu_state<E: Export>(c: Component, state: FmuState) -> Status 
     const F: &str = "fmi3SetFMUState";
     call3::<E>(c, F, machine3::FMU_STATE, |f| {
         let status = super::set_fmu_state_of::<E>(c, &mut f.core, state, F)?;
-        f.cs_event_mode = false;
+        f.cs_event_mode &= matches!(
+            f.core.machine(),
+            Machine::StepComplete | Machine::StepFailed
+        );
         Ok(status)
     })
 }
@@ -771,6 +776,8 @@ pub unsafe fn get_adjoint_derivative<E: Export>(c: Component, a: Seeds) -> Statu
         if let Some(v) = seed.iter().find(|v| !v.is_finite()) {
             return Err(format!("{F}: a seed is not finite ({v})"));
         }
+        // The loop below checks the unknowns only when there is a known to seed.
+        f.core.check_unknowns(F, unknowns)?;
         let mut unit = vec![0.0; knowns.len()];
         let mut column = vec![0.0; unknowns.len()];
         let mut result = vec![0.0; knowns.len()];
