@@ -581,8 +581,9 @@ fn import_rk4<M: System>(inst: &mut Instance<M>, t_end: f64, h: f64) -> (f64, us
     (worst, events)
 }
 
-/// A constrained system under Model Exchange stays on its constraints through step events;
-/// with `me_projection` = 0 the same importer drifts off them by orders of magnitude more.
+/// A constrained system under Model Exchange stays on its constraints through step events,
+/// to within the rule that asks for them (a state off by more than 10 × the tolerance, 1e-8
+/// here, of its scale); with `me_projection` = 0 the same importer drifts off them further.
 #[test]
 fn step_events_keep_constrained_systems_on_their_constraints() {
     fn case<M: System>(t_end: f64, h: f64) {
@@ -600,17 +601,24 @@ fn step_events_keep_constrained_systems_on_their_constraints() {
             "{}: no step events with me_projection = 0",
             M::NAME
         );
-        assert!(events > 0, "{}", M::NAME);
-        assert!(kept < 1e-12, "{}: {kept}", M::NAME);
-        assert!(
-            drift > 1e3 * kept.max(1e-15),
-            "{}: {drift} vs {kept}",
-            M::NAME
-        );
+        // The residual in its own units (lengths and rates together) from a 1e-7 move per
+        // state, plus one step's drift before the check: below 50 × the tolerance (the same
+        // bound as tests/python/test_model_exchange.py's under CVODE).
+        assert!(kept < 50.0 * 1e-8, "{}: {kept}", M::NAME);
+        if drift > 1e-6 {
+            assert!(events > 0, "{}", M::NAME);
+            assert!(drift > 100.0 * kept, "{}: {drift} vs {kept}", M::NAME);
+        } else {
+            // Within the rule's 1e-7 per state (RK4 at h = 1e-2 keeps the bicycle's
+            // constraints to 1e-10 over 1 s): no event, no restart asked of the importer.
+            assert!(drift < 1e-7, "{}: {drift}", M::NAME);
+            assert_eq!(events, 0, "{}", M::NAME);
+        }
     }
     case::<SliderCrankSurplus>(1.0, 1e-2);
     case::<NonlinearBicycle>(1.0, 1e-2);
     case::<SphereSlide>(2.3, 1e-2);
+    case::<SphereSlide>(2.3, 5e-2);
 }
 
 /// SphereSlide: the normal force is the indicator while on the sphere; once it changed sign

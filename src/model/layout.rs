@@ -125,7 +125,7 @@ impl Layout {
                 "me_projection",
                 None,
                 1.0,
-                "Model Exchange only: 1 (default) keeps a constrained system on its constraints: fmi2CompletedIntegratorStep asks for event mode when the state has left them, and fmi2NewDiscreteStates projects it back (valuesOfContinuousStatesChanged); 0 leaves the importer's states as integrated (the constraints drift). No effect on a system without constraints, nor in Co-Simulation, whose doStep always projects",
+                "Model Exchange only: 1 (default) keeps a constrained system on its constraints: fmi2CompletedIntegratorStep asks for event mode when the state has left them by more than 10 × the tolerance (of each state's magnitude or nominal), and fmi2NewDiscreteStates projects it back (valuesOfContinuousStatesChanged); 0 leaves the importer's states as integrated (the constraints drift). No effect on a system without constraints, nor in Co-Simulation, whose doStep always projects",
             )
             .min(0.0)
             .max(1.0)],

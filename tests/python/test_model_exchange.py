@@ -136,6 +136,46 @@ def test_sphere_slide_departs_where_co_simulation_does(load_model):
           f"({cs['time'][k - 1]:.3f}, {cs['time'][k]:.3f}]")
 
 
+def test_sphere_slide_projection_costs_no_accuracy(load_model):
+    """SphereSlide under CVODE at rtol 1e-9: θ with the step events' projection is at least
+    as close to an independent reference as without it, while the particle is on the
+    sphere. The reference: θ'' = (g/R) sin θ from rest at θ0 (the motion on the sphere in
+    its one coordinate), scipy's DOP853 at rtol 1e-13.
+
+    The step events cost accuracy through the restarts they force on the importer (fmpy
+    re-initialises CVODE after every event), not through the projection: asked at rounding
+    level (238 events) θ was ten times further off than without projection. They are now
+    asked only beyond 10 × the tolerance (2 events here)."""
+    from scipy.integrate import solve_ivp
+
+    model = load_model("SphereSlide")
+    start = {n: float(model.vars[n].start) for n in ("x", "h", "R", "g")}
+    theta0 = math.atan2(start["x"], start["h"])
+    leaves = math.acos(2.0 / 3.0 * math.cos(theta0))
+    stop = 2.75  # the particle leaves the sphere at about 2.5 s
+    reference = solve_ivp(lambda t, y: [y[1], start["g"] / start["R"] * math.sin(y[0])],
+                          (0.0, stop), [theta0, 0.0], method="DOP853", rtol=1e-13,
+                          atol=1e-15, dense_output=True)
+    errors, events = {}, {}
+    for projection in (True, False):
+        me, before = me_run(model, {}, stop, 1e-2, rtol=1e-9, projection=projection,
+                            output=["theta"])
+        ref = reference.sol(me["time"])[0]
+        on = ref < leaves - 0.05  # on the sphere, away from the departure event
+        errors[projection] = float(np.max(np.abs(me["theta"][on] - ref[on])))
+        events[projection] = len(before)
+    print(f"METRIC SphereSlide ME rtol 1e-9, max |θ − θ_ref| on the sphere: "
+          f"{errors[True]:.2e} with projection ({events[True]} step events), "
+          f"{errors[False]:.2e} without")
+    assert events[False] == 0
+    assert 0 < events[True] <= 10
+    # "At least as accurate", within 10 %: the two runs differ by their few restarts, and
+    # the error at the end has been amplified ~1600 times by the unstable equilibrium at the
+    # top (e^(2.35 √(g/R))), so which last bits start it moves the ratio by a few percent.
+    assert errors[True] <= 1.1 * errors[False], errors
+    assert errors[False] < 1e-4
+
+
 def _cs_event_time(model, start_values: dict, stop: float, h: float) -> float:
     """The time a Co-Simulation run stops at its event: doStep answers fmi2Discard there and
     lastSuccessfulTime is the event."""
@@ -179,9 +219,15 @@ def test_terminating_events_land_where_co_simulation_stops(name, start_values, s
 
 # Constraint residual with and without the step events' projection (CVODE at rtol 1e-8,
 # fmi2CompletedIntegratorStep once per output interval of 1e-2 s), measured in
-# docs/interfaces.md: with projection every output point is on the constraints to rounding
-# (below 1e-12), without it these systems drift to 1e-7 … 1e-4.
+# docs/interfaces.md. A step event is asked for when the projection would move a state by
+# more than 10 × the experiment's tolerance of its scale (fmpy sets no tolerance in Model
+# Exchange: the DefaultExperiment's, 1e-8 here). The residual at the outputs stays below
+# KEPT × that tolerance: measured 3.4e-7 at the most (SliderCrankSurplus) where the rule's
+# 1e-7 per state becomes a residual in its own units (lengths and rates together, |q|² − 1
+# twice the move) and the drift grows for one output interval before it is checked.
+# Without the projection these systems drift to 1.5e-7 … 9e-5.
 DRIFTING = ["SliderCrankSurplus", "RollingDisk", "NonlinearBicycle", "SphereSlide", "RigidBody"]
+KEPT = 50.0
 
 
 @pytest.mark.parametrize("name", [n for n in CONSTRAINED if n in FMUS])
@@ -189,6 +235,7 @@ def test_constrained_systems_keep_their_constraints_through_step_events(name, lo
     model = load_model(name)
     entry = next(m for m in catalogue() if m["name"] == name)
     sv, stop = entry["scenes"][0]["start_values"], entry["scenes"][0]["stop_time"]
+    tolerance = float(model.md.defaultExperiment.tolerance)
     on, before = me_run(model, sv, stop, 1e-2, rtol=1e-8, projection=True)
     off, none = me_run(model, sv, stop, 1e-2, rtol=1e-8, projection=False)
     kept = float(np.max(residuals(model, on, sv)))
@@ -197,9 +244,10 @@ def test_constrained_systems_keep_their_constraints_through_step_events(name, lo
     print(f"METRIC {name} ME residual at outputs: {kept:.1e} with projection "
           f"({len(before)} step events, {pre:.1e} before them), {drift:.1e} without")
     assert none == [], "no step events with me_projection = 0"
-    assert kept < 1e-12
+    assert kept < KEPT * tolerance, (kept, tolerance)
     if name in DRIFTING:
         assert len(before) > 0
-        assert drift > 1e4 * max(kept, 1e-16) and drift > 1e-8, (kept, drift)
+        assert drift > kept, (kept, drift)
     else:  # linear constraints: CVODE keeps them itself, the projection has nothing to do
+        assert before == []
         assert drift < 1e-11
