@@ -2,9 +2,10 @@
 `mbfmu build --manifest-path` and `mbfmu linearize --manifest-path`; the CLI's help,
 version and errors; and the in-tree FMUs carrying the committed modelDescription/ texts.
 
-The user's crate builds into this tree's target folder (CARGO_TARGET_DIR), so its
-dependencies compile once (about 2.5 min on 2 cores the first time; a change of the
-model's file about 15 s).
+The user's crate builds into target/urdf-target (CARGO_TARGET_DIR), where `build --urdf`
+builds the robots of test_urdf_fmu.py: both depend on mbfmu without its `cli` feature, so
+it compiles once for all of them (about 2.5 min on 2 cores; a change of the model's file
+about 15 s).
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ def run(*args, cwd=None, check=True, env=None):
 
 
 def build_env():
-    target = cli().parent.parent
+    target = cli().parent.parent / "urdf-target"
     return {**os.environ, "CARGO_TARGET_DIR": str(target)}
 
 
