@@ -1,11 +1,13 @@
-//! mbfmu: multibody mechanics models exported as FMI 2.0 Co-Simulation FMUs.
+//! mbfmu: multibody mechanics models exported as FMUs: FMI 2.0 and FMI 3.0, Co-Simulation
+//! and Model Exchange, all four from one binary.
 //!
 //! - [`model`]: how a system is declared (variables, dynamics, scenes): physics only.
 //! - [`systems`]: the textbook systems, one file each.
-//! - [`integrators`]: the methods that advance a system inside `fmi2DoStep`.
-//! - [`fmi`]: the FMI 2.0 Co-Simulation boundary (the only `unsafe` and `extern "C"`
-//!   but the packager's dlopen in `package::library`).
-//! - [`xml`]: modelDescription.xml and its ModelStructure, generated from a system.
+//! - [`integrators`]: the methods that advance a system inside a Co-Simulation doStep.
+//! - [`fmi`]: the FMI boundary, FMI 2.0 and 3.0, Co-Simulation and Model Exchange (the only
+//!   `unsafe` and `extern "C"` but the packager's dlopen in `package::library`).
+//! - [`xml`]: modelDescription.xml (FMI 2.0 and 3.0) and its ModelStructure, generated from
+//!   a system.
 //! - [`package`]: the FMU archive and its documentation page.
 //! - [`linearize`]: A, B, C, D at an operating point, exact, and their export formats.
 //! - [`bench`]: the work–precision sweeps of `mbfmu bench`.

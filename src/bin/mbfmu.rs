@@ -20,7 +20,7 @@ use std::time::Duration;
 #[command(
     name = "mbfmu",
     version,
-    about = "Multibody mechanics models as FMI 2.0 Co-Simulation FMUs",
+    about = "Multibody mechanics models as FMUs (FMI 2.0 and 3.0, Co-Simulation and Model Exchange)",
     arg_required_else_help = true
 )]
 struct Cli {
