@@ -158,6 +158,13 @@ impl Layout {
     pub fn slot(&self, vr: u32) -> Option<Slot> {
         self.vars.get(vr as usize).map(|(s, _)| *s)
     }
+
+    /// The value references FMI 3.0 adds after these (FMI 2.0's): `time`, then the event
+    /// indicator of a model with `event_indicators` > 0.
+    pub fn fmi3_extra_vrs(&self, event_indicators: usize) -> (u32, Option<u32>) {
+        let time = self.vars.len() as u32;
+        (time, (event_indicators > 0).then_some(time + 1))
+    }
 }
 
 /// The unit of a time derivative: m → m/s, m/s → m/s2, rad → rad/s, rad/s → rad/s2.

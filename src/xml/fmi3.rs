@@ -4,13 +4,11 @@
 //!
 //! What FMI 3.0 adds: `time`, the independent variable, at the first free value reference,
 //! and the event indicator (a model with one) at the next, referenced by `<EventIndicator>`
-//! ([`extra_vrs`]). The instantiationToken is the FMI 2.0 GUID: one binary, one model.
+//! ([`Layout::fmi3_extra_vrs`]). The instantiationToken is the FMI 2.0 GUID: one binary, one model.
 //! Enumerations are FMI 3.0's `<Enumeration>` (read with fmi3GetInt64).
 
-use super::{close, empty, fmi_attributes, fmt_real, has_start, open, s, units, W};
-use super::{dependencies, GENERATION_TOOL};
-use crate::fmi::capi::fmi3::extra_vrs;
-use crate::integrators::Method;
+use super::{close, default_experiment, empty, integer_attrs, log_categories, open, s, units, W};
+use super::{dependencies, real_attrs, solver_items, variable_head, GENERATION_TOOL};
 use crate::model::{Layout, Probe, System, VarKind};
 use quick_xml::events::{BytesDecl, Event};
 use quick_xml::Writer;
@@ -36,7 +34,7 @@ const CATEGORIES3: &[(&str, &str)] = &[
 /// FMI 3.0 counterparts (fmi2SetupExperiment's tolerance is fmi3EnterInitializationMode's,
 /// fmi2NewDiscreteStates is fmi3UpdateDiscreteStates, …; the statuses and the other
 /// functions keep their names with a 3).
-fn fmi3_words(text: &str) -> String {
+pub(super) fn fmi3_words(text: &str) -> String {
     const RENAMED: [(&str, &str); 5] = [
         ("fmi2SetupExperiment", "fmi3EnterInitializationMode"),
         ("fmi2NewDiscreteStates", "fmi3UpdateDiscreteStates"),
@@ -57,7 +55,6 @@ pub fn model_description3<M: System>() -> String {
     let deps = dependencies::<M>(&layout);
     let probe = Probe::of::<M>(&layout);
     let guid = super::guid::<M>();
-    let (stop, tol, step) = M::default_experiment();
     let mut w = Writer::new_with_indent(Cursor::new(Vec::new()), b' ', 2);
     w.write_event(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)))
         .expect("write to memory");
@@ -118,42 +115,14 @@ pub fn model_description3<M: System>() -> String {
 
     open(&mut w, "TypeDefinitions", &[]);
     open(&mut w, "EnumerationType", &[("name", s("Solver"))]);
-    for m in Method::ALL {
-        empty(
-            &mut w,
-            "Item",
-            &[
-                ("name", s(m.name())),
-                ("value", s(m.code())),
-                ("description", fmi3_words(m.description())),
-            ],
-        );
-    }
+    solver_items(&mut w, fmi3_words);
     close(&mut w, "EnumerationType");
     close(&mut w, "TypeDefinitions");
 
-    open(&mut w, "LogCategories", &[]);
-    for (name, description) in CATEGORIES3 {
-        empty(
-            &mut w,
-            "Category",
-            &[("name", s(name)), ("description", s(description))],
-        );
-    }
-    close(&mut w, "LogCategories");
+    log_categories(&mut w, CATEGORIES3);
+    default_experiment::<M>(&mut w);
 
-    empty(
-        &mut w,
-        "DefaultExperiment",
-        &[
-            ("startTime", s("0")),
-            ("stopTime", fmt_real(stop)),
-            ("tolerance", fmt_real(tol)),
-            ("stepSize", fmt_real(step)),
-        ],
-    );
-
-    let (time_vr, indicator_vr) = extra_vrs(layout.vars.len(), probe.event_indicators);
+    let (time_vr, indicator_vr) = layout.fmi3_extra_vrs(probe.event_indicators);
     open(&mut w, "ModelVariables", &[]);
     empty(
         &mut w,
@@ -168,60 +137,16 @@ pub fn model_description3<M: System>() -> String {
         ],
     );
     for (vr, (slot, var)) in layout.vars.iter().enumerate() {
-        let mut attrs = vec![
-            ("name", s(&var.name)),
-            ("valueReference", s(vr)),
-            ("description", fmi3_words(&var.description)),
-        ];
-        let (causality, variability, mut initial) = fmi_attributes(*slot);
-        if var.dependent {
-            initial = Some("approx");
-        }
-        attrs.push(("causality", s(causality)));
-        attrs.push(("variability", s(variability)));
-        if let Some(initial) = initial {
-            attrs.push(("initial", s(initial)));
-        }
+        let mut attrs = variable_head(vr, *slot, var, fmi3_words);
         if slot.kind == VarKind::SolverMethod {
             attrs.push(("declaredType", s("Solver")));
             attrs.push(("start", s(var.start as i32)));
             empty(&mut w, "Enumeration", &attrs);
         } else if matches!(slot.kind, VarKind::SolverMaxSteps | VarKind::MeProjection) {
-            for (name, bound) in [("min", var.min), ("max", var.max)] {
-                if let Some(bound) = bound {
-                    attrs.push((name, s(bound as i32)));
-                }
-            }
-            attrs.push(("start", s(var.start as i32)));
+            attrs.extend(integer_attrs(var));
             empty(&mut w, "Int32", &attrs);
         } else {
-            if let Some(unit) = &var.unit {
-                attrs.push(("unit", s(unit)));
-                if let Some(display) = units::display_unit(unit) {
-                    attrs.push(("displayUnit", s(display)));
-                }
-            }
-            if let Some(min) = var.min {
-                attrs.push(("min", fmt_real(min)));
-            }
-            if let Some(max) = var.max {
-                attrs.push(("max", fmt_real(max)));
-            }
-            if let Some(nominal) = var.nominal {
-                attrs.push(("nominal", fmt_real(nominal)));
-            }
-            if has_start(slot.kind) {
-                attrs.push(("start", fmt_real(var.start)));
-            }
-            if slot.kind == VarKind::Derivative {
-                attrs.push((
-                    "derivative",
-                    s(layout.vr_of_slot(VarKind::State, slot.index)),
-                ));
-            }
-            if slot.kind == VarKind::State && probe.reinit[slot.index] {
-                attrs.push(("reinit", s(true)));
-            }
+            attrs.extend(real_attrs(&layout, &probe, *slot, var, |vr| vr));
             empty(&mut w, "Float64", &attrs);
         }
     }

@@ -13,7 +13,7 @@ pub use fmi3::model_description3;
 pub use structure::{dependencies, Dependencies};
 
 use crate::integrators::Method;
-use crate::model::{Layout, Probe, Slot, System, VarKind};
+use crate::model::{Layout, Probe, Slot, System, Var, VarKind};
 use quick_xml::events::{BytesDecl, BytesEnd, BytesStart, Event};
 use quick_xml::Writer;
 use std::io::Cursor;
@@ -93,11 +93,134 @@ fn s(v: impl ToString) -> String {
     v.to_string()
 }
 
+/// How a version words the descriptions, which are written for FMI 2.0 (FMI 3.0 renames the
+/// functions they name: [`fmi3::fmi3_words`]).
+type Words = fn(&str) -> String;
+
+fn fmi2_words(text: &str) -> String {
+    text.to_string()
+}
+
+/// The `Item`s of the `Solver` enumeration, one per integration method.
+fn solver_items(w: &mut W, words: Words) {
+    for m in Method::ALL {
+        empty(
+            w,
+            "Item",
+            &[
+                ("name", s(m.name())),
+                ("value", s(m.code())),
+                ("description", words(m.description())),
+            ],
+        );
+    }
+}
+
+fn log_categories(w: &mut W, categories: &[(&str, &str)]) {
+    open(w, "LogCategories", &[]);
+    for (name, description) in categories {
+        empty(
+            w,
+            "Category",
+            &[("name", s(name)), ("description", s(description))],
+        );
+    }
+    close(w, "LogCategories");
+}
+
+fn default_experiment<M: System>(w: &mut W) {
+    let (stop, tol, step) = M::default_experiment();
+    empty(
+        w,
+        "DefaultExperiment",
+        &[
+            ("startTime", s("0")),
+            ("stopTime", fmt_real(stop)),
+            ("tolerance", fmt_real(tol)),
+            ("stepSize", fmt_real(step)),
+        ],
+    );
+}
+
+/// What every variable's element starts with, in both versions: name, value reference,
+/// description, causality, variability, initial.
+fn variable_head(vr: usize, slot: Slot, var: &Var, words: Words) -> Vec<(&'static str, String)> {
+    let mut attrs = vec![
+        ("name", s(&var.name)),
+        ("valueReference", s(vr)),
+        ("description", words(&var.description)),
+    ];
+    let (causality, variability, mut initial) = fmi_attributes(slot);
+    if var.dependent {
+        // Computed from the constraints; the start value is the guess that picks the root.
+        initial = Some("approx");
+    }
+    attrs.push(("causality", s(causality)));
+    attrs.push(("variability", s(variability)));
+    if let Some(initial) = initial {
+        attrs.push(("initial", s(initial)));
+    }
+    attrs
+}
+
+/// An Integer variable's (FMI 3.0: Int32) min, max and start.
+fn integer_attrs(var: &Var) -> Vec<(&'static str, String)> {
+    let mut attrs = Vec::new();
+    for (name, bound) in [("min", var.min), ("max", var.max)] {
+        if let Some(bound) = bound {
+            attrs.push((name, s(bound as i32)));
+        }
+    }
+    attrs.push(("start", s(var.start as i32)));
+    attrs
+}
+
+/// A Real variable's (FMI 3.0: Float64) attributes. `derivative`: how this version names
+/// the state a derivative is of (FMI 2.0 by index, vr + 1; FMI 3.0 by value reference).
+fn real_attrs(
+    layout: &Layout,
+    probe: &Probe,
+    slot: Slot,
+    var: &Var,
+    derivative: fn(u32) -> u32,
+) -> Vec<(&'static str, String)> {
+    let mut real = Vec::new();
+    if slot.kind == VarKind::Derivative {
+        real.push((
+            "derivative",
+            s(derivative(layout.vr_of_slot(VarKind::State, slot.index))),
+        ));
+    }
+    if let Some(unit) = &var.unit {
+        real.push(("unit", s(unit)));
+        if let Some(display) = units::display_unit(unit) {
+            real.push(("displayUnit", s(display)));
+        }
+    }
+    if let Some(min) = var.min {
+        real.push(("min", fmt_real(min)));
+    }
+    if let Some(max) = var.max {
+        real.push(("max", fmt_real(max)));
+    }
+    if let Some(nominal) = var.nominal {
+        real.push(("nominal", fmt_real(nominal)));
+    }
+    if has_start(slot.kind) {
+        real.push(("start", fmt_real(var.start)));
+    }
+    // A state the FMU changes at events (projection, on_event): Model Exchange's importer
+    // must re-read it after the event.
+    if slot.kind == VarKind::State && probe.reinit[slot.index] {
+        real.push(("reinit", s(true)));
+    }
+    real
+}
+
 fn render<M: System>(guid: &str) -> String {
     let layout = Layout::of::<M>();
     let deps = dependencies::<M>(&layout);
     let probe = Probe::of::<M>(&layout);
-    let (stop, tol, step) = M::default_experiment();
     let mut w = Writer::new_with_indent(Cursor::new(Vec::new()), b' ', 2);
     w.write_event(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)))
         .expect("write to memory");
@@ -156,61 +279,21 @@ fn render<M: System>(guid: &str) -> String {
     open(&mut w, "TypeDefinitions", &[]);
     open(&mut w, "SimpleType", &[("name", s("Solver"))]);
     open(&mut w, "Enumeration", &[]);
-    for m in Method::ALL {
-        empty(
-            &mut w,
-            "Item",
-            &[
-                ("name", s(m.name())),
-                ("value", s(m.code())),
-                ("description", s(m.description())),
-            ],
-        );
-    }
+    solver_items(&mut w, fmi2_words);
     close(&mut w, "Enumeration");
     close(&mut w, "SimpleType");
     close(&mut w, "TypeDefinitions");
 
-    open(&mut w, "LogCategories", &[]);
-    for (name, description) in LOG_CATEGORIES {
-        empty(
-            &mut w,
-            "Category",
-            &[("name", s(name)), ("description", s(description))],
-        );
-    }
-    close(&mut w, "LogCategories");
-
-    empty(
-        &mut w,
-        "DefaultExperiment",
-        &[
-            ("startTime", s("0")),
-            ("stopTime", fmt_real(stop)),
-            ("tolerance", fmt_real(tol)),
-            ("stepSize", fmt_real(step)),
-        ],
-    );
+    log_categories(&mut w, LOG_CATEGORIES);
+    default_experiment::<M>(&mut w);
 
     open(&mut w, "ModelVariables", &[]);
     for (vr, (slot, var)) in layout.vars.iter().enumerate() {
-        let mut attrs = vec![
-            ("name", s(&var.name)),
-            ("valueReference", s(vr)),
-            ("description", s(&var.description)),
-        ];
-        let (causality, variability, mut initial) = fmi_attributes(*slot);
-        if var.dependent {
-            // Computed from the constraints; the start value is the guess that picks
-            // the root.
-            initial = Some("approx");
-        }
-        attrs.push(("causality", s(causality)));
-        attrs.push(("variability", s(variability)));
-        if let Some(initial) = initial {
-            attrs.push(("initial", s(initial)));
-        }
-        open(&mut w, "ScalarVariable", &attrs);
+        open(
+            &mut w,
+            "ScalarVariable",
+            &variable_head(vr, *slot, var, fmi2_words),
+        );
         if slot.kind == VarKind::SolverMethod {
             empty(
                 &mut w,
@@ -221,43 +304,9 @@ fn render<M: System>(guid: &str) -> String {
                 ],
             );
         } else if matches!(slot.kind, VarKind::SolverMaxSteps | VarKind::MeProjection) {
-            let mut integer = Vec::new();
-            for (name, bound) in [("min", var.min), ("max", var.max)] {
-                if let Some(bound) = bound {
-                    integer.push((name, s(bound as i32)));
-                }
-            }
-            integer.push(("start", s(var.start as i32)));
-            empty(&mut w, "Integer", &integer);
+            empty(&mut w, "Integer", &integer_attrs(var));
         } else {
-            let mut real = Vec::new();
-            if slot.kind == VarKind::Derivative {
-                let state_index = layout.vr_of_slot(VarKind::State, slot.index) + 1;
-                real.push(("derivative", s(state_index)));
-            }
-            if let Some(unit) = &var.unit {
-                real.push(("unit", s(unit)));
-                if let Some(display) = units::display_unit(unit) {
-                    real.push(("displayUnit", s(display)));
-                }
-            }
-            if let Some(min) = var.min {
-                real.push(("min", fmt_real(min)));
-            }
-            if let Some(max) = var.max {
-                real.push(("max", fmt_real(max)));
-            }
-            if let Some(nominal) = var.nominal {
-                real.push(("nominal", fmt_real(nominal)));
-            }
-            if has_start(slot.kind) {
-                real.push(("start", fmt_real(var.start)));
-            }
-            // A state the FMU changes at events (projection, on_event): Model Exchange's
-            // importer must re-read it after fmi2NewDiscreteStates.
-            if slot.kind == VarKind::State && probe.reinit[slot.index] {
-                real.push(("reinit", s(true)));
-            }
+            let real = real_attrs(&layout, &probe, *slot, var, |vr| vr + 1);
             empty(&mut w, "Real", &real);
         }
         close(&mut w, "ScalarVariable");

@@ -88,13 +88,6 @@ impl<M: System> Instance3<M> {
 
 pub(crate) type Inst3<E> = Instance3<<E as Export>::Model>;
 
-/// The value references FMI 3.0 adds after FMI 2.0's: `time`, then the event indicator
-/// (when the model has one).
-pub fn extra_vrs(n_vars: usize, event_indicators: usize) -> (u32, Option<u32>) {
-    let time = n_vars as u32;
-    (time, (event_indicators > 0).then_some(time + 1))
-}
-
 /// What a value reference is to FMI 3.0.
 #[derive(Clone, Copy, PartialEq, Debug)]
 enum Var3 {
@@ -123,8 +116,7 @@ impl Type3 {
 
 fn var3<E: Export>(f: &Inst3<E>, function: &str, vr: u32) -> Result<Var3, String> {
     let info = f.core.info;
-    let n = info.layout.vars.len();
-    let (time, indicator) = extra_vrs(n, info.probe.event_indicators);
+    let (time, indicator) = info.layout.fmi3_extra_vrs(info.probe.event_indicators);
     if vr == time {
         return Ok(Var3::Time);
     }
