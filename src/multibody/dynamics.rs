@@ -81,6 +81,43 @@ pub struct Model {
 /// Two points fixed in bodies of the model (`None`: the base), in those bodies' frames: a
 /// loop closure (with the base-frame axes it holds) or a spring (with its stiffness and
 /// rest length).
+/// The workspace of ABA, RNEA and CRBA (Pinocchio's `Data` beside its `Model`): made once
+/// for a model and a scalar type, reused by every call, so that an evaluation allocates
+/// nothing (`Model::aba_in`, `rnea_in`, `crba_in`; `aba`, `rnea`, `crba` make one each
+/// call).
+#[derive(Clone, Debug)]
+pub struct Data<S> {
+    xs: Vec<Transform<S>>,
+    v: Vec<Motion<S>>,
+    c: Vec<Motion<S>>,
+    a: Vec<Motion<S>>,
+    ia: Vec<ArticulatedInertia<S>>,
+    /// ABA's bias forces; RNEA's body forces.
+    pa: Vec<Force<S>>,
+    u_vec: Vec<Force<S>>,
+    d_inv: Vec<S>,
+    u: Vec<S>,
+    ic: Vec<RigidInertia<S>>,
+}
+
+impl<S: Scalar> Data<S> {
+    pub fn new(model: &Model) -> Data<S> {
+        let n = model.nq();
+        Data {
+            xs: Vec::with_capacity(n),
+            v: Vec::with_capacity(n),
+            c: Vec::with_capacity(n),
+            a: Vec::with_capacity(n),
+            ia: Vec::with_capacity(n),
+            pa: Vec::with_capacity(n),
+            u_vec: Vec::with_capacity(n),
+            d_inv: Vec::with_capacity(n),
+            u: Vec::with_capacity(n),
+            ic: Vec::with_capacity(n),
+        }
+    }
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct PointPair {
     pub name: String,
@@ -300,10 +337,15 @@ impl Model {
     }
 
     fn transforms<S: Scalar>(&self, q: &[S]) -> Vec<Transform<S>> {
+        let mut xs = Vec::with_capacity(self.nq());
+        self.transforms_into(q, &mut xs);
+        xs
+    }
+
+    fn transforms_into<S: Scalar>(&self, q: &[S], xs: &mut Vec<Transform<S>>) {
         assert_eq!(q.len(), self.nq(), "q has {} entries, not nq", q.len());
-        (0..self.nq())
-            .map(|i| self.joint_transform(i, q[i]))
-            .collect()
+        xs.clear();
+        xs.extend((0..self.nq()).map(|i| self.joint_transform(i, q[i])));
     }
 
     fn base_acceleration<S: Scalar>(&self) -> Motion<S> {
@@ -374,26 +416,44 @@ impl Model {
 
     /// Body velocities `v_i` (body coordinates) and the transforms.
     fn velocities<S: Scalar>(&self, q: &[S], qd: &[S]) -> (Vec<Transform<S>>, Vec<Motion<S>>) {
-        let xs = self.transforms(q);
-        let mut v: Vec<Motion<S>> = Vec::with_capacity(self.nq());
+        let mut d = Data::new(self);
+        self.velocities_into(q, qd, &mut d);
+        (d.xs, d.v)
+    }
+
+    /// Body velocities `v_i` (body coordinates) and the transforms, into `d.xs` and `d.v`.
+    fn velocities_into<S: Scalar>(&self, q: &[S], qd: &[S], d: &mut Data<S>) {
+        self.transforms_into(q, &mut d.xs);
+        let (xs, v) = (&d.xs, &mut d.v);
+        v.clear();
         for i in 0..self.nq() {
             let vj = Motion::from_axis(&self.subspace[i], qd[i]);
-            v.push(match self.parent[i] {
+            let vi = match self.parent[i] {
                 None => vj,
                 Some(p) => xs[i].motion(&v[p]).add(&vj),
-            });
+            };
+            v.push(vi);
         }
-        (xs, v)
     }
 
     /// Inverse dynamics (RNEA): the joint forces `τ` that give accelerations `qdd` at
     /// `(q, qd)` under gravity. Damping is not included (`τ` is what acts on the bodies).
     pub fn rnea<S: Scalar>(&self, q: &[S], qd: &[S], qdd: &[S]) -> Vec<S> {
+        let mut tau = vec![S::zero(); self.nq()];
+        self.rnea_in(&mut Data::new(self), q, qd, qdd, &mut tau);
+        tau
+    }
+
+    /// [`Model::rnea`] into `tau`, with the workspace `d`: no allocation.
+    pub fn rnea_in<S: Scalar>(&self, d: &mut Data<S>, q: &[S], qd: &[S], qdd: &[S], tau: &mut [S]) {
         let n = self.nq();
-        let (xs, v) = self.velocities(q, qd);
+        self.velocities_into(q, qd, d);
         let a0 = self.base_acceleration::<S>();
-        let mut a: Vec<Motion<S>> = Vec::with_capacity(n);
-        let mut f: Vec<Force<S>> = Vec::with_capacity(n);
+        let Data {
+            xs, v, a, pa: f, ..
+        } = d;
+        a.clear();
+        f.clear();
         for i in 0..n {
             let ai = match self.parent[i] {
                 None => xs[i].motion(&a0),
@@ -409,7 +469,6 @@ impl Model {
             );
             a.push(ai);
         }
-        let mut tau = vec![S::zero(); n];
         for i in (0..n).rev() {
             tau[i] = f[i].along(&self.subspace[i]);
             if let Some(p) = self.parent[i] {
@@ -417,53 +476,84 @@ impl Model {
                 f[p] = f[p].add(&back);
             }
         }
-        tau
     }
 
     /// The joint-space mass matrix `M(q)` (CRBA), row-major, symmetric.
     pub fn crba<S: Scalar>(&self, q: &[S]) -> Vec<Vec<S>> {
         let n = self.nq();
-        let xs = self.transforms(q);
-        let mut ic: Vec<RigidInertia<S>> = self.inertia.iter().map(RigidInertia::lift).collect();
+        let mut m = vec![S::zero(); n * n];
+        self.crba_in(&mut Data::new(self), q, &mut m);
+        m.chunks(n.max(1)).take(n).map(<[S]>::to_vec).collect()
+    }
+
+    /// [`Model::crba`] into `m` (n × n, row-major), with the workspace `d`: no allocation.
+    pub fn crba_in<S: Scalar>(&self, d: &mut Data<S>, q: &[S], m: &mut [S]) {
+        let n = self.nq();
+        assert_eq!(m.len(), n * n, "m has {} entries, not nq²", m.len());
+        self.transforms_into(q, &mut d.xs);
+        let Data { xs, ic, .. } = d;
+        ic.clear();
+        ic.extend(self.inertia.iter().map(RigidInertia::lift));
         for i in (0..n).rev() {
             if let Some(p) = self.parent[i] {
                 let back = ic[i].back(&xs[i]);
                 ic[p] = ic[p].add(&back);
             }
         }
-        let mut m = vec![vec![S::zero(); n]; n];
+        m.fill(S::zero());
         for i in 0..n {
             let mut f = ic[i].apply(&Motion::from_axis(&self.subspace[i], S::one()));
-            m[i][i] = f.along(&self.subspace[i]);
+            m[i * n + i] = f.along(&self.subspace[i]);
             let mut j = i;
             while let Some(p) = self.parent[j] {
                 f = xs[j].force_back(&f);
                 j = p;
-                m[i][j] = f.along(&self.subspace[j]);
-                m[j][i] = m[i][j];
+                m[i * n + j] = f.along(&self.subspace[j]);
+                m[j * n + i] = m[i * n + j];
             }
         }
-        m
     }
 
     /// Forward dynamics (ABA): `q̈` from `(q, q̇, τ)` under gravity, with the joints'
     /// viscous damping applied as `τ − d q̇`.
     pub fn aba<S: Scalar>(&self, q: &[S], qd: &[S], tau: &[S]) -> Vec<S> {
+        let mut qdd = vec![S::zero(); self.nq()];
+        self.aba_in(&mut Data::new(self), q, qd, tau, &mut qdd);
+        qdd
+    }
+
+    /// [`Model::aba`] into `qdd`, with the workspace `d`: no allocation.
+    pub fn aba_in<S: Scalar>(&self, d: &mut Data<S>, q: &[S], qd: &[S], tau: &[S], qdd: &mut [S]) {
         let n = self.nq();
         assert_eq!(tau.len(), n, "tau has {} entries, not nq", tau.len());
-        let (xs, v) = self.velocities(q, qd);
-        let mut c: Vec<Motion<S>> = Vec::with_capacity(n);
-        let mut ia: Vec<ArticulatedInertia<S>> = Vec::with_capacity(n);
-        let mut pa: Vec<Force<S>> = Vec::with_capacity(n);
+        self.velocities_into(q, qd, d);
+        let Data {
+            xs,
+            v,
+            c,
+            a,
+            ia,
+            pa,
+            u_vec,
+            d_inv,
+            u,
+            ..
+        } = d;
+        c.clear();
+        ia.clear();
+        pa.clear();
         for i in 0..n {
             c.push(v[i].cross_motion(&Motion::from_axis(&self.subspace[i], qd[i])));
             let inertia = RigidInertia::<S>::lift(&self.inertia[i]);
             ia.push(ArticulatedInertia::from_rigid(&inertia));
             pa.push(v[i].cross_force(&inertia.apply(&v[i])));
         }
-        let mut u_vec: Vec<Force<S>> = vec![Force::zero(); n];
-        let mut d_inv = vec![S::zero(); n];
-        let mut u = vec![S::zero(); n];
+        u_vec.clear();
+        u_vec.resize(n, Force::zero());
+        d_inv.clear();
+        d_inv.resize(n, S::zero());
+        u.clear();
+        u.resize(n, S::zero());
         for i in (0..n).rev() {
             let s = &self.subspace[i];
             let ui = ia[i].apply(&Motion::from_axis(s, S::one()));
@@ -482,8 +572,7 @@ impl Model {
             d_inv[i] = di_inv;
         }
         let a0 = self.base_acceleration::<S>();
-        let mut a: Vec<Motion<S>> = Vec::with_capacity(n);
-        let mut qdd = vec![S::zero(); n];
+        a.clear();
         for i in 0..n {
             let ap = match self.parent[i] {
                 None => xs[i].motion(&a0),
@@ -493,7 +582,6 @@ impl Model {
             qdd[i] = (u[i] - ap.dot(&u_vec[i])) * d_inv[i];
             a.push(ap.add(&Motion::from_axis(&self.subspace[i], qdd[i])));
         }
-        qdd
     }
 
     /// Kinetic energy `½ Σ v_iᵀ I_i v_i`.

@@ -19,7 +19,7 @@ pub mod source;
 pub mod spatial;
 pub mod urdf;
 
-pub use dynamics::Model;
+pub use dynamics::{Data, Model};
 pub use mechanism::{Body, Closure, Error, Joint, JointKind, Limit, Mechanism, Origin, Spring};
 
 #[cfg(test)]
