@@ -299,7 +299,37 @@ fn model_exchange_modes_and_counts() {
     assert_eq!((nx, nz), (5, 1));
     assert_eq!(fmi3SetTime(c, 0.0), Status::Error);
     assert_eq!(f.step(0.0, 0.1).0, Status::Error, "a CS function");
-    f.init();
+    // FMI 3.0's table for the model evaluations (section 2.3): not in Instantiated; in
+    // Initialization Mode all four, derivatives and nominals included (FMI 2.0 differs).
+    let mut nominals = vec![0.0; 5];
+    let mut dx0 = vec![f64::NAN; 5];
+    unsafe {
+        assert_eq!(
+            fmi3GetNominalsOfContinuousStates(c, nominals.as_mut_ptr(), 5),
+            Status::Error,
+            "nominals in Instantiated"
+        );
+        assert_eq!(
+            fmi3GetContinuousStateDerivatives(c, dx0.as_mut_ptr(), 5),
+            Status::Error,
+            "derivatives in Instantiated"
+        );
+        assert_eq!(
+            fmi3EnterInitializationMode(c, 1, 1e-10, 0.0, 0, 0.0),
+            Status::Ok
+        );
+        assert_eq!(
+            fmi3GetNominalsOfContinuousStates(c, nominals.as_mut_ptr(), 5),
+            Status::Ok
+        );
+        assert_eq!(
+            fmi3GetContinuousStateDerivatives(c, dx0.as_mut_ptr(), 5),
+            Status::Ok
+        );
+        assert_eq!(fmi3ExitInitializationMode(c), Status::Ok);
+    }
+    assert!(nominals.iter().all(|v| *v > 0.0), "{nominals:?}");
+    assert!(dx0.iter().all(|v| v.is_finite()), "{dx0:?}");
     let mut b = [0u8; 5];
     let mut next = 0.0;
     assert_eq!(
@@ -348,7 +378,7 @@ fn model_exchange_modes_and_counts() {
     assert_eq!(fmi3EnterStepMode(c), Status::Error, "a CS function");
     assert_eq!(fmi3EnterContinuousTimeMode(c), Status::Ok);
     assert_eq!(fmi3Terminate(c), Status::Ok);
-    assert_eq!(f.errors(), 4);
+    assert_eq!(f.errors(), 6);
 }
 
 /// fmi3GetAdjointDerivative is the transpose of fmi3GetDirectionalDerivative's Jacobian.

@@ -107,6 +107,18 @@ pub const COMPLETED_INTEGRATOR_STEP: u32 = mask(&[ContinuousTimeMode]);
 pub const SET_TIME: u32 = mask(&[EventMode, ContinuousTimeMode]);
 pub const SET_CONTINUOUS_STATES: u32 = mask(&[ContinuousTimeMode]);
 pub const COUNTS: u32 = ANY;
+/// fmi3GetContinuousStates, fmi3GetContinuousStateDerivatives, fmi3GetEventIndicators and
+/// fmi3GetNominalsOfContinuousStates: FMI 3.0.2 section 2.3 allows them in Initialization
+/// Mode, Event Mode, Continuous-Time Mode and Terminated (not in Instantiated; FMI 2.0's
+/// table differs: no derivatives in Initialization Mode, nominals in Instantiated). Error
+/// is FMI 3.0's Terminated after an fmi3Error (values for debugging).
+pub const EVALUATE: u32 = mask(&[
+    InitializationMode,
+    EventMode,
+    ContinuousTimeMode,
+    Terminated,
+    Error,
+]);
 // Co-Simulation.
 pub const ENTER_STEP_MODE: u32 = mask(&[EventMode]);
 pub const DO_STEP: u32 = mask(&[StepMode]);

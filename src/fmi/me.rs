@@ -109,8 +109,15 @@ impl<M: System> Instance<M> {
     }
 
     pub fn get_continuous_states(&self, x: &mut [f64]) -> Res {
+        self.continuous_states_when(machine::GET_CONTINUOUS_STATES, x)
+    }
+
+    /// The body of fmi2GetContinuousStates, in the core states `allowed` by the calling
+    /// front-end's table (FMI 3.0 checks its own before: [`machine::ANY`] here). The same
+    /// holds for the `*_when` functions below.
+    pub fn continuous_states_when(&self, allowed: u32, x: &mut [f64]) -> Res {
         const F: &str = "fmi2GetContinuousStates";
-        self.require_me(machine::GET_CONTINUOUS_STATES, F)?;
+        self.require_me(allowed, F)?;
         Self::require_count(F, "nx", x.len(), self.data.x.len())?;
         x.copy_from_slice(&self.data.x);
         Ok(())
@@ -118,8 +125,12 @@ impl<M: System> Instance<M> {
 
     /// fmi2GetNominalsOfContinuousStates: the states' declared nominals (1 where none).
     pub fn get_nominals(&self, nominals: &mut [f64]) -> Res {
+        self.nominals_when(machine::GET_NOMINALS, nominals)
+    }
+
+    pub fn nominals_when(&self, allowed: u32, nominals: &mut [f64]) -> Res {
         const F: &str = "fmi2GetNominalsOfContinuousStates";
-        self.require_me(machine::GET_NOMINALS, F)?;
+        self.require_me(allowed, F)?;
         Self::require_count(F, "nx", nominals.len(), self.data.x.len())?;
         for (i, v) in nominals.iter_mut().enumerate() {
             *v = self.nominal(i);
@@ -131,8 +142,12 @@ impl<M: System> Instance<M> {
     /// (a singular configuration the solver stepped into) fmi2Discard with a line: the
     /// standard's answer for "retry with a smaller step".
     pub fn get_derivatives(&self, dx: &mut [f64]) -> Res<Status> {
+        self.derivatives_when(machine::GET_DERIVATIVES, dx)
+    }
+
+    pub fn derivatives_when(&self, allowed: u32, dx: &mut [f64]) -> Res<Status> {
         const F: &str = "fmi2GetDerivatives";
-        self.require_me(machine::GET_DERIVATIVES, F)?;
+        self.require_me(allowed, F)?;
         let d = &self.data;
         Self::require_count(F, "nx", dx.len(), d.x.len())?;
         M::derivatives(d.time, &d.x, &d.u, &d.params, dx);
@@ -145,8 +160,12 @@ impl<M: System> Instance<M> {
     /// fmi2GetEventIndicators: the model's indicator ([`NO_EVENT_INDICATOR`] where it has
     /// none in this mode); fmi2Discard with a line where it is not finite.
     pub fn get_event_indicators(&self, z: &mut [f64]) -> Res<Status> {
+        self.event_indicators_when(machine::GET_EVENT_INDICATORS, z)
+    }
+
+    pub fn event_indicators_when(&self, allowed: u32, z: &mut [f64]) -> Res<Status> {
         const F: &str = "fmi2GetEventIndicators";
-        self.require_me(machine::GET_EVENT_INDICATORS, F)?;
+        self.require_me(allowed, F)?;
         Self::require_count(F, "ni", z.len(), self.number_of_event_indicators())?;
         if let Some(z) = z.first_mut() {
             let d = &self.data;

@@ -423,7 +423,9 @@ class Sequence:
             count = (s.nz if f == "z" else nx) + (1 if wrong_n else 0)
             out = (c_double * max(1, count))()
             fname = "fmi3GetEventIndicators" if f == "z" else "fmi3GetContinuousStateDerivatives"
-            states = ("Init", "Event", "CT", "Terminated") if f == "z" else ("Event", "CT", "Terminated")
+            # FMI 3.0.2 section 2.3: both in Initialization, Event, Continuous-Time Mode and
+            # Terminated (unlike FMI 2.0, derivatives in Initialization Mode too).
+            states = ("Init", "Event", "CT", "Terminated")
             valid = me and not wrong_n and self.state in states
             st = self.call(fname, self.c, out, count,
                            expect={OK, WARNING, DISCARD} if valid else {ERROR})

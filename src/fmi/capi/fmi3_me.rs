@@ -3,7 +3,7 @@
 
 use super::fmi3::{call3, put, Bool3};
 use super::{ok, slice, slice_mut, Component};
-use crate::fmi::machine::Interface;
+use crate::fmi::machine::{self, Interface};
 use crate::fmi::machine3;
 use crate::fmi::{Export, Status};
 
@@ -107,10 +107,10 @@ pub unsafe fn set_continuous_states<E: Export>(c: Component, x: *const f64, nx: 
 /// `x` points to `nx` writable values when `nx > 0`.
 pub unsafe fn get_continuous_states<E: Export>(c: Component, x: *mut f64, nx: usize) -> Status {
     const F: &str = "fmi3GetContinuousStates";
-    call3::<E>(c, F, machine3::ANY, |f| {
+    call3::<E>(c, F, machine3::EVALUATE, |f| {
         f.require_interface(ME, F)?;
         let x = slice_mut(x, nx, "continuousStates[]", F)?;
-        ok(f.core.get_continuous_states(x))
+        ok(f.core.continuous_states_when(machine::ANY, x))
     })
 }
 
@@ -122,10 +122,10 @@ pub unsafe fn get_continuous_state_derivatives<E: Export>(
     nx: usize,
 ) -> Status {
     const F: &str = "fmi3GetContinuousStateDerivatives";
-    call3::<E>(c, F, machine3::ANY, |f| {
+    call3::<E>(c, F, machine3::EVALUATE, |f| {
         f.require_interface(ME, F)?;
         let dx = slice_mut(dx, nx, "derivatives[]", F)?;
-        f.core.get_derivatives(dx)
+        f.core.derivatives_when(machine::ANY, dx)
     })
 }
 
@@ -133,10 +133,10 @@ pub unsafe fn get_continuous_state_derivatives<E: Export>(
 /// `z` points to `ni` writable values when `ni > 0`.
 pub unsafe fn get_event_indicators<E: Export>(c: Component, z: *mut f64, ni: usize) -> Status {
     const F: &str = "fmi3GetEventIndicators";
-    call3::<E>(c, F, machine3::ANY, |f| {
+    call3::<E>(c, F, machine3::EVALUATE, |f| {
         f.require_interface(ME, F)?;
         let z = slice_mut(z, ni, "eventIndicators[]", F)?;
-        f.core.get_event_indicators(z)
+        f.core.event_indicators_when(machine::ANY, z)
     })
 }
 
@@ -148,10 +148,10 @@ pub unsafe fn get_nominals_of_continuous_states<E: Export>(
     nx: usize,
 ) -> Status {
     const F: &str = "fmi3GetNominalsOfContinuousStates";
-    call3::<E>(c, F, machine3::ANY, |f| {
+    call3::<E>(c, F, machine3::EVALUATE, |f| {
         f.require_interface(ME, F)?;
         let nominals = slice_mut(nominals, nx, "nominals[]", F)?;
-        ok(f.core.get_nominals(nominals))
+        ok(f.core.nominals_when(machine::ANY, nominals))
     })
 }
 
