@@ -42,9 +42,9 @@ pub struct EventInfo {
 /// (per component, against the larger of its magnitude and its nominal).
 const PROJECTION_ROUNDING: f64 = 1e-13;
 
-/// fmi2CompletedIntegratorStep asks for a step event only when the projection would move a
-/// component by more than this many times the experiment's tolerance (of its scale, as
-/// [`PROJECTION_ROUNDING`]). An event costs the importer a restart of its solver (fmpy
+/// fmi2/fmi3CompletedIntegratorStep asks for a step event only when the projection would
+/// move a component by more than this many times the experiment's tolerance (of its scale,
+/// as [`PROJECTION_ROUNDING`]). An event costs the importer a restart of its solver (fmpy
 /// re-initialises CVODE after every event, which restarts at order 1), and the restarts,
 /// not the projection, cost accuracy: SphereSlide at CVODE rtol 1e-9, asked at rounding
 /// level, had 238 restarts and θ ten times further from the reference than without the

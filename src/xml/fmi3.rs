@@ -4,7 +4,8 @@
 //!
 //! What FMI 3.0 adds: `time`, the independent variable, at the first free value reference,
 //! and the event indicator (a model with one) at the next, referenced by `<EventIndicator>`
-//! ([`Layout::fmi3_extra_vrs`]). The instantiationToken is the FMI 2.0 GUID: one binary, one model.
+//! ([`Layout::fmi3_extra_vrs`]). The instantiationToken is the FMI 2.0 GUID: one binary,
+//! one model.
 //! Enumerations are FMI 3.0's `<Enumeration>` (read with fmi3GetInt64).
 
 use super::{close, default_experiment, empty, integer_attrs, log_categories, open, s, units, W};
