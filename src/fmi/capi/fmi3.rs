@@ -428,6 +428,49 @@ pub fn reset<E: Export>(c: Component) -> Status {
     })
 }
 
+/// What every fmi3Get{Float64, Int32, Int64} checks before `read`: the state, nValues, the
+/// two arrays and that every value reference is a variable of type `want`.
+///
+/// # Safety
+/// `vr` holds `nvr` and `value` `n_values` elements.
+unsafe fn getter<E: Export, T>(
+    c: Component,
+    function: &'static str,
+    want: Type3,
+    (vr, nvr): (*const u32, usize),
+    (value, n_values): (*mut T, usize),
+    read: impl FnOnce(&mut Inst3<E>, &[u32], &mut [T]) -> Result<(), String>,
+) -> Status {
+    call3::<E>(c, function, machine3::GET, |f| {
+        require_values(function, nvr, n_values)?;
+        let vr = slice(vr, nvr, "valueReferences[]", function)?;
+        let value = slice_mut(value, nvr, "values[]", function)?;
+        require_type::<E>(f, function, vr, want)?;
+        ok(read(f, vr, value))
+    })
+}
+
+/// [`getter`]'s twin for fmi3Set{Float64, Int32, Int64}.
+///
+/// # Safety
+/// As [`getter`].
+unsafe fn setter<E: Export, T>(
+    c: Component,
+    function: &'static str,
+    want: Type3,
+    (vr, nvr): (*const u32, usize),
+    (value, n_values): (*const T, usize),
+    write: impl FnOnce(&mut Inst3<E>, &[u32], &[T]) -> Result<(), String>,
+) -> Status {
+    call3::<E>(c, function, machine3::SET, |f| {
+        require_values(function, nvr, n_values)?;
+        let vr = slice(vr, nvr, "valueReferences[]", function)?;
+        let value = slice(value, nvr, "values[]", function)?;
+        require_type::<E>(f, function, vr, want)?;
+        ok(write(f, vr, value))
+    })
+}
+
 /// Reads the Float64 variables: the core's Reals, `time` and the event indicator.
 fn read_float64<E: Export>(
     f: &Inst3<E>,
@@ -435,7 +478,6 @@ fn read_float64<E: Export>(
     vrs: &[u32],
     values: &mut [f64],
 ) -> Result<(), String> {
-    require_type::<E>(f, function, vrs, Type3::Float64)?;
     let n = f.core.info.layout.vars.len();
     if vrs.iter().all(|&vr| (vr as usize) < n) {
         return f.core.get_real(vrs, values);
@@ -470,12 +512,14 @@ pub unsafe fn get_float64<E: Export>(
     n_values: usize,
 ) -> Status {
     const F: &str = "fmi3GetFloat64";
-    call3::<E>(c, F, machine3::GET, |f| {
-        require_values(F, nvr, n_values)?;
-        let vr = slice(vr, nvr, "valueReferences[]", F)?;
-        let value = slice_mut(value, nvr, "values[]", F)?;
-        ok(read_float64::<E>(f, F, vr, value))
-    })
+    getter::<E, f64>(
+        c,
+        F,
+        Type3::Float64,
+        (vr, nvr),
+        (value, n_values),
+        |f, vr, value| read_float64::<E>(f, F, vr, value),
+    )
 }
 
 /// # Safety
@@ -488,13 +532,15 @@ pub unsafe fn set_float64<E: Export>(
     n_values: usize,
 ) -> Status {
     const F: &str = "fmi3SetFloat64";
-    call3::<E>(c, F, machine3::SET, |f| {
-        require_values(F, nvr, n_values)?;
-        let vr = slice(vr, nvr, "valueReferences[]", F)?;
-        let value = slice(value, nvr, "values[]", F)?;
-        require_type::<E>(f, F, vr, Type3::Float64)?;
-        for &v in vr {
-            match var3::<E>(f, F, v)? {
+    setter::<E, f64>(
+        c,
+        F,
+        Type3::Float64,
+        (vr, nvr),
+        (value, n_values),
+        |f, vr, value| {
+            for &v in vr {
+                match var3::<E>(f, F, v)? {
                 Var3::Time => {
                     return Err(format!(
                         "{F}: time (value reference {v}) is the independent variable: fmi3EnterInitializationMode's startTime, fmi3SetTime (Model Exchange) or fmi3DoStep (Co-Simulation) set it"
@@ -507,9 +553,10 @@ pub unsafe fn set_float64<E: Export>(
                 }
                 Var3::Core(_) => {}
             }
-        }
-        ok(f.core.set_real(vr, value))
-    })
+            }
+            f.core.set_real(vr, value)
+        },
+    )
 }
 
 /// # Safety
@@ -521,14 +568,14 @@ pub unsafe fn get_int32<E: Export>(
     value: *mut i32,
     n_values: usize,
 ) -> Status {
-    const F: &str = "fmi3GetInt32";
-    call3::<E>(c, F, machine3::GET, |f| {
-        require_values(F, nvr, n_values)?;
-        let vr = slice(vr, nvr, "valueReferences[]", F)?;
-        let value = slice_mut(value, nvr, "values[]", F)?;
-        require_type::<E>(f, F, vr, Type3::Int32)?;
-        ok(f.core.get_integer(vr, value))
-    })
+    getter::<E, i32>(
+        c,
+        "fmi3GetInt32",
+        Type3::Int32,
+        (vr, nvr),
+        (value, n_values),
+        |f, vr, value| f.core.get_integer(vr, value),
+    )
 }
 
 /// # Safety
@@ -540,14 +587,14 @@ pub unsafe fn set_int32<E: Export>(
     value: *const i32,
     n_values: usize,
 ) -> Status {
-    const F: &str = "fmi3SetInt32";
-    call3::<E>(c, F, machine3::SET, |f| {
-        require_values(F, nvr, n_values)?;
-        let vr = slice(vr, nvr, "valueReferences[]", F)?;
-        let value = slice(value, nvr, "values[]", F)?;
-        require_type::<E>(f, F, vr, Type3::Int32)?;
-        ok(f.core.set_integer(vr, value))
-    })
+    setter::<E, i32>(
+        c,
+        "fmi3SetInt32",
+        Type3::Int32,
+        (vr, nvr),
+        (value, n_values),
+        |f, vr, value| f.core.set_integer(vr, value),
+    )
 }
 
 /// The Enumeration `solver`, which FMI 3.0 reads as Int64.
@@ -561,19 +608,21 @@ pub unsafe fn get_int64<E: Export>(
     value: *mut i64,
     n_values: usize,
 ) -> Status {
-    const F: &str = "fmi3GetInt64";
-    call3::<E>(c, F, machine3::GET, |f| {
-        require_values(F, nvr, n_values)?;
-        let vr = slice(vr, nvr, "valueReferences[]", F)?;
-        let value = slice_mut(value, nvr, "values[]", F)?;
-        require_type::<E>(f, F, vr, Type3::Int64)?;
-        let mut v32 = vec![0; vr.len()];
-        f.core.get_integer(vr, &mut v32)?;
-        for (out, v) in value.iter_mut().zip(v32) {
-            *out = v as i64;
-        }
-        Ok(Status::Ok)
-    })
+    getter::<E, i64>(
+        c,
+        "fmi3GetInt64",
+        Type3::Int64,
+        (vr, nvr),
+        (value, n_values),
+        |f, vr, value| {
+            let mut v32 = vec![0; vr.len()];
+            f.core.get_integer(vr, &mut v32)?;
+            for (out, v) in value.iter_mut().zip(v32) {
+                *out = v as i64;
+            }
+            Ok(())
+        },
+    )
 }
 
 /// # Safety
@@ -586,17 +635,22 @@ pub unsafe fn set_int64<E: Export>(
     n_values: usize,
 ) -> Status {
     const F: &str = "fmi3SetInt64";
-    call3::<E>(c, F, machine3::SET, |f| {
-        require_values(F, nvr, n_values)?;
-        let vr = slice(vr, nvr, "valueReferences[]", F)?;
-        let value = slice(value, nvr, "values[]", F)?;
-        require_type::<E>(f, F, vr, Type3::Int64)?;
-        let v32 = value
-            .iter()
-            .map(|&v| i32::try_from(v).map_err(|_| format!("{F}: {v} is not a solver (1 … 12)")))
-            .collect::<Result<Vec<i32>, String>>()?;
-        ok(f.core.set_integer(vr, &v32))
-    })
+    setter::<E, i64>(
+        c,
+        F,
+        Type3::Int64,
+        (vr, nvr),
+        (value, n_values),
+        |f, vr, value| {
+            let v32 = value
+                .iter()
+                .map(|&v| {
+                    i32::try_from(v).map_err(|_| format!("{F}: {v} is not a solver (1 … 12)"))
+                })
+                .collect::<Result<Vec<i32>, String>>()?;
+            f.core.set_integer(vr, &v32)
+        },
+    )
 }
 
 /// fmi3Get/Set of a type the model has no variables of (Float32, the small and unsigned
