@@ -129,20 +129,6 @@ impl<M: System> Instance<M> {
         self.data.interface
     }
 
-    /// Fails unless this instance was made for `interface` (one binary exports the functions
-    /// of both: a function of the other one is refused with a line).
-    pub fn require_interface(&self, interface: Interface, function: &str) -> Res {
-        if self.data.interface != interface {
-            return Err(format!(
-                "{function}: a {} function; this instance was made for {} (fmuType {} in fmi2Instantiate)",
-                interface.name(),
-                self.data.interface.name(),
-                self.data.interface.code()
-            ));
-        }
-        Ok(())
-    }
-
     /// Moves to the error state (after a panic was caught: nothing can be trusted).
     pub fn poison(&mut self) {
         self.data.machine = Machine::Error;
@@ -165,29 +151,13 @@ impl<M: System> Instance<M> {
         self.adaptive_max_step = h_max;
     }
 
-    /// Fails unless the current state is in `mask`.
-    #[inline]
-    pub fn require(&self, mask: u32, function: &str) -> Res {
-        if mask & self.data.machine.code() == 0 {
-            return Err(not_allowed(
-                self.data.machine,
-                self.data.interface,
-                mask,
-                function,
-            ));
-        }
-        Ok(())
-    }
-
     pub fn setup_experiment(
         &mut self,
         tolerance: Option<f64>,
         start_time: f64,
         stop_time: Option<f64>,
     ) -> Res {
-        self.require(machine::SETUP_EXPERIMENT, "fmi2SetupExperiment")?;
-        check_experiment(tolerance, start_time, stop_time)
-            .map_err(|e| format!("fmi2SetupExperiment: {e}"))?;
+        check_experiment(tolerance, start_time, stop_time)?;
         self.data.tolerance = tolerance.unwrap_or(self.info.default_tolerance);
         self.data.start_time = start_time;
         self.data.time = start_time;
@@ -196,14 +166,12 @@ impl<M: System> Instance<M> {
     }
 
     pub fn enter_initialization_mode(&mut self) -> Res {
-        self.require(machine::ENTER_INIT, "fmi2EnterInitializationMode")?;
         self.data.machine = Machine::InitializationMode;
         Ok(())
     }
 
     /// fmi2Warning when a value the user set had to give way to the constraints (logged).
     pub fn exit_initialization_mode(&mut self) -> Res<Status> {
-        self.require(machine::EXIT_INIT, "fmi2ExitInitializationMode")?;
         let d = &self.data;
         let mut x = d.x.clone();
         // A constrained system keeps the independent states as set and solves the
@@ -211,8 +179,7 @@ impl<M: System> Instance<M> {
         // contradict is reported (a warning), never silently replaced.
         let mut adjusted = Vec::new();
         if M::STATE_CONSTRAINTS > 0 {
-            consistent::solve::<M>(d.time, &d.params, &mut x)
-                .map_err(|e| format!("fmi2ExitInitializationMode: {e}"))?;
+            consistent::solve::<M>(d.time, &d.params, &mut x)?;
             adjusted = consistent::overridden::<M>(
                 &self.info.layout,
                 d.time,
@@ -239,21 +206,18 @@ impl<M: System> Instance<M> {
                 self.name(vr).to_string()
             };
             return Err(format!(
-                "fmi2ExitInitializationMode: {name} is not finite at the initial point (check the parameters and start values)"
+                "{name} is not finite at the initial point (check the parameters and start values)"
             ));
         }
         if d.method.needs_linear_time_invariant() && !M::linear_time_invariant(&d.params) {
             return Err(format!(
-                "fmi2ExitInitializationMode: solver {} needs a linear time-invariant system; {} with these parameters is not",
+                "solver {} needs a linear time-invariant system; {} with these parameters is not",
                 d.method.name(),
                 M::NAME
             ));
         }
         for line in &adjusted {
-            self.logger.failure(
-                Status::Warning,
-                &format!("fmi2ExitInitializationMode: {line}"),
-            );
+            self.logger.failure(Status::Warning, line);
         }
         self.data.x = x;
         self.data.memory = Memory::default();
@@ -278,13 +242,11 @@ impl<M: System> Instance<M> {
     }
 
     pub fn terminate(&mut self) -> Res {
-        self.require(machine::TERMINATE, "fmi2Terminate")?;
         self.data.machine = Machine::Terminated;
         Ok(())
     }
 
     pub fn reset(&mut self) -> Res {
-        self.require(machine::RESET, "fmi2Reset")?;
         self.data = self.initial.clone();
         self.states_set.fill(false);
         Ok(())
@@ -295,10 +257,10 @@ impl<M: System> Instance<M> {
         &self.info.layout.vars[vr as usize].1.name
     }
 
-    pub(super) fn slot(&self, function: &str, vr: u32) -> Res<Slot> {
+    pub(super) fn slot(&self, vr: u32) -> Res<Slot> {
         self.info.layout.slot(vr).ok_or_else(|| {
             format!(
-                "{function}: unknown value reference {vr} (this model has 0 … {})",
+                "unknown value reference {vr} (this model has 0 … {})",
                 self.info.layout.vars.len() - 1
             )
         })
@@ -309,13 +271,13 @@ impl<M: System> Instance<M> {
     }
 
     pub fn get_real(&self, vrs: &[u32], values: &mut [f64]) -> Res {
-        self.require(machine::GET, "fmi2GetReal")?;
         for &vr in vrs {
-            let s = self.slot("fmi2GetReal", vr)?;
+            let s = self.slot(vr)?;
             if let Some(kind) = integer_kind(s.kind) {
                 return Err(format!(
-                    "fmi2GetReal: value reference {vr} ({}) is an {kind}, read it with fmi2GetInteger",
-                    self.name(vr)
+                    "value reference {vr} ({}) is an {kind}, read it with {}",
+                    self.name(vr),
+                    self.logger.words.get_integer
                 ));
             }
         }
@@ -351,17 +313,17 @@ impl<M: System> Instance<M> {
             };
         }
         if let Some(i) = values.iter().position(|v| !finite(*v)) {
-            return Err(self.not_finite("fmi2GetReal", vrs[i], values[i]));
+            return Err(self.not_finite(vrs[i], values[i]));
         }
         Ok(())
     }
 
-    /// Why `function` cannot return `value` for `vr`: it is not finite at this configuration
-    /// (a dead centre, a singular constraint Jacobian, values set that do not fit together).
+    /// Why `value` cannot be returned for `vr`: it is not finite at this configuration (a
+    /// dead centre, a singular constraint Jacobian, values set that do not fit together).
     #[cold]
-    pub(super) fn not_finite(&self, function: &str, vr: u32, value: f64) -> String {
+    pub(super) fn not_finite(&self, vr: u32, value: f64) -> String {
         format!(
-            "{function}: {} = {value} is not finite at {} (a singular configuration, or values set that do not fit together)",
+            "{} = {value} is not finite at {} (a singular configuration, or values set that do not fit together)",
             self.name(vr),
             self.configuration()
         )
@@ -378,43 +340,43 @@ impl<M: System> Instance<M> {
     }
 
     pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Res {
-        self.require(machine::SET_REAL, "fmi2SetReal")?;
         let mut slots = Vec::with_capacity(vrs.len());
         for (&vr, &value) in vrs.iter().zip(values) {
-            let slot = self.slot("fmi2SetReal", vr)?;
+            let slot = self.slot(vr)?;
             let (_, var) = &self.info.layout.vars[vr as usize];
             let name = &var.name;
             match slot.kind {
                 VarKind::Derivative | VarKind::Output => {
                     return Err(format!(
-                        "fmi2SetReal: {name} (value reference {vr}) is calculated by the model and cannot be set"
+                        "{name} (value reference {vr}) is calculated by the model and cannot be set"
                     ))
                 }
                 VarKind::SolverMethod | VarKind::SolverMaxSteps | VarKind::MeProjection => {
                     let kind = integer_kind(slot.kind).expect("an Integer");
                     return Err(format!(
-                        "fmi2SetReal: {name} (value reference {vr}) is an {kind}, set it with fmi2SetInteger"
+                        "{name} (value reference {vr}) is an {kind}, set it with {}",
+                        self.logger.words.set_integer
                     ));
                 }
                 VarKind::State if var.dependent => {
                     if machine::BEFORE_INIT_MODE & self.data.machine.code() == 0 {
                         return Err(format!(
-                            "fmi2SetReal: {name} (value reference {vr}) is computed from the constraints (initial=\"approx\": its value is only the starting guess) and can only be set before fmi2EnterInitializationMode (state is {:?})",
-                            self.data.machine
+                            "{name} (value reference {vr}) is computed from the constraints (initial=\"approx\": its value is only the starting guess) and can only be set before {}",
+                            self.logger.words.enter_initialization_mode
                         ));
                     }
                 }
                 VarKind::Parameter | VarKind::SolverStep | VarKind::State => {
                     if machine::BEFORE_INIT_DONE & self.data.machine.code() == 0 {
                         return Err(format!(
-                            "fmi2SetReal: {name} (value reference {vr}) can only be set before fmi2ExitInitializationMode (state is {:?})",
-                            self.data.machine
+                            "{name} (value reference {vr}) can only be set before {}",
+                            self.logger.words.exit_initialization_mode
                         ));
                     }
                 }
                 VarKind::Input => {}
             }
-            check_real(var, vr, value).map_err(|e| format!("fmi2SetReal: {e}"))?;
+            check_real(var, vr, value)?;
             slots.push(slot);
         }
         let d = &mut self.data;
@@ -441,10 +403,9 @@ impl<M: System> Instance<M> {
     }
 
     pub fn get_integer(&self, vrs: &[u32], values: &mut [i32]) -> Res {
-        self.require(machine::GET, "fmi2GetInteger")?;
         let slots = vrs
             .iter()
-            .map(|&vr| self.integer_slot("fmi2GetInteger", vr))
+            .map(|&vr| self.integer_slot(vr))
             .collect::<Res<Vec<Slot>>>()?;
         for (value, slot) in values.iter_mut().zip(slots) {
             *value = match slot.kind {
@@ -458,61 +419,59 @@ impl<M: System> Instance<M> {
     }
 
     pub fn set_integer(&mut self, vrs: &[u32], values: &[i32]) -> Res {
-        self.require(machine::SET_INTEGER, "fmi2SetInteger")?;
         let (mut method, mut max_steps) = (self.data.method, self.data.max_steps);
         let mut me_projection = self.data.me_projection;
         for (&vr, &value) in vrs.iter().zip(values) {
-            let slot = self.integer_slot("fmi2SetInteger", vr)?;
+            let slot = self.integer_slot(vr)?;
             let (_, var) = &self.info.layout.vars[vr as usize];
             let name = &var.name;
             if machine::BEFORE_INIT_DONE & self.data.machine.code() == 0 {
                 return Err(format!(
-                    "fmi2SetInteger: {name} (value reference {vr}) can only be set before fmi2ExitInitializationMode"
+                    "{name} (value reference {vr}) can only be set before {}",
+                    self.logger.words.exit_initialization_mode
                 ));
             }
             if slot.kind == VarKind::SolverMaxSteps {
-                check_real(var, vr, value as f64).map_err(|e| format!("fmi2SetInteger: {e}"))?;
+                check_real(var, vr, value as f64)?;
                 max_steps = value as u64;
                 continue;
             }
             if slot.kind == VarKind::MeProjection {
-                check_real(var, vr, value as f64).map_err(|e| format!("fmi2SetInteger: {e}"))?;
+                check_real(var, vr, value as f64)?;
                 me_projection = value != 0;
                 continue;
             }
             method = Method::from_code(value).ok_or_else(|| {
                 format!(
-                    "fmi2SetInteger: {value} is not a method code for {name} (value reference {vr}); valid: {}",
+                    "{value} is not a method code for {name} (value reference {vr}); valid: {}",
                     Method::codes()
                 )
             })?;
         }
         let d = &self.data;
-        check_method::<M>(method, &d.u, &d.params, true)
-            .map_err(|e| format!("fmi2SetInteger: {e}"))?;
+        check_method::<M>(method, &d.u, &d.params, true)?;
         self.data.method = method;
         self.data.max_steps = max_steps;
         self.data.me_projection = me_projection;
         Ok(())
     }
 
-    fn integer_slot(&self, function: &str, vr: u32) -> Res<Slot> {
-        let slot = self.slot(function, vr)?;
+    fn integer_slot(&self, vr: u32) -> Res<Slot> {
+        let slot = self.slot(vr)?;
         if integer_kind(slot.kind).is_none() {
             return Err(format!(
-                "{function}: value reference {vr} ({}) is a Real, not an Integer/Enumeration",
+                "value reference {vr} ({}) is a Real, not an Integer/Enumeration",
                 self.name(vr)
             ));
         }
         Ok(slot)
     }
 
-    /// fmi2Get/SetBoolean and fmi2Get/SetString: this model has no such variables.
-    pub fn no_variables_of_type(&self, function: &str, mask: u32, vrs: &[u32]) -> Res {
-        self.require(mask, function)?;
+    /// Get/set of a type this model has no variables of (FMI 2.0's Boolean and String).
+    pub fn no_variables_of_type(&self, vrs: &[u32]) -> Res {
         if let Some(vr) = vrs.first() {
             return Err(format!(
-                "{function}: value reference {vr} is not a variable of this type (the model has none)"
+                "value reference {vr} is not a variable of this type (the model has none)"
             ));
         }
         Ok(())
@@ -528,8 +487,6 @@ impl<M: System> Instance<M> {
         dv_known: &[f64],
         dv_unknown: &mut [f64],
     ) -> Res {
-        const F: &str = "fmi2GetDirectionalDerivative";
-        self.require(machine::DIRECTIONAL_DERIVATIVE, F)?;
         let d = &self.data;
         let mut work = self.work.borrow_mut();
         let Work {
@@ -540,25 +497,22 @@ impl<M: System> Instance<M> {
         } = &mut *work;
         let (dx, du) = (zeroed(dx, d.x.len()), zeroed(du, d.u.len()));
         for (&vr, &dv) in knowns.iter().zip(dv_known) {
-            let slot = self.slot(F, vr)?;
+            let slot = self.slot(vr)?;
             if !dv.is_finite() {
-                return Err(format!(
-                    "{F}: seed {dv} for {} is not finite",
-                    self.name(vr)
-                ));
+                return Err(format!("seed {dv} for {} is not finite", self.name(vr)));
             }
             match slot.kind {
                 VarKind::State => dx[slot.index] += dv,
                 VarKind::Input => du[slot.index] += dv,
                 _ => {
                     return Err(format!(
-                        "{F}: {} (value reference {vr}) is not a known: use states or inputs",
+                        "{} (value reference {vr}) is not a known: use states or inputs",
                         self.name(vr)
                     ))
                 }
             }
         }
-        self.check_unknowns(F, unknowns)?;
+        self.check_unknowns(unknowns)?;
         let zeros_p = zeroed(zeros_p, d.params.len());
         let (df, dg) = (
             zeroed(df, d.x.len()),
@@ -582,22 +536,22 @@ impl<M: System> Instance<M> {
         if let Some(i) = dv_unknown.iter().position(|v| !finite(*v)) {
             let (vr, v) = (unknowns[i], dv_unknown[i]);
             drop(work);
-            return Err(self.not_finite(F, vr, v));
+            return Err(self.not_finite(vr, v));
         }
         Ok(())
     }
 
     /// Every unknown of a derivative request is a state, a state derivative or an output;
     /// checked whatever the counts (an adjoint with no knowns still names its unknowns).
-    pub fn check_unknowns(&self, function: &str, unknowns: &[u32]) -> Res {
+    pub fn check_unknowns(&self, unknowns: &[u32]) -> Res {
         for &vr in unknowns {
-            let slot = self.slot(function, vr)?;
+            let slot = self.slot(vr)?;
             if !matches!(
                 slot.kind,
                 VarKind::State | VarKind::Derivative | VarKind::Output
             ) {
                 return Err(format!(
-                    "{function}: {} (value reference {vr}) is not an unknown: use outputs or state derivatives",
+                    "{} (value reference {vr}) is not an unknown: use outputs or state derivatives",
                     self.name(vr)
                 ));
             }
@@ -612,18 +566,16 @@ impl<M: System> Instance<M> {
     /// fmi2SetFMUstate: the instance becomes `snapshot`, after the checks of
     /// [`Instance::check_snapshot`].
     pub fn restore(&mut self, snapshot: &Snapshot) -> Res {
-        const F: &str = "fmi2SetFMUstate";
-        self.require(machine::FMU_STATE, F)?;
         let l = &self.info.layout;
         if snapshot.params.len() != l.n_params
             || snapshot.x.len() != l.n_states
             || snapshot.u.len() != l.n_inputs
             || snapshot.u_der.iter().any(|d| d.len() != l.n_inputs)
         {
-            return Err(format!("{F}: the FMU state belongs to another model"));
+            return Err("the FMU state belongs to another model".into());
         }
         self.check_snapshot(snapshot)
-            .map_err(|e| format!("{F}: refused, in the FMU state: {e}"))?;
+            .map_err(|e| format!("refused, in the FMU state: {e}"))?;
         self.data = snapshot.clone();
         Ok(())
     }
@@ -635,13 +587,11 @@ impl<M: System> Instance<M> {
     /// fmi2DeSerializeFMUstate: the state a blob holds, refused unless its layout is
     /// intact ([`Snapshot::deserialize`]) and its values pass [`Instance::check_snapshot`].
     pub fn deserialize(&self, bytes: &[u8]) -> Res<Snapshot> {
-        const F: &str = "fmi2DeSerializeFMUstate";
         let l = &self.info.layout;
         let snapshot =
-            Snapshot::deserialize(bytes, &self.info.guid, [l.n_params, l.n_states, l.n_inputs])
-                .map_err(|e| format!("{F}: {e}"))?;
+            Snapshot::deserialize(bytes, &self.info.guid, [l.n_params, l.n_states, l.n_inputs])?;
         self.check_snapshot(&snapshot)
-            .map_err(|e| format!("{F}: refused, in the FMU state: {e}"))?;
+            .map_err(|e| format!("refused, in the FMU state: {e}"))?;
         Ok(snapshot)
     }
 
@@ -906,27 +856,4 @@ fn check_method<M: System>(method: Method, u: &[f64], p: &[f64], lti: bool) -> R
 /// no indicator at that state, so no crossing).
 pub(super) fn crossed(before: Option<f64>, after: Option<f64>) -> bool {
     matches!((before, after), (Some(a), Some(b)) if (a > 0.0 && b <= 0.0) || (a < 0.0 && b >= 0.0))
-}
-
-/// Why `function` is refused in state `machine` of an instance of `interface` (allowed in
-/// `mask`): a function of the other interface says so.
-#[cold]
-fn not_allowed(machine: Machine, interface: Interface, mask: u32, function: &str) -> String {
-    let own = mask & interface.states();
-    if own == 0 && mask != 0 {
-        let other = match interface {
-            Interface::CoSimulation => Interface::ModelExchange,
-            Interface::ModelExchange => Interface::CoSimulation,
-        };
-        return format!(
-            "{function}: a {} function; this instance was made for {} (fmuType {} in fmi2Instantiate)",
-            other.name(),
-            interface.name(),
-            interface.code()
-        );
-    }
-    format!(
-        "{function}: not allowed in state {machine:?} (allowed in: {})",
-        machine::describe(own)
-    )
 }

@@ -4,7 +4,7 @@
 
 use super::core::{crossed, Res};
 use super::inputs::{self, Inputs, MAX_INPUT_DERIVATIVE_ORDER};
-use super::machine::{self, Machine};
+use super::machine::Machine;
 use super::Instance;
 use super::Snapshot;
 use super::Status;
@@ -173,7 +173,7 @@ impl<M: System> Instance<M> {
     fn log_work(&self, before: u64) {
         let done = self.stats().work(self.data.x.len()) - before;
         self.logger.debug(&format!(
-            "fmi2DoStep: work {done} state-component evaluations (bound {})",
+            "work {done} state-component evaluations (bound {})",
             work_bound::<M>()
         ));
     }
@@ -215,7 +215,6 @@ impl<M: System> Instance<M> {
     /// The checks of fmi2DoStep before any work (state machine, arguments); the step's end.
     #[inline]
     fn check_step(&self, current: f64, h: f64) -> Res<f64> {
-        self.require(machine::DO_STEP, "fmi2DoStep")?;
         let (now, t_end) = (self.data.time, current + h);
         let slack = 1e-9 * now.abs().max(1.0);
         let beyond_stop = |stop: f64| t_end > stop + 1e-9 * stop.abs().max(1.0);
@@ -296,7 +295,7 @@ impl<M: System> Instance<M> {
             self.logger.failure(
                 Status::Warning,
                 &format!(
-                    "fmi2DoStep: DOPRI5: the problem seems stiff from t = {at} s (15 steps in a row at the stability limit h|λ| > 3.25): steps are set by stability, not the tolerance; RADAU5 (solver = 10) may need far fewer"
+                    "DOPRI5: the problem seems stiff from t = {at} s (15 steps in a row at the stability limit h|λ| > 3.25): steps are set by stability, not the tolerance; RADAU5 (solver = 10) may need far fewer"
                 ),
             );
         }
@@ -326,26 +325,24 @@ impl<M: System> Instance<M> {
     /// make ([`Inputs`]). A changed derivative changes f over the step: the integrator's
     /// point ahead no longer holds (as for a changed input).
     pub fn set_input_derivatives(&mut self, vrs: &[u32], orders: &[i32], values: &[f64]) -> Res {
-        const F: &str = "fmi2SetRealInputDerivatives";
-        self.require(machine::INPUT_DERIVATIVES, F)?;
         let mut der = self.data.u_der.clone();
         for ((&vr, &order), &value) in vrs.iter().zip(orders).zip(values) {
-            let slot = self.slot(F, vr)?;
+            let slot = self.slot(vr)?;
             if slot.kind != VarKind::Input {
                 return Err(format!(
-                    "{F}: {} (value reference {vr}) is not an input",
+                    "{} (value reference {vr}) is not an input",
                     self.name(vr)
                 ));
             }
             if !(1..=MAX_INPUT_DERIVATIVE_ORDER).contains(&order) {
                 return Err(format!(
-                    "{F}: order {order} for {} is not in 1 … {MAX_INPUT_DERIVATIVE_ORDER}",
+                    "order {order} for {} is not in 1 … {MAX_INPUT_DERIVATIVE_ORDER}",
                     self.name(vr)
                 ));
             }
             if !value.is_finite() {
                 return Err(format!(
-                    "{F}: derivative {value} of order {order} for {} is not finite",
+                    "derivative {value} of order {order} for {} is not finite",
                     self.name(vr)
                 ));
             }
@@ -364,29 +361,25 @@ impl<M: System> Instance<M> {
     /// ([`jacobian::rates`]). An order that would need ∂/∂t of a model that reads t with
     /// these parameters is refused, never approximated.
     pub fn output_derivatives(&self, vrs: &[u32], orders: &[i32], values: &mut [f64]) -> Res {
-        const F: &str = "fmi2GetRealOutputDerivatives";
-        self.require(machine::OUTPUT_DERIVATIVES, F)?;
         let max = jacobian::output_derivative_order::<M>();
         let d = &self.data;
         let (f_reads_t, g_reads_t) = M::explicit_time(&d.params);
         for (&vr, &order) in vrs.iter().zip(orders) {
-            let slot = self.slot(F, vr)?;
+            let slot = self.slot(vr)?;
             let name = self.name(vr);
             if !matches!(slot.kind, VarKind::State | VarKind::Output) {
-                return Err(format!(
-                    "{F}: {name} (value reference {vr}) is not an output"
-                ));
+                return Err(format!("{name} (value reference {vr}) is not an output"));
             }
             if !(1..=max).contains(&order) {
                 return Err(format!(
-                    "{F}: order {order} for {name} is not in 1 … {max} (maxOutputDerivativeOrder = {max})"
+                    "order {order} for {name} is not in 1 … {max} (maxOutputDerivativeOrder = {max})"
                 ));
             }
             let needs_f_t = order == 2;
             let needs_g_t = slot.kind == VarKind::Output;
             if (needs_f_t && f_reads_t) || (needs_g_t && g_reads_t) {
                 return Err(format!(
-                    "{F}: the derivative of order {order} of {name} needs ∂/∂t of a model that reads t explicitly with these parameters; not available exactly"
+                    "the derivative of order {order} of {name} needs ∂/∂t of a model that reads t explicitly with these parameters; not available exactly"
                 ));
             }
         }
@@ -412,14 +405,9 @@ impl<M: System> Instance<M> {
         Ok(())
     }
 
-    /// fmi2GetRealStatus(fmi2LastSuccessfulTime).
-    pub fn last_successful_time(&self) -> Res<f64> {
-        self.require(machine::STATUS, "fmi2GetRealStatus")?;
-        Ok(self.data.time)
-    }
-
-    pub fn require_status(&self, function: &str) -> Res {
-        self.require(machine::STATUS, function)
+    /// The time of the last successful step (lastSuccessfulTime).
+    pub fn last_successful_time(&self) -> f64 {
+        self.data.time
     }
 }
 
@@ -629,15 +617,12 @@ fn advance_locating_events<M: System>(
 #[cold]
 fn step_refused(current: f64, h: f64, now: f64, stop: Option<f64>) -> String {
     if !(finite(h) && h > 0.0) {
-        format!("fmi2DoStep: communicationStepSize must be positive and finite, got {h}")
+        format!("communicationStepSize must be positive and finite, got {h}")
     } else if !finite(current) || (current - now).abs() > 1e-9 * now.abs().max(1.0) {
-        format!("fmi2DoStep: currentCommunicationPoint {current} is not the FMU's time {now}")
+        format!("currentCommunicationPoint {current} is not the FMU's time {now}")
     } else {
         let stop = stop.unwrap_or(f64::NAN);
-        format!(
-            "fmi2DoStep: the step ends at {}, after stopTime {stop}",
-            current + h
-        )
+        format!("the step ends at {}, after stopTime {stop}", current + h)
     }
 }
 
@@ -694,7 +679,7 @@ fn failed_step(
         // The state stays at `now`: the point ahead of `t_end` no longer goes with it.
         d.memory.drop_ahead();
         return StepOutcome::Discarded(format!(
-            "fmi2DoStep: outputs became non-finite at t = {t_end}; state kept at t = {now}"
+            "outputs became non-finite at t = {t_end}; state kept at t = {now}"
         ));
     };
     let mut why = stop.reason;
@@ -717,10 +702,10 @@ fn failed_step(
         d.x.copy_from_slice(x);
         d.time = t;
         StepOutcome::Discarded(format!(
-            "fmi2DoStep: {why}; integration stopped at the last good state, t = {t}"
+            "{why}; integration stopped at the last good state, t = {t}"
         ))
     } else {
-        StepOutcome::Discarded(format!("fmi2DoStep: {why}; state kept at t = {now}"))
+        StepOutcome::Discarded(format!("{why}; state kept at t = {now}"))
     }
 }
 

@@ -142,12 +142,12 @@ macro_rules! export_fmu {
                 [unsafe] fn fmi2GetBoolean(
                     c: Component, vr: *const c_uint, n: usize, v: *mut c_int,
                 ) -> Status
-                    = capi::no_such_type::<E, c_int>(c, "fmi2GetBoolean", capi::GET_MASK, vr, n, v);
+                    = capi::no_such_type::<E, c_int>(c, "fmi2GetBoolean", capi::GETTER, vr, n, v);
                 [unsafe] fn fmi2GetString(
                     c: Component, vr: *const c_uint, n: usize, v: *mut *const c_char,
                 ) -> Status
                     = capi::no_such_type::<E, *const c_char>(
-                        c, "fmi2GetString", capi::GET_MASK, vr, n, v,
+                        c, "fmi2GetString", capi::GETTER, vr, n, v,
                     );
                 [unsafe] fn fmi2SetReal(
                     c: Component, vr: *const c_uint, n: usize, v: *const f64,
@@ -160,12 +160,12 @@ macro_rules! export_fmu {
                 [unsafe] fn fmi2SetBoolean(
                     c: Component, vr: *const c_uint, n: usize, v: *const c_int,
                 ) -> Status
-                    = capi::no_such_type::<E, c_int>(c, "fmi2SetBoolean", capi::SET_MASK, vr, n, v);
+                    = capi::no_such_type::<E, c_int>(c, "fmi2SetBoolean", capi::SETTER, vr, n, v);
                 [unsafe] fn fmi2SetString(
                     c: Component, vr: *const c_uint, n: usize, v: *const *const c_char,
                 ) -> Status
                     = capi::no_such_type::<E, *const c_char>(
-                        c, "fmi2SetString", capi::SET_MASK, vr, n, v,
+                        c, "fmi2SetString", capi::SETTER, vr, n, v,
                     );
                 [unsafe] fn fmi2GetFMUstate(c: Component, s: *mut FmuState) -> Status
                     = capi::get_fmu_state::<E>(c, s);

@@ -39,9 +39,11 @@ pub struct Logger {
     callback: Option<CallbackLogger>,
     /// FMI 3.0's callback (an instance made by fmi3Instantiate*): used instead of `callback`.
     callback3: Option<LogMessage3>,
-    /// FMI 3.0: the fmi3 function being called. The core names the FMI 2.0 function in
-    /// its messages ("fmi2GetReal: …"); a message to an FMI 3.0 importer names this one.
-    fmi3_function: Cell<Option<&'static str>>,
+    /// The FMI function being called (set by the guard of every C entry point): every
+    /// failure line starts with it, so the core's messages name no function.
+    function: Cell<&'static str>,
+    /// How this importer's FMI version names what the core's messages refer to.
+    pub words: &'static Words,
     env: *mut c_void,
     instance_name: CString,
     logging_on: bool,
@@ -63,7 +65,8 @@ impl Logger {
         Logger {
             callback,
             callback3: None,
-            fmi3_function: Cell::new(None),
+            function: Cell::new(""),
+            words: &FMI2_WORDS,
             env,
             instance_name: to_cstring(instance_name),
             logging_on,
@@ -81,23 +84,13 @@ impl Logger {
     ) -> Self {
         let mut logger = Logger::new(None, env, instance_name, logging_on);
         logger.callback3 = callback;
+        logger.words = &FMI3_WORDS;
         logger
     }
 
-    /// FMI 3.0: the function now running (see `fmi3_function`).
-    pub fn set_fmi3_function(&self, function: &'static str) {
-        self.fmi3_function.set(Some(function));
-    }
-
-    /// A message as an FMI 3.0 importer reads it: a leading "fmi2Xxx:" names the fmi3
-    /// function called instead.
-    fn renamed(&self, message: &str) -> String {
-        match (self.fmi3_function.get(), message.split_once(": ")) {
-            (Some(f), Some((head, rest))) if head.starts_with("fmi2") && !head.contains(' ') => {
-                format!("{f}: {rest}")
-            }
-            _ => message.to_string(),
-        }
+    /// The function now running (see `function`).
+    pub fn set_function(&self, function: &'static str) {
+        self.function.set(function);
     }
 
     /// A logger that prints nothing, for Rust-side use of an [`Instance`](super::Instance).
@@ -165,10 +158,17 @@ impl Logger {
         self.logging_on && self.category_on("logAll")
     }
 
+    /// Sends "function: message" (the function the guard set; the message alone outside a
+    /// call).
     fn emit(&self, status: Status, category: &str, message: &str) {
+        let message = match self.function.get() {
+            "" => message.to_string(),
+            f => format!("{f}: {message}"),
+        };
+        let message = message.as_str();
         if let Some(callback) = self.callback3 {
             let category = to_cstring(category);
-            let message = to_cstring(&self.renamed(message));
+            let message = to_cstring(message);
             // SAFETY: the environment gave us this callback in fmi3Instantiate* and
             // promised it stays valid for the instance's life; the strings live in this frame.
             unsafe {
@@ -201,6 +201,36 @@ impl Logger {
         }
     }
 }
+
+/// How a front-end's FMI version names the functions and values the core's messages refer
+/// to (the core names none itself).
+#[derive(Debug)]
+pub struct Words {
+    pub enter_initialization_mode: &'static str,
+    pub exit_initialization_mode: &'static str,
+    pub get_integer: &'static str,
+    pub set_integer: &'static str,
+    pub terminate: &'static str,
+    pub true_: &'static str,
+}
+
+pub const FMI2_WORDS: Words = Words {
+    enter_initialization_mode: "fmi2EnterInitializationMode",
+    exit_initialization_mode: "fmi2ExitInitializationMode",
+    get_integer: "fmi2GetInteger",
+    set_integer: "fmi2SetInteger",
+    terminate: "fmi2Terminate",
+    true_: "fmi2True",
+};
+
+pub const FMI3_WORDS: Words = Words {
+    enter_initialization_mode: "fmi3EnterInitializationMode",
+    exit_initialization_mode: "fmi3ExitInitializationMode",
+    get_integer: "fmi3GetInt32",
+    set_integer: "fmi3SetInt32",
+    terminate: "fmi3Terminate",
+    true_: "fmi3True",
+};
 
 /// A C string from text that might hold a NUL (replaced, never truncated silently).
 fn to_cstring(s: &str) -> CString {

@@ -1,6 +1,6 @@
-//! The state machines of FMI 2.0, Co-Simulation (standard, section 4.2.4) and Model
-//! Exchange (section 3.2.3): which function may be called in which state, checked in one
-//! place before any work.
+//! The core's modes, and FMI 2.0's state table, Co-Simulation (standard, section 4.2.4)
+//! and Model Exchange (section 3.2.3): which function may be called in which state, as
+//! data ([`Gate`]), checked by the guard of every C entry point before any work.
 //!
 //! One enum holds the states of both interfaces; an instance lives in those of its own
 //! ([`Interface::states`]), so a mask may name states of both: a function shared by the two
@@ -108,14 +108,53 @@ const ME_STATES: u32 = mask(&[
     Error,
 ]);
 
-// Both interfaces.
-pub const ANY: u32 = mask(&ALL_STATES);
-pub const SETUP_EXPERIMENT: u32 = mask(&[Instantiated]);
-pub const ENTER_INIT: u32 = mask(&[Instantiated]);
-pub const EXIT_INIT: u32 = mask(&[InitializationMode]);
-pub const TERMINATE: u32 = mask(&[StepComplete, StepFailed, EventMode, ContinuousTimeMode]);
-pub const RESET: u32 = ANY;
-pub const GET: u32 = mask(&[
+/// Where a function may run: the states of its version's table that admit it (bits of
+/// [`Machine`] here, of [`State3`](super::machine3::State3) in FMI 3.0's table), and the
+/// interface it belongs to (`None`: both). Checked once per call, by the guard of every C
+/// entry point, before the body runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Gate {
+    pub states: u32,
+    pub interface: Option<Interface>,
+}
+
+impl Gate {
+    /// A function of both interfaces.
+    pub const fn both(states: u32) -> Gate {
+        Gate {
+            states,
+            interface: None,
+        }
+    }
+    /// A Co-Simulation function.
+    pub const fn cs(states: u32) -> Gate {
+        Gate {
+            states,
+            interface: Some(Interface::CoSimulation),
+        }
+    }
+    /// A Model Exchange function.
+    pub const fn me(states: u32) -> Gate {
+        Gate {
+            states,
+            interface: Some(Interface::ModelExchange),
+        }
+    }
+}
+
+// FMI 2.0's table (sections 3.2.3 and 4.2.4). Both interfaces:
+pub const ANY: Gate = Gate::both(mask(&ALL_STATES));
+pub const SETUP_EXPERIMENT: Gate = Gate::both(mask(&[Instantiated]));
+pub const ENTER_INIT: Gate = Gate::both(mask(&[Instantiated]));
+pub const EXIT_INIT: Gate = Gate::both(mask(&[InitializationMode]));
+pub const TERMINATE: Gate = Gate::both(mask(&[
+    StepComplete,
+    StepFailed,
+    EventMode,
+    ContinuousTimeMode,
+]));
+pub const RESET: Gate = ANY;
+pub const GET: Gate = Gate::both(mask(&[
     InitializationMode,
     StepComplete,
     StepFailed,
@@ -123,57 +162,90 @@ pub const GET: u32 = mask(&[
     ContinuousTimeMode,
     Terminated,
     Error,
-]);
+]));
 /// fmi2SetReal: in Model Exchange's event and continuous-time modes only inputs may be
 /// set (checked per variable, as after initialisation in Co-Simulation).
-pub const SET_REAL: u32 = mask(&[
+pub const SET_REAL: Gate = Gate::both(mask(&[
     Instantiated,
     InitializationMode,
     StepComplete,
     EventMode,
     ContinuousTimeMode,
-]);
+]));
 /// fmi2SetInteger: the Integer variables are fixed parameters; Model Exchange admits the
 /// call in event mode (for tunable ones, which these models do not have).
-pub const SET_INTEGER: u32 = mask(&[Instantiated, InitializationMode, StepComplete, EventMode]);
-pub const FMU_STATE: u32 = ANY;
-pub const DIRECTIONAL_DERIVATIVE: u32 = GET;
-/// States in which fixed parameters and the start values of states may be set.
-pub const BEFORE_INIT_DONE: u32 = mask(&[Instantiated, InitializationMode]);
-/// Where a variable with initial = "approx" (a guess: the dependent states) may be set:
-/// FMI 2.0 allows it only before fmi2EnterInitializationMode.
-pub const BEFORE_INIT_MODE: u32 = mask(&[Instantiated]);
+pub const SET_INTEGER: Gate = Gate::both(mask(&[
+    Instantiated,
+    InitializationMode,
+    StepComplete,
+    EventMode,
+]));
+pub const FMU_STATE: Gate = ANY;
+pub const DIRECTIONAL_DERIVATIVE: Gate = GET;
 
 // Co-Simulation only.
-pub const INPUT_DERIVATIVES: u32 = mask(&[Instantiated, InitializationMode, StepComplete]);
-pub const OUTPUT_DERIVATIVES: u32 = mask(&[StepComplete, StepFailed, Terminated, Error]);
-pub const DO_STEP: u32 = mask(&[StepComplete]);
-pub const CANCEL_STEP: u32 = 0;
-pub const STATUS: u32 = mask(&[StepComplete, StepFailed, Terminated]);
+pub const INPUT_DERIVATIVES: Gate =
+    Gate::cs(mask(&[Instantiated, InitializationMode, StepComplete]));
+pub const OUTPUT_DERIVATIVES: Gate = Gate::cs(mask(&[StepComplete, StepFailed, Terminated, Error]));
+pub const DO_STEP: Gate = Gate::cs(mask(&[StepComplete]));
+pub const CANCEL_STEP: Gate = Gate::cs(0);
+pub const STATUS: Gate = Gate::cs(mask(&[StepComplete, StepFailed, Terminated]));
 
-// Model Exchange only (the masks of the standard's table in section 3.2.3).
-pub const ENTER_EVENT_MODE: u32 = mask(&[EventMode, ContinuousTimeMode]);
-pub const NEW_DISCRETE_STATES: u32 = mask(&[EventMode]);
-pub const ENTER_CONTINUOUS_TIME_MODE: u32 = mask(&[EventMode]);
-pub const COMPLETED_INTEGRATOR_STEP: u32 = mask(&[ContinuousTimeMode]);
-pub const SET_TIME: u32 = mask(&[EventMode, ContinuousTimeMode]);
-pub const SET_CONTINUOUS_STATES: u32 = mask(&[ContinuousTimeMode]);
-pub const GET_EVENT_INDICATORS: u32 = mask(&[
+// Model Exchange only.
+pub const ENTER_EVENT_MODE: Gate = Gate::me(mask(&[EventMode, ContinuousTimeMode]));
+pub const NEW_DISCRETE_STATES: Gate = Gate::me(mask(&[EventMode]));
+pub const ENTER_CONTINUOUS_TIME_MODE: Gate = Gate::me(mask(&[EventMode]));
+pub const COMPLETED_INTEGRATOR_STEP: Gate = Gate::me(mask(&[ContinuousTimeMode]));
+pub const SET_TIME: Gate = Gate::me(mask(&[EventMode, ContinuousTimeMode]));
+pub const SET_CONTINUOUS_STATES: Gate = Gate::me(mask(&[ContinuousTimeMode]));
+pub const GET_EVENT_INDICATORS: Gate = Gate::me(mask(&[
     InitializationMode,
     EventMode,
     ContinuousTimeMode,
     Terminated,
     Error,
-]);
-pub const GET_CONTINUOUS_STATES: u32 = GET_EVENT_INDICATORS;
-pub const GET_DERIVATIVES: u32 = mask(&[EventMode, ContinuousTimeMode, Terminated, Error]);
-pub const GET_NOMINALS: u32 = mask(&[
+]));
+pub const GET_CONTINUOUS_STATES: Gate = GET_EVENT_INDICATORS;
+pub const GET_DERIVATIVES: Gate =
+    Gate::me(mask(&[EventMode, ContinuousTimeMode, Terminated, Error]));
+pub const GET_NOMINALS: Gate = Gate::me(mask(&[
     Instantiated,
     EventMode,
     ContinuousTimeMode,
     Terminated,
     Error,
-]);
+]));
+
+/// States in which fixed parameters and the start values of states may be set (the core's
+/// rule per variable, the same in every FMI version).
+pub const BEFORE_INIT_DONE: u32 = mask(&[Instantiated, InitializationMode]);
+/// Where a variable with initial = "approx" (a guess: the dependent states) may be set:
+/// before initialisation mode.
+pub const BEFORE_INIT_MODE: u32 = mask(&[Instantiated]);
+
+/// Fails unless FMI 2.0's table lets a function behind `gate` run in `state` of an
+/// instance made for `own`.
+pub fn check(gate: Gate, state: Machine, own: Interface) -> Result<(), String> {
+    let wrong_interface = |of: Interface| {
+        format!(
+            "a {} function; this instance was made for {} (fmuType {} in fmi2Instantiate)",
+            of.name(),
+            own.name(),
+            own.code()
+        )
+    };
+    match gate.interface {
+        Some(of) if of != own => return Err(wrong_interface(of)),
+        _ => {}
+    }
+    if gate.states & state.code() == 0 {
+        return Err(format!(
+            "not allowed in state {state:?} (allowed in: {})",
+            describe(gate.states & own.states())
+        ));
+    }
+    Ok(())
+}
 
 /// Names of the states a mask admits, for error messages.
 pub fn describe(mask: u32) -> String {

@@ -1,16 +1,17 @@
-//! The state machine of FMI 3.0, Co-Simulation (standard, section 4.3) and Model Exchange
+//! The state table of FMI 3.0, Co-Simulation (standard, section 4.3) and Model Exchange
 //! (section 3.3), as the FMI 3.0 front-end ([`capi::fmi3`](super::capi::fmi3)) checks it
-//! before it calls the shared core.
+//! before it calls the shared core (which checks no table of its own).
 //!
 //! FMI 3.0 differs from FMI 2.0 ([`machine`](super::machine)): Co-Simulation has Step Mode
 //! instead of stepComplete/stepFailed, and an Event Mode of its own when the importer
 //! instantiated with `eventModeUsed`; fmi3EnterInitializationMode takes the experiment
 //! (there is no fmi3SetupExperiment). The FMI 3.0 state is derived from the core's
-//! ([`State3::of`]): the core runs the FMI 2.0 machine underneath (Step Mode is its
-//! stepComplete, or stepFailed after a discarded step), and the one state FMI 2.0 has no
-//! counterpart for, Co-Simulation's Event Mode, is a flag of the FMI 3.0 instance.
+//! ([`State3::of`]): Step Mode is the core's stepping mode, also after a discarded step
+//! (FMI 3.0 has no stepFailed: the instance is where lastSuccessfulTime says, and may step
+//! on from there), and the one state the core has no mode for, Co-Simulation's Event Mode,
+//! is a flag of the FMI 3.0 instance.
 
-use super::machine::Machine;
+use super::machine::{Gate, Interface, Machine};
 
 /// States of an FMI 3.0 instance (Configuration and Reconfiguration Mode and the Clock
 /// states never occur: the models have no structural parameters and no clocks).
@@ -69,60 +70,89 @@ const fn mask(states: &[State3]) -> u32 {
     m
 }
 
-pub const ANY: u32 = mask(&ALL);
-pub const ENTER_INIT: u32 = mask(&[Instantiated]);
-pub const EXIT_INIT: u32 = mask(&[InitializationMode]);
+pub const ANY: Gate = Gate::both(mask(&ALL));
+pub const ENTER_INIT: Gate = Gate::both(mask(&[Instantiated]));
+pub const EXIT_INIT: Gate = Gate::both(mask(&[InitializationMode]));
 /// Model Exchange from Continuous-Time Mode; Co-Simulation (eventModeUsed) from Step Mode.
-pub const ENTER_EVENT_MODE: u32 = mask(&[ContinuousTimeMode, StepMode]);
-pub const TERMINATE: u32 = mask(&[EventMode, ContinuousTimeMode, StepMode]);
-pub const GET: u32 = mask(&[
+pub const ENTER_EVENT_MODE: Gate = Gate::both(mask(&[ContinuousTimeMode, StepMode]));
+pub const TERMINATE: Gate = Gate::both(mask(&[EventMode, ContinuousTimeMode, StepMode]));
+pub const GET: Gate = Gate::both(mask(&[
     InitializationMode,
     EventMode,
     ContinuousTimeMode,
     StepMode,
     Terminated,
     Error,
-]);
-pub const SET: u32 = mask(&[
+]));
+pub const SET: Gate = Gate::both(mask(&[
     Instantiated,
     InitializationMode,
     EventMode,
     ContinuousTimeMode,
     StepMode,
-]);
-pub const FMU_STATE: u32 = ANY;
-pub const DERIVATIVES: u32 = mask(&[
+]));
+pub const FMU_STATE: Gate = ANY;
+pub const DERIVATIVES: Gate = Gate::both(mask(&[
     InitializationMode,
     EventMode,
     ContinuousTimeMode,
     StepMode,
     Terminated,
-]);
-pub const UPDATE_DISCRETE_STATES: u32 = mask(&[EventMode]);
-pub const EVALUATE_DISCRETE_STATES: u32 =
-    mask(&[InitializationMode, EventMode, ContinuousTimeMode, StepMode]);
+]));
+pub const UPDATE_DISCRETE_STATES: Gate = Gate::both(mask(&[EventMode]));
+pub const EVALUATE_DISCRETE_STATES: Gate = Gate::both(mask(&[
+    InitializationMode,
+    EventMode,
+    ContinuousTimeMode,
+    StepMode,
+]));
 // Model Exchange.
-pub const ENTER_CONTINUOUS_TIME_MODE: u32 = mask(&[EventMode]);
-pub const COMPLETED_INTEGRATOR_STEP: u32 = mask(&[ContinuousTimeMode]);
-pub const SET_TIME: u32 = mask(&[EventMode, ContinuousTimeMode]);
-pub const SET_CONTINUOUS_STATES: u32 = mask(&[ContinuousTimeMode]);
-pub const COUNTS: u32 = ANY;
+pub const ENTER_CONTINUOUS_TIME_MODE: Gate = Gate::me(mask(&[EventMode]));
+pub const COMPLETED_INTEGRATOR_STEP: Gate = Gate::me(mask(&[ContinuousTimeMode]));
+pub const SET_TIME: Gate = Gate::me(mask(&[EventMode, ContinuousTimeMode]));
+pub const SET_CONTINUOUS_STATES: Gate = Gate::me(mask(&[ContinuousTimeMode]));
+pub const COUNTS: Gate = ANY;
 /// fmi3GetContinuousStates, fmi3GetContinuousStateDerivatives, fmi3GetEventIndicators and
 /// fmi3GetNominalsOfContinuousStates: FMI 3.0.2 section 2.3 allows them in Initialization
 /// Mode, Event Mode, Continuous-Time Mode and Terminated (not in Instantiated; FMI 2.0's
 /// table differs: no derivatives in Initialization Mode, nominals in Instantiated). Error
 /// is FMI 3.0's Terminated after an fmi3Error (values for debugging).
-pub const EVALUATE: u32 = mask(&[
+pub const EVALUATE: Gate = Gate::me(mask(&[
     InitializationMode,
     EventMode,
     ContinuousTimeMode,
     Terminated,
     Error,
-]);
+]));
 // Co-Simulation.
-pub const ENTER_STEP_MODE: u32 = mask(&[EventMode]);
-pub const DO_STEP: u32 = mask(&[StepMode]);
-pub const OUTPUT_DERIVATIVES: u32 = mask(&[StepMode, Terminated, Error]);
+pub const ENTER_STEP_MODE: Gate = Gate::cs(mask(&[EventMode]));
+pub const DO_STEP: Gate = Gate::cs(mask(&[StepMode]));
+pub const OUTPUT_DERIVATIVES: Gate = Gate::cs(mask(&[StepMode, Terminated, Error]));
+
+/// Fails unless FMI 3.0's table lets a function behind `gate` run in `state` of an
+/// instance made for `own`.
+pub fn check(gate: Gate, state: State3, own: Interface) -> Result<(), String> {
+    match gate.interface {
+        Some(of) if of != own => {
+            return Err(format!(
+                "a {} function; this instance was made by fmi3Instantiate{}",
+                of.name(),
+                match own {
+                    Interface::CoSimulation => "CoSimulation",
+                    Interface::ModelExchange => "ModelExchange",
+                }
+            ))
+        }
+        _ => {}
+    }
+    if gate.states & state.code() == 0 {
+        return Err(format!(
+            "not allowed in state {state:?} (allowed in: {})",
+            describe(gate.states)
+        ));
+    }
+    Ok(())
+}
 
 /// Names of the states a mask admits, for error messages.
 pub fn describe(mask: u32) -> String {

@@ -17,7 +17,7 @@
 //! rounding.
 
 use super::core::{crossed, Res};
-use super::machine::{self, Interface};
+use super::machine;
 use super::Instance;
 use super::Status;
 use crate::integrators::all_finite;
@@ -53,18 +53,10 @@ const PROJECTION_ROUNDING: f64 = 1e-13;
 const STEP_EVENT_DRIFT: f64 = 10.0;
 
 impl<M: System> Instance<M> {
-    /// The checks every Model Exchange function makes first: the interface, then the state.
-    fn require_me(&self, mask: u32, function: &str) -> Res {
-        self.require_interface(Interface::ModelExchange, function)?;
-        self.require(mask, function)
-    }
-
     /// A count the importer passed (nx, ni) against the model's.
-    fn require_count(function: &str, what: &str, given: usize, model: usize) -> Res {
+    fn require_count(what: &str, given: usize, model: usize) -> Res {
         if given != model {
-            return Err(format!(
-                "{function}: {what} = {given}, this model has {model}"
-            ));
+            return Err(format!("{what} = {given}, this model has {model}"));
         }
         Ok(())
     }
@@ -80,10 +72,8 @@ impl<M: System> Instance<M> {
 
     /// fmi2SetTime: any finite time (a solver evaluates at times inside and past its step).
     pub fn set_time(&mut self, time: f64) -> Res {
-        const F: &str = "fmi2SetTime";
-        self.require_me(machine::SET_TIME, F)?;
         if !time.is_finite() {
-            return Err(format!("{F}: time {time} is not finite"));
+            return Err(format!("time {time} is not finite"));
         }
         self.data.time = time;
         Ok(())
@@ -91,15 +81,13 @@ impl<M: System> Instance<M> {
 
     /// fmi2SetContinuousStates: exactly the model's number of states, every one finite.
     pub fn set_continuous_states(&mut self, x: &[f64]) -> Res {
-        const F: &str = "fmi2SetContinuousStates";
-        self.require_me(machine::SET_CONTINUOUS_STATES, F)?;
-        Self::require_count(F, "nx", x.len(), self.data.x.len())?;
+        Self::require_count("nx", x.len(), self.data.x.len())?;
         // Finite only: a solver's iterates and finite-difference Jacobian step past a
         // declared [min, max] (CVODE perturbs SphereSlide's mode on_surface = 1 to 1 + 1.5e-8),
         // as Co-Simulation's integration may after initialisation.
         if let Some(i) = x.iter().position(|v| !v.is_finite()) {
             return Err(format!(
-                "{F}: x[{i}] = {} for {} is not finite",
+                "x[{i}] = {} for {} is not finite",
                 x[i],
                 self.state_name(i)
             ));
@@ -108,30 +96,16 @@ impl<M: System> Instance<M> {
         Ok(())
     }
 
+    /// The continuous states.
     pub fn get_continuous_states(&self, x: &mut [f64]) -> Res {
-        self.continuous_states_when(machine::GET_CONTINUOUS_STATES, x)
-    }
-
-    /// The body of fmi2GetContinuousStates, in the core states `allowed` by the calling
-    /// front-end's table (FMI 3.0 checks its own before: [`machine::ANY`] here). The same
-    /// holds for the `*_when` functions below.
-    pub fn continuous_states_when(&self, allowed: u32, x: &mut [f64]) -> Res {
-        const F: &str = "fmi2GetContinuousStates";
-        self.require_me(allowed, F)?;
-        Self::require_count(F, "nx", x.len(), self.data.x.len())?;
+        Self::require_count("nx", x.len(), self.data.x.len())?;
         x.copy_from_slice(&self.data.x);
         Ok(())
     }
 
     /// fmi2GetNominalsOfContinuousStates: the states' declared nominals (1 where none).
     pub fn get_nominals(&self, nominals: &mut [f64]) -> Res {
-        self.nominals_when(machine::GET_NOMINALS, nominals)
-    }
-
-    pub fn nominals_when(&self, allowed: u32, nominals: &mut [f64]) -> Res {
-        const F: &str = "fmi2GetNominalsOfContinuousStates";
-        self.require_me(allowed, F)?;
-        Self::require_count(F, "nx", nominals.len(), self.data.x.len())?;
+        Self::require_count("nx", nominals.len(), self.data.x.len())?;
         for (i, v) in nominals.iter_mut().enumerate() {
             *v = self.nominal(i);
         }
@@ -142,17 +116,11 @@ impl<M: System> Instance<M> {
     /// (a singular configuration the solver stepped into) fmi2Discard with a line: the
     /// standard's answer for "retry with a smaller step".
     pub fn get_derivatives(&self, dx: &mut [f64]) -> Res<Status> {
-        self.derivatives_when(machine::GET_DERIVATIVES, dx)
-    }
-
-    pub fn derivatives_when(&self, allowed: u32, dx: &mut [f64]) -> Res<Status> {
-        const F: &str = "fmi2GetDerivatives";
-        self.require_me(allowed, F)?;
         let d = &self.data;
-        Self::require_count(F, "nx", dx.len(), d.x.len())?;
+        Self::require_count("nx", dx.len(), d.x.len())?;
         M::derivatives(d.time, &d.x, &d.u, &d.params, dx);
         if let Some(i) = dx.iter().position(|v| !v.is_finite()) {
-            return Ok(self.discard(F, &format!("der({})", self.state_name(i)), dx[i]));
+            return Ok(self.discard(&format!("der({})", self.state_name(i)), dx[i]));
         }
         Ok(Status::Ok)
     }
@@ -160,18 +128,12 @@ impl<M: System> Instance<M> {
     /// fmi2GetEventIndicators: the model's indicator ([`NO_EVENT_INDICATOR`] where it has
     /// none in this mode); fmi2Discard with a line where it is not finite.
     pub fn get_event_indicators(&self, z: &mut [f64]) -> Res<Status> {
-        self.event_indicators_when(machine::GET_EVENT_INDICATORS, z)
-    }
-
-    pub fn event_indicators_when(&self, allowed: u32, z: &mut [f64]) -> Res<Status> {
-        const F: &str = "fmi2GetEventIndicators";
-        self.require_me(allowed, F)?;
-        Self::require_count(F, "ni", z.len(), self.number_of_event_indicators())?;
+        Self::require_count("ni", z.len(), self.number_of_event_indicators())?;
         if let Some(z) = z.first_mut() {
             let d = &self.data;
             *z = M::event_indicator(d.time, &d.x, &d.u, &d.params).unwrap_or(NO_EVENT_INDICATOR);
             if !z.is_finite() {
-                return Ok(self.discard(F, "the event indicator", *z));
+                return Ok(self.discard("the event indicator", *z));
             }
         }
         Ok(Status::Ok)
@@ -184,9 +146,9 @@ impl<M: System> Instance<M> {
         M::event_indicator(d.time, &d.x, &d.u, &d.params).unwrap_or(NO_EVENT_INDICATOR)
     }
 
-    /// Logs why `function` answers fmi2Discard: `what` = `value` is not finite here.
+    /// Logs why the call answers Discard: `what` = `value` is not finite here.
     #[cold]
-    fn discard(&self, function: &str, what: &str, value: f64) -> Status {
+    fn discard(&self, what: &str, value: f64) -> Status {
         let states = (0..self.data.x.len())
             .map(|i| format!("{} = {}", self.state_name(i), self.data.x[i]))
             .collect::<Vec<_>>()
@@ -194,7 +156,7 @@ impl<M: System> Instance<M> {
         self.logger.failure(
             Status::Discard,
             &format!(
-                "{function}: {what} = {value} is not finite at t = {}, {states} (a singular configuration: retry with a smaller step)",
+                "{what} = {value} is not finite at t = {}, {states} (a singular configuration: retry with a smaller step)",
                 self.data.time
             ),
         );
@@ -202,16 +164,11 @@ impl<M: System> Instance<M> {
     }
 
     pub fn enter_event_mode(&mut self) -> Res {
-        self.require_me(machine::ENTER_EVENT_MODE, "fmi2EnterEventMode")?;
         self.data.machine = machine::Machine::EventMode;
         Ok(())
     }
 
     pub fn enter_continuous_time_mode(&mut self) -> Res {
-        self.require_me(
-            machine::ENTER_CONTINUOUS_TIME_MODE,
-            "fmi2EnterContinuousTimeMode",
-        )?;
         self.data.machine = machine::Machine::ContinuousTimeMode;
         Ok(())
     }
@@ -222,8 +179,6 @@ impl<M: System> Instance<M> {
     /// where the state has left them by more than rounding.
     /// valuesOfContinuousStatesChanged tells whether either changed the states.
     pub fn new_discrete_states(&mut self) -> Res<EventInfo> {
-        const F: &str = "fmi2NewDiscreteStates";
-        self.require_me(machine::NEW_DISCRETE_STATES, F)?;
         let mut info = EventInfo::default();
         let d = &self.data;
         let mut x = d.x.clone();
@@ -234,7 +189,10 @@ impl<M: System> Instance<M> {
                 info.terminate_simulation = true;
                 self.logger.failure(
                     Status::Warning,
-                    &format!("{F}: {why}; terminateSimulation = fmi2True (call fmi2Terminate)"),
+                    &format!(
+                        "{why}; terminateSimulation = {} (call {})",
+                        self.logger.words.true_, self.logger.words.terminate
+                    ),
                 );
             }
         }
@@ -249,7 +207,7 @@ impl<M: System> Instance<M> {
         }
         if !all_finite(&x) {
             return Err(format!(
-                "{F}: the state after the event at t = {} is not finite (the projection failed at this configuration); state kept",
+                "the state after the event at t = {} is not finite (the projection failed at this configuration); state kept",
                 d.time
             ));
         }
@@ -265,8 +223,6 @@ impl<M: System> Instance<M> {
     /// true when `me_projection` is on and the state has left the constraints by more than
     /// [`STEP_EVENT_DRIFT`] × the tolerance (fmi2NewDiscreteStates then projects it).
     pub fn completed_integrator_step(&mut self) -> Res<(bool, bool)> {
-        const F: &str = "fmi2CompletedIntegratorStep";
-        self.require_me(machine::COMPLETED_INTEGRATOR_STEP, F)?;
         let d = &self.data;
         if !(d.me_projection && self.info.probe.projects) {
             return Ok((false, false));

@@ -1,22 +1,23 @@
 //! The FMI boundary: FMI 2.0 and FMI 3.0, Co-Simulation and Model Exchange, from one binary.
 //!
 //! Call flow, from the C symbol down to the physics:
-//! 1. [`export_fmu!`](crate::export_fmu) (in `export.rs`) defines every `fmi2*` symbol of one
-//!    FMU's cdylib (both interfaces), each a one-line forward to [`capi`].
-//! 2. [`capi`] turns C pointers into checked Rust values, catches panics and logs
-//!    failures: the only `unsafe`, `extern "C"` and `catch_unwind` of the FMU side (the
-//!    packager's side of `mbfmu_describe`, dlopen, is in `package::library`). Split as the
-//!    instance is: `capi/mod.rs` the functions both interfaces have, `capi/cs.rs` and
-//!    `capi/me.rs` each interface's own.
-//! 3. [`Instance`] is the safe state machine of the standard, one core and two thin
-//!    front-ends: `core.rs` (argument checks, get/set, initialisation, directional
-//!    derivatives, FMU state and its checked blob in `snapshot.rs`, the state machines of
-//!    both interfaces in `machine.rs`), `cs.rs` (doStep around an integrator) and `me.rs`
-//!    (time, continuous states, derivatives, event indicators, event mode).
-//! 4. FMI 3.0 is a second front-end over the same core: `export_fmu!` also defines every
-//!    `fmi3*` symbol, forwarding to `capi/fmi3*.rs`, which check FMI 3.0's state machine
-//!    (`machine3.rs`) and call the same [`Instance`].
-//! 5. The [`System`](crate::model::System) computes `ẋ` and the outputs.
+//! 1. [`export_fmu!`](crate::export_fmu) (in `export.rs`) defines every `fmi2*` and `fmi3*`
+//!    symbol of one FMU's cdylib from one table, each row a forward to [`capi`].
+//! 2. [`capi`] holds the front-ends, one per FMI version and interface: `capi/mod.rs`,
+//!    `capi/cs.rs`, `capi/me.rs` FMI 2.0's, `capi/fmi3.rs`, `capi/fmi3_cs.rs`,
+//!    `capi/fmi3_me.rs` FMI 3.0's. Each entry point goes through the one guard
+//!    ([`capi::guard`]): NULL instance, its version's state table (`machine.rs`,
+//!    `machine3.rs`: data, checked once per call), panics caught, every error one line
+//!    "function: message". The only `unsafe`, `extern "C"` and `catch_unwind` of the FMU
+//!    side (the packager's side of `mbfmu_describe`, dlopen, is in `package::library`).
+//! 3. [`Instance`] is the core, which belongs to no FMI version: its modes, `core.rs`
+//!    (variables get/set and their checks, initialisation, directional derivatives, the FMU
+//!    state and its checked blob in `snapshot.rs`), `cs.rs` (doStep around an integrator,
+//!    stepping until an event) and `me.rs` (time, continuous states, derivatives, event
+//!    indicators, the event iteration). Its messages name no FMI function: the guard says
+//!    which function failed, and the few words a message needs of the importer's version
+//!    (which function sets an Integer, what true is called) come from [`Words`].
+//! 4. The [`System`](crate::model::System) computes `ẋ` and the outputs.
 
 pub mod capi;
 mod core;
@@ -31,8 +32,8 @@ mod snapshot;
 
 pub use cs::{StepOutcome, DOSTEP_WORK};
 pub use inputs::MAX_INPUT_DERIVATIVE_ORDER;
-pub use logger::{CallbackFunctions, CallbackLogger, LogMessage3, Logger};
-pub use machine::{Interface, Machine};
+pub use logger::{CallbackFunctions, CallbackLogger, LogMessage3, Logger, Words};
+pub use machine::{Gate, Interface, Machine};
 pub use me::{EventInfo, NO_EVENT_INDICATOR};
 
 pub use self::core::Instance;

@@ -2,7 +2,7 @@
 //! queries (see [`super`] for what every function here does first).
 
 use super::{call, ok, slice, slice_mut, Component, Inst};
-use crate::fmi::machine::{self, Interface};
+use crate::fmi::machine;
 use crate::fmi::{Export, Status, StepOutcome};
 use std::ffi::{c_char, c_int, c_uint};
 
@@ -10,8 +10,6 @@ use std::ffi::{c_char, c_int, c_uint};
 /// only concern asynchronous steps, which it never runs).
 const LAST_SUCCESSFUL_TIME: c_int = 2;
 const TERMINATED: c_int = 3;
-
-const CS: Interface = Interface::CoSimulation;
 
 /// # Safety
 /// The arrays hold `n` elements when `n` is positive.
@@ -23,11 +21,10 @@ pub unsafe fn set_real_input_derivatives<E: Export>(
     value: *const f64,
 ) -> Status {
     const F: &str = "fmi2SetRealInputDerivatives";
-    call::<E>(c, F, |inst| {
-        inst.require_interface(CS, F)?;
-        let vr = slice(vr, n, "vr[]", F)?;
-        let order = slice(order, n, "order[]", F)?;
-        let value = slice(value, n, "value[]", F)?;
+    call::<E>(c, F, machine::INPUT_DERIVATIVES, |inst| {
+        let vr = slice(vr, n, "vr[]")?;
+        let order = slice(order, n, "order[]")?;
+        let value = slice(value, n, "value[]")?;
         ok(inst.set_input_derivatives(vr, order, value))
     })
 }
@@ -42,42 +39,37 @@ pub unsafe fn get_real_output_derivatives<E: Export>(
     value: *mut f64,
 ) -> Status {
     const F: &str = "fmi2GetRealOutputDerivatives";
-    call::<E>(c, F, |inst| {
-        inst.require_interface(CS, F)?;
-        let vr = slice(vr, n, "vr[]", F)?;
-        let order = slice(order, n, "order[]", F)?;
-        let value = slice_mut(value, n, "value[]", F)?;
+    call::<E>(c, F, machine::OUTPUT_DERIVATIVES, |inst| {
+        let vr = slice(vr, n, "vr[]")?;
+        let order = slice(order, n, "order[]")?;
+        let value = slice_mut(value, n, "value[]")?;
         ok(inst.output_derivatives(vr, order, value))
     })
 }
 
 pub fn do_step<E: Export>(c: Component, current: f64, h: f64, _no_set_prior: c_int) -> Status {
-    call::<E>(c, "fmi2DoStep", |inst| match inst.do_step(current, h)? {
-        StepOutcome::Completed => Ok(Status::Ok),
-        StepOutcome::Discarded(message) => {
-            inst.logger.failure(Status::Discard, &message);
-            Ok(Status::Discard)
+    call::<E>(c, "fmi2DoStep", machine::DO_STEP, |inst| {
+        match inst.do_step(current, h)? {
+            StepOutcome::Completed => Ok(Status::Ok),
+            StepOutcome::Discarded(message) => {
+                inst.logger.failure(Status::Discard, &message);
+                Ok(Status::Discard)
+            }
         }
     })
 }
 
 pub fn cancel_step<E: Export>(c: Component) -> Status {
-    call::<E>(c, "fmi2CancelStep", |inst| {
-        inst.require_interface(CS, "fmi2CancelStep")?;
-        inst.require(machine::CANCEL_STEP, "fmi2CancelStep")?;
+    call::<E>(c, "fmi2CancelStep", machine::CANCEL_STEP, |_| {
         Ok(Status::Ok)
     })
 }
 
 /// Status kinds this FMU cannot report answer fmi2Discard (standard, 4.2.3).
-fn unavailable<E: Export>(inst: &Inst<E>, function: &str, kind: c_int) -> Result<Status, String> {
-    inst.require_interface(CS, function)?;
-    inst.require_status(function)?;
+fn unavailable<E: Export>(inst: &Inst<E>, kind: c_int) -> Result<Status, String> {
     inst.logger.failure(
         Status::Discard,
-        &format!(
-            "{function}: status kind {kind} is not available from this FMU (doStep is synchronous)"
-        ),
+        &format!("status kind {kind} is not available from this FMU (doStep is synchronous)"),
     );
     Ok(Status::Discard)
 }
@@ -85,27 +77,26 @@ fn unavailable<E: Export>(inst: &Inst<E>, function: &str, kind: c_int) -> Result
 /// # Safety
 /// `value` points to a writable value of the kind's type.
 pub unsafe fn get_status<E: Export>(c: Component, kind: c_int, value: *mut c_int) -> Status {
-    call::<E>(c, "fmi2GetStatus", |inst| {
+    call::<E>(c, "fmi2GetStatus", machine::STATUS, |inst| {
         if value.is_null() {
-            return Err("fmi2GetStatus: value is NULL".into());
+            return Err("value is NULL".into());
         }
-        unavailable::<E>(inst, "fmi2GetStatus", kind)
+        unavailable::<E>(inst, kind)
     })
 }
 
 /// # Safety
 /// As [`get_status`].
 pub unsafe fn get_real_status<E: Export>(c: Component, kind: c_int, value: *mut f64) -> Status {
-    call::<E>(c, "fmi2GetRealStatus", |inst| {
+    call::<E>(c, "fmi2GetRealStatus", machine::STATUS, |inst| {
         if value.is_null() {
-            return Err("fmi2GetRealStatus: value is NULL".into());
+            return Err("value is NULL".into());
         }
         if kind == LAST_SUCCESSFUL_TIME {
-            inst.require_interface(CS, "fmi2GetRealStatus")?;
-            *value = inst.last_successful_time()?;
+            *value = inst.last_successful_time();
             return Ok(Status::Ok);
         }
-        unavailable::<E>(inst, "fmi2GetRealStatus", kind)
+        unavailable::<E>(inst, kind)
     })
 }
 
@@ -116,11 +107,11 @@ pub unsafe fn get_integer_status<E: Export>(
     kind: c_int,
     value: *mut c_int,
 ) -> Status {
-    call::<E>(c, "fmi2GetIntegerStatus", |inst| {
+    call::<E>(c, "fmi2GetIntegerStatus", machine::STATUS, |inst| {
         if value.is_null() {
-            return Err("fmi2GetIntegerStatus: value is NULL".into());
+            return Err("value is NULL".into());
         }
-        unavailable::<E>(inst, "fmi2GetIntegerStatus", kind)
+        unavailable::<E>(inst, kind)
     })
 }
 
@@ -131,18 +122,16 @@ pub unsafe fn get_boolean_status<E: Export>(
     kind: c_int,
     value: *mut c_int,
 ) -> Status {
-    call::<E>(c, "fmi2GetBooleanStatus", |inst| {
+    call::<E>(c, "fmi2GetBooleanStatus", machine::STATUS, |inst| {
         if value.is_null() {
-            return Err("fmi2GetBooleanStatus: value is NULL".into());
+            return Err("value is NULL".into());
         }
         if kind == TERMINATED {
-            inst.require_interface(CS, "fmi2GetBooleanStatus")?;
-            inst.require_status("fmi2GetBooleanStatus")?;
             // The slave never asks to end the simulation early.
             *value = 0;
             return Ok(Status::Ok);
         }
-        unavailable::<E>(inst, "fmi2GetBooleanStatus", kind)
+        unavailable::<E>(inst, kind)
     })
 }
 
@@ -153,10 +142,10 @@ pub unsafe fn get_string_status<E: Export>(
     kind: c_int,
     value: *mut *const c_char,
 ) -> Status {
-    call::<E>(c, "fmi2GetStringStatus", |inst| {
+    call::<E>(c, "fmi2GetStringStatus", machine::STATUS, |inst| {
         if value.is_null() {
-            return Err("fmi2GetStringStatus: value is NULL".into());
+            return Err("value is NULL".into());
         }
-        unavailable::<E>(inst, "fmi2GetStringStatus", kind)
+        unavailable::<E>(inst, kind)
     })
 }

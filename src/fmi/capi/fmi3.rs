@@ -4,9 +4,9 @@
 //!
 //! An FMI 3.0 instance is an [`Instance3`]: the core [`Instance`] and what FMI 3.0 adds —
 //! Co-Simulation's Event Mode, the importer's `eventModeUsed` / `earlyReturnAllowed` and
-//! its intermediateUpdate callback. Every function checks the FMI 3.0 state machine
-//! ([`machine3`]) first, then calls the core (which checks its own, the FMI 2.0 one
-//! underneath). Lines go through the importer's `logMessage`, naming the fmi3 function.
+//! its intermediateUpdate callback. Every function passes the guard with FMI 3.0's table
+//! ([`machine3`], the only one checked), then calls the core. Lines go through the
+//! importer's `logMessage`, naming the fmi3 function and using FMI 3.0's words.
 //!
 //! Variables: the value references of FMI 2.0, plus `time` (the independent variable) at
 //! the first free value reference and, for a model with an event indicator, the indicator
@@ -15,8 +15,8 @@
 //! FMI 3.0 reads enumerations as Int64); every other type answers fmi3Error for any value
 //! reference.
 
-use super::{free_states_of, ok, slice, slice_mut, Component, FmuState};
-use crate::fmi::machine::{Interface, Machine};
+use super::{free_states_of, guard, ok, slice, slice_mut, Component, FmuState, Guarded};
+use crate::fmi::machine::{Gate, Interface, Machine};
 use crate::fmi::machine3::{self, State3};
 use crate::fmi::{Export, Instance, Logger, Status};
 use crate::model::{System, VarKind};
@@ -56,33 +56,18 @@ impl<M: System> Instance3<M> {
     pub fn state(&self) -> State3 {
         State3::of(self.core.machine(), self.cs_event_mode)
     }
+}
 
-    /// Fails unless the FMI 3.0 state is in `mask`.
-    pub fn require(&self, mask: u32, function: &str) -> Result<(), String> {
-        let state = self.state();
-        if mask & state.code() == 0 {
-            return Err(format!(
-                "{function}: not allowed in state {state:?} (allowed in: {})",
-                machine3::describe(mask)
-            ));
-        }
-        Ok(())
+/// FMI 3.0 reads the core's mode and its own Event Mode flag as its state.
+impl<M: System> Guarded for Instance3<M> {
+    fn logger(&self) -> &Logger {
+        &self.core.logger
     }
-
-    /// Fails unless this instance was made for `interface`.
-    pub fn require_interface(&self, interface: Interface, function: &str) -> Result<(), String> {
-        let own = self.core.interface();
-        if own != interface {
-            return Err(format!(
-                "{function}: a {} function; this instance was made by fmi3Instantiate{}",
-                interface.name(),
-                match own {
-                    Interface::CoSimulation => "CoSimulation",
-                    Interface::ModelExchange => "ModelExchange",
-                }
-            ));
-        }
-        Ok(())
+    fn poison(&mut self) {
+        self.core.poison()
+    }
+    fn allows(&self, gate: Gate) -> Result<(), String> {
+        machine3::check(gate, self.state(), self.core.interface())
     }
 }
 
@@ -114,7 +99,7 @@ impl Type3 {
     }
 }
 
-fn var3<E: Export>(f: &Inst3<E>, function: &str, vr: u32) -> Result<Var3, String> {
+fn var3<E: Export>(f: &Inst3<E>, vr: u32) -> Result<Var3, String> {
     let info = f.core.info;
     let (time, indicator) = info.layout.fmi3_extra_vrs(info.probe.event_indicators);
     if vr == time {
@@ -125,7 +110,7 @@ fn var3<E: Export>(f: &Inst3<E>, function: &str, vr: u32) -> Result<Var3, String
     }
     let slot = info.layout.slot(vr).ok_or_else(|| {
         let last = indicator.unwrap_or(time);
-        format!("{function}: unknown value reference {vr} (this model has 0 … {last})")
+        format!("unknown value reference {vr} (this model has 0 … {last})")
     })?;
     Ok(Var3::Core(match slot.kind {
         VarKind::SolverMethod => Type3::Int64,
@@ -144,20 +129,15 @@ fn var_name<E: Export>(f: &Inst3<E>, vr: u32) -> String {
 }
 
 /// Checks that every value reference is a variable of type `want`.
-fn require_type<E: Export>(
-    f: &Inst3<E>,
-    function: &str,
-    vrs: &[u32],
-    want: Type3,
-) -> Result<(), String> {
+fn require_type<E: Export>(f: &Inst3<E>, vrs: &[u32], want: Type3) -> Result<(), String> {
     for &vr in vrs {
-        let ty = match var3::<E>(f, function, vr)? {
+        let ty = match var3::<E>(f, vr)? {
             Var3::Core(ty) => ty,
             Var3::Time | Var3::EventIndicator => Type3::Float64,
         };
         if ty != want {
             return Err(format!(
-                "{function}: value reference {vr} ({}) is a {} variable, not a {}",
+                "value reference {vr} ({}) is a {} variable, not a {}",
                 var_name::<E>(f, vr),
                 ty.name(),
                 want.name()
@@ -167,64 +147,22 @@ fn require_type<E: Export>(
     Ok(())
 }
 
-fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
-    super::panic_text(payload)
-}
-
-/// Runs `body` on the FMI 3.0 instance behind `c`: NULL check, the FMI 3.0 state check
-/// (`mask`), debug log, panic guard, error log, fmi3OK raised to fmi3Warning when the
-/// body logged a warning. The FMI 3.0 counterpart of [`call`].
+/// [`guard`] for an FMI 3.0 instance.
 #[inline(always)]
 pub(crate) fn call3<E: Export>(
     c: Component,
     function: &'static str,
-    mask: u32,
+    gate: Gate,
     body: impl FnOnce(&mut Inst3<E>) -> Result<Status, String>,
 ) -> Status {
-    if c.is_null() {
-        return Status::Error;
-    }
-    let ptr = c as *mut Inst3<E>;
-    let outcome = catch_unwind(AssertUnwindSafe(|| {
-        // SAFETY: `c` came from our fmi3Instantiate* (a Box<Instance3>) and the standard
-        // forbids using it after fmi3FreeInstance or from two threads at once.
-        let f = unsafe { &mut *ptr };
-        f.core.logger.set_fmi3_function(function);
-        f.core.logger.take_warned();
-        if f.core.logger.debug_enabled() {
-            f.core.logger.debug(&format!("{function} called"));
-        }
-        f.require(mask, function)?;
-        body(f)
-    }));
-    // SAFETY: as above; the body's borrow has ended.
-    let f = unsafe { &mut *ptr };
-    match outcome {
-        Ok(Ok(Status::Ok)) if f.core.logger.take_warned() => Status::Warning,
-        Ok(Ok(status)) => status,
-        Ok(Err(message)) => {
-            f.core.logger.failure(Status::Error, &message);
-            Status::Error
-        }
-        Err(payload) => {
-            f.core.poison();
-            let text = panic_text(payload.as_ref());
-            let _ = catch_unwind(AssertUnwindSafe(|| {
-                f.core.logger.failure(
-                    Status::Error,
-                    &format!("{function}: internal error, the instance is unusable: {text}"),
-                )
-            }));
-            Status::Error
-        }
-    }
+    guard::<Inst3<E>>(c, function, gate, body)
 }
 
 /// nValues against nValueReferences (every variable here is a scalar).
-fn require_values(function: &str, n_vr: usize, n_values: usize) -> Result<(), String> {
+fn require_values(n_vr: usize, n_values: usize) -> Result<(), String> {
     if n_vr != n_values {
         return Err(format!(
-            "{function}: nValues = {n_values}, but {n_vr} value references of scalar variables need {n_vr}"
+            "nValues = {n_values}, but {n_vr} value references of scalar variables need {n_vr}"
         ));
     }
     Ok(())
@@ -263,10 +201,10 @@ pub unsafe fn instantiate<E: Export>(
             name.as_deref().unwrap_or("?"),
             logging_on != 0,
         );
-        logger.set_fmi3_function(function);
+        logger.set_function(function);
         let info = E::info();
         let fail = |message: String| {
-            logger.failure(Status::Error, &format!("{function}: {message}"));
+            logger.failure(Status::Error, &message);
             std::ptr::null_mut()
         };
         if matches!(name.as_deref(), None | Some("")) {
@@ -315,9 +253,11 @@ pub unsafe fn instantiate_scheduled_execution(
         } else {
             CStr::from_ptr(instance_name).to_string_lossy().into_owned()
         };
-        Logger::fmi3(log_message, env, &name, false).failure(
+        let logger = Logger::fmi3(log_message, env, &name, false);
+        logger.set_function("fmi3InstantiateScheduledExecution");
+        logger.failure(
             Status::Error,
-            "fmi3InstantiateScheduledExecution: this FMU offers Model Exchange and Co-Simulation only (no Scheduled Execution: the models have no clocks)",
+            "this FMU offers Model Exchange and Co-Simulation only (no Scheduled Execution: the models have no clocks)",
         );
     }));
     std::ptr::null_mut()
@@ -345,19 +285,16 @@ pub unsafe fn set_debug_logging<E: Export>(
 ) -> Status {
     const F: &str = "fmi3SetDebugLogging";
     call3::<E>(c, F, machine3::ANY, |f| {
-        let ptrs = slice(categories, n, "categories[]", F)?;
+        let ptrs = slice(categories, n, "categories[]")?;
         let mut names = Vec::with_capacity(n);
         for &p in ptrs {
             if p.is_null() {
-                return Err(format!("{F}: a category is NULL"));
+                return Err("a category is NULL".to_string());
             }
             names.push(CStr::from_ptr(p).to_string_lossy().into_owned());
         }
         let names: Vec<&str> = names.iter().map(String::as_str).collect();
-        ok(f.core
-            .logger
-            .set_debug_logging(logging_on != 0, &names)
-            .map_err(|e| format!("{F}: {e}")))
+        ok(f.core.logger.set_debug_logging(logging_on != 0, &names))
     })
 }
 
@@ -399,9 +336,10 @@ pub fn enter_event_mode<E: Export>(c: Component) -> Status {
             Interface::ModelExchange => ok(f.core.enter_event_mode()),
             Interface::CoSimulation => {
                 if !f.event_mode_used {
-                    return Err(format!(
-                        "{F}: this Co-Simulation instance was made with eventModeUsed = false"
-                    ));
+                    return Err(
+                        "this Co-Simulation instance was made with eventModeUsed = false"
+                            .to_string(),
+                    );
                 }
                 f.cs_event_mode = true;
                 Ok(Status::Ok)
@@ -442,10 +380,10 @@ unsafe fn getter<E: Export, T>(
     read: impl FnOnce(&mut Inst3<E>, &[u32], &mut [T]) -> Result<(), String>,
 ) -> Status {
     call3::<E>(c, function, machine3::GET, |f| {
-        require_values(function, nvr, n_values)?;
-        let vr = slice(vr, nvr, "valueReferences[]", function)?;
-        let value = slice_mut(value, nvr, "values[]", function)?;
-        require_type::<E>(f, function, vr, want)?;
+        require_values(nvr, n_values)?;
+        let vr = slice(vr, nvr, "valueReferences[]")?;
+        let value = slice_mut(value, nvr, "values[]")?;
+        require_type::<E>(f, vr, want)?;
         ok(read(f, vr, value))
     })
 }
@@ -463,27 +401,22 @@ unsafe fn setter<E: Export, T>(
     write: impl FnOnce(&mut Inst3<E>, &[u32], &[T]) -> Result<(), String>,
 ) -> Status {
     call3::<E>(c, function, machine3::SET, |f| {
-        require_values(function, nvr, n_values)?;
-        let vr = slice(vr, nvr, "valueReferences[]", function)?;
-        let value = slice(value, nvr, "values[]", function)?;
-        require_type::<E>(f, function, vr, want)?;
+        require_values(nvr, n_values)?;
+        let vr = slice(vr, nvr, "valueReferences[]")?;
+        let value = slice(value, nvr, "values[]")?;
+        require_type::<E>(f, vr, want)?;
         ok(write(f, vr, value))
     })
 }
 
 /// Reads the Float64 variables: the core's Reals, `time` and the event indicator.
-fn read_float64<E: Export>(
-    f: &Inst3<E>,
-    function: &str,
-    vrs: &[u32],
-    values: &mut [f64],
-) -> Result<(), String> {
+fn read_float64<E: Export>(f: &Inst3<E>, vrs: &[u32], values: &mut [f64]) -> Result<(), String> {
     let n = f.core.info.layout.vars.len();
     if vrs.iter().all(|&vr| (vr as usize) < n) {
         return f.core.get_real(vrs, values);
     }
     for (value, &vr) in values.iter_mut().zip(vrs) {
-        *value = match var3::<E>(f, function, vr)? {
+        *value = match var3::<E>(f, vr)? {
             Var3::Time => f.core.time(),
             Var3::EventIndicator => f.core.event_indicator_value(),
             Var3::Core(_) => {
@@ -494,7 +427,7 @@ fn read_float64<E: Export>(
         };
         if !value.is_finite() {
             return Err(format!(
-                "{function}: {} = {value} is not finite here",
+                "{} = {value} is not finite here",
                 var_name::<E>(f, vr)
             ));
         }
@@ -518,7 +451,7 @@ pub unsafe fn get_float64<E: Export>(
         Type3::Float64,
         (vr, nvr),
         (value, n_values),
-        |f, vr, value| read_float64::<E>(f, F, vr, value),
+        |f, vr, value| read_float64::<E>(f, vr, value),
     )
 }
 
@@ -540,15 +473,15 @@ pub unsafe fn set_float64<E: Export>(
         (value, n_values),
         |f, vr, value| {
             for &v in vr {
-                match var3::<E>(f, F, v)? {
+                match var3::<E>(f, v)? {
                 Var3::Time => {
                     return Err(format!(
-                        "{F}: time (value reference {v}) is the independent variable: fmi3EnterInitializationMode's startTime, fmi3SetTime (Model Exchange) or fmi3DoStep (Co-Simulation) set it"
+                        "time (value reference {v}) is the independent variable: fmi3EnterInitializationMode's startTime, fmi3SetTime (Model Exchange) or fmi3DoStep (Co-Simulation) set it"
                     ))
                 }
                 Var3::EventIndicator => {
                     return Err(format!(
-                        "{F}: the event indicator (value reference {v}) is computed, it cannot be set"
+                        "the event indicator (value reference {v}) is computed, it cannot be set"
                     ))
                 }
                 Var3::Core(_) => {}
@@ -644,9 +577,7 @@ pub unsafe fn set_int64<E: Export>(
         |f, vr, value| {
             let v32 = value
                 .iter()
-                .map(|&v| {
-                    i32::try_from(v).map_err(|_| format!("{F}: {v} is not a solver (1 … 12)"))
-                })
+                .map(|&v| i32::try_from(v).map_err(|_| format!("{v} is not a solver (1 … 12)")))
                 .collect::<Result<Vec<i32>, String>>()?;
             f.core.set_integer(vr, &v32)
         },
@@ -662,20 +593,20 @@ pub unsafe fn set_int64<E: Export>(
 pub unsafe fn no_such_type<E: Export>(
     c: Component,
     function: &'static str,
-    mask: u32,
+    gate: Gate,
     vr: *const u32,
     nvr: usize,
 ) -> Status {
-    call3::<E>(c, function, mask, |f| {
-        let vr = slice(vr, nvr, "valueReferences[]", function)?;
+    call3::<E>(c, function, gate, |f| {
+        let vr = slice(vr, nvr, "valueReferences[]")?;
         if let Some(&v) = vr.first() {
-            let what = match var3::<E>(f, function, v) {
+            let what = match var3::<E>(f, v) {
                 Ok(Var3::Core(ty)) => format!("a {} variable", ty.name()),
                 Ok(_) => "a Float64 variable".into(),
                 Err(e) => return Err(e),
             };
             return Err(format!(
-                "{function}: value reference {v} ({}) is {what}; this model has no variables of this function's type",
+                "value reference {v} ({}) is {what}; this model has no variables of this function's type",
                 var_name::<E>(f, v)
             ));
         }
@@ -687,7 +618,7 @@ pub unsafe fn no_such_type<E: Export>(
 /// variable dependencies): fmi3Error with one line.
 pub fn not_offered<E: Export>(c: Component, function: &'static str, why: &str) -> Status {
     call3::<E>(c, function, machine3::ANY, |_| {
-        Err(format!("{function}: not offered by this FMU ({why})"))
+        Err(format!("not offered by this FMU ({why})"))
     })
 }
 
@@ -696,7 +627,7 @@ pub fn not_offered<E: Export>(c: Component, function: &'static str, why: &str) -
 pub unsafe fn get_fmu_state<E: Export>(c: Component, state: *mut FmuState) -> Status {
     const F: &str = "fmi3GetFMUState";
     call3::<E>(c, F, machine3::FMU_STATE, |f| {
-        super::get_fmu_state_of::<E>(c, &mut f.core, state, F)
+        super::get_fmu_state_of::<E>(c, &mut f.core, state)
     })
 }
 
@@ -709,7 +640,7 @@ pub unsafe fn get_fmu_state<E: Export>(c: Component, state: *mut FmuState) -> St
 pub unsafe fn set_fmu_state<E: Export>(c: Component, state: FmuState) -> Status {
     const F: &str = "fmi3SetFMUState";
     call3::<E>(c, F, machine3::FMU_STATE, |f| {
-        let status = super::set_fmu_state_of::<E>(c, &mut f.core, state, F)?;
+        let status = super::set_fmu_state_of::<E>(c, &mut f.core, state)?;
         f.cs_event_mode &= matches!(
             f.core.machine(),
             Machine::StepComplete | Machine::StepFailed
@@ -723,7 +654,7 @@ pub unsafe fn set_fmu_state<E: Export>(c: Component, state: FmuState) -> Status 
 pub unsafe fn free_fmu_state<E: Export>(c: Component, state: *mut FmuState) -> Status {
     const F: &str = "fmi3FreeFMUState";
     call3::<E>(c, F, machine3::FMU_STATE, |_| {
-        super::free_fmu_state_of::<E>(c, state, F)
+        super::free_fmu_state_of::<E>(c, state)
     })
 }
 
@@ -736,7 +667,7 @@ pub unsafe fn serialized_fmu_state_size<E: Export>(
 ) -> Status {
     const F: &str = "fmi3SerializedFMUStateSize";
     call3::<E>(c, F, machine3::FMU_STATE, |f| {
-        super::serialized_fmu_state_size_of::<E>(c, &f.core, state, size, F)
+        super::serialized_fmu_state_size_of::<E>(c, &f.core, state, size)
     })
 }
 
@@ -750,7 +681,7 @@ pub unsafe fn serialize_fmu_state<E: Export>(
 ) -> Status {
     const F: &str = "fmi3SerializeFMUState";
     call3::<E>(c, F, machine3::FMU_STATE, |f| {
-        super::serialize_fmu_state_of::<E>(c, &f.core, state, bytes, size, F)
+        super::serialize_fmu_state_of::<E>(c, &f.core, state, bytes, size)
     })
 }
 
@@ -764,7 +695,7 @@ pub unsafe fn deserialize_fmu_state<E: Export>(
 ) -> Status {
     const F: &str = "fmi3DeserializeFMUState";
     call3::<E>(c, F, machine3::FMU_STATE, |f| {
-        super::deserialize_fmu_state_of::<E>(c, &f.core, bytes, size, state, F)
+        super::deserialize_fmu_state_of::<E>(c, &f.core, bytes, size, state)
     })
 }
 
@@ -789,14 +720,14 @@ pub unsafe fn get_directional_derivative<E: Export>(c: Component, a: Seeds) -> S
     call3::<E>(c, F, machine3::DERIVATIVES, |f| {
         if a.n_seed != a.n_knowns || a.n_sensitivity != a.n_unknowns {
             return Err(format!(
-                "{F}: nSeed = {} and nSensitivity = {} must equal nKnowns = {} and nUnknowns = {}",
+                "nSeed = {} and nSensitivity = {} must equal nKnowns = {} and nUnknowns = {}",
                 a.n_seed, a.n_sensitivity, a.n_knowns, a.n_unknowns
             ));
         }
-        let unknowns = slice(a.unknowns, a.n_unknowns, "unknowns[]", F)?;
-        let knowns = slice(a.knowns, a.n_knowns, "knowns[]", F)?;
-        let seed = slice(a.seed, a.n_seed, "seed[]", F)?;
-        let out = slice_mut(a.sensitivity, a.n_sensitivity, "sensitivity[]", F)?;
+        let unknowns = slice(a.unknowns, a.n_unknowns, "unknowns[]")?;
+        let knowns = slice(a.knowns, a.n_knowns, "knowns[]")?;
+        let seed = slice(a.seed, a.n_seed, "seed[]")?;
+        let out = slice_mut(a.sensitivity, a.n_sensitivity, "sensitivity[]")?;
         ok(f.core.directional_derivative(unknowns, knowns, seed, out))
     })
 }
@@ -811,19 +742,19 @@ pub unsafe fn get_adjoint_derivative<E: Export>(c: Component, a: Seeds) -> Statu
     call3::<E>(c, F, machine3::DERIVATIVES, |f| {
         if a.n_seed != a.n_unknowns || a.n_sensitivity != a.n_knowns {
             return Err(format!(
-                "{F}: nSeed = {} and nSensitivity = {} must equal nUnknowns = {} and nKnowns = {}",
+                "nSeed = {} and nSensitivity = {} must equal nUnknowns = {} and nKnowns = {}",
                 a.n_seed, a.n_sensitivity, a.n_unknowns, a.n_knowns
             ));
         }
-        let unknowns = slice(a.unknowns, a.n_unknowns, "unknowns[]", F)?;
-        let knowns = slice(a.knowns, a.n_knowns, "knowns[]", F)?;
-        let seed = slice(a.seed, a.n_seed, "seed[]", F)?;
-        let out = slice_mut(a.sensitivity, a.n_sensitivity, "sensitivity[]", F)?;
+        let unknowns = slice(a.unknowns, a.n_unknowns, "unknowns[]")?;
+        let knowns = slice(a.knowns, a.n_knowns, "knowns[]")?;
+        let seed = slice(a.seed, a.n_seed, "seed[]")?;
+        let out = slice_mut(a.sensitivity, a.n_sensitivity, "sensitivity[]")?;
         if let Some(v) = seed.iter().find(|v| !v.is_finite()) {
-            return Err(format!("{F}: a seed is not finite ({v})"));
+            return Err(format!("a seed is not finite ({v})"));
         }
         // The loop below checks the unknowns only when there is a known to seed.
-        f.core.check_unknowns(F, unknowns)?;
+        f.core.check_unknowns(unknowns)?;
         let mut unit = vec![0.0; knowns.len()];
         let mut column = vec![0.0; unknowns.len()];
         let mut result = vec![0.0; knowns.len()];
@@ -835,7 +766,7 @@ pub unsafe fn get_adjoint_derivative<E: Export>(c: Component, a: Seeds) -> Statu
             result[j] = column.iter().zip(seed).map(|(c, s)| c * s).sum();
         }
         if let Some(v) = result.iter().find(|v| !v.is_finite()) {
-            return Err(format!("{F}: a sensitivity is not finite ({v})"));
+            return Err(format!("a sensitivity is not finite ({v})"));
         }
         out.copy_from_slice(&result);
         Ok(Status::Ok)

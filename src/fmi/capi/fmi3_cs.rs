@@ -16,11 +16,8 @@
 
 use super::fmi3::{call3, put, Bool3, Inst3};
 use super::{ok, slice, slice_mut, Component};
-use crate::fmi::machine::Interface;
 use crate::fmi::machine3;
 use crate::fmi::{Export, Status, StepOutcome};
-
-const CS: Interface = Interface::CoSimulation;
 
 /// Most early stops at events in one fmi3DoStep that goes on past them (a chattering model).
 const MAX_EVENTS_PER_STEP: usize = 100;
@@ -35,8 +32,6 @@ struct StepResult {
 }
 
 fn step<E: Export>(f: &mut Inst3<E>, current: f64, h: f64) -> Result<(Status, StepResult), String> {
-    const F: &str = "fmi3DoStep";
-    f.require_interface(CS, F)?;
     let t_end = current + h;
     let stop_at_events = f.early_return_allowed || f.intermediate_update.is_some();
     let mut now = current;
@@ -94,7 +89,7 @@ fn step<E: Export>(f: &mut Inst3<E>, current: f64, h: f64) -> Result<(Status, St
     let t = f.core.time();
     if t < t_end {
         return Err(format!(
-            "{F}: more than {MAX_EVENTS_PER_STEP} events in one communication step (stopped at t = {t})"
+            "more than {MAX_EVENTS_PER_STEP} events in one communication step (stopped at t = {t})"
         ));
     }
     let r = StepResult {
@@ -124,9 +119,7 @@ pub unsafe fn do_step<E: Export>(
             || early_return.is_null()
             || last_successful_time.is_null()
         {
-            return Err(format!(
-                "{F}: eventHandlingNeeded, terminateSimulation, earlyReturn or lastSuccessfulTime is NULL"
-            ));
+            return Err("eventHandlingNeeded, terminateSimulation, earlyReturn or lastSuccessfulTime is NULL".to_string());
         }
         let (status, r) = step::<E>(f, current, h)?;
         put(event_handling_needed, r.event_handling_needed);
@@ -141,7 +134,6 @@ pub unsafe fn do_step<E: Export>(
 pub fn enter_step_mode<E: Export>(c: Component) -> Status {
     const F: &str = "fmi3EnterStepMode";
     call3::<E>(c, F, machine3::ENTER_STEP_MODE, |f| {
-        f.require_interface(CS, F)?;
         f.cs_event_mode = false;
         Ok(Status::Ok)
     })
@@ -159,15 +151,14 @@ pub unsafe fn get_output_derivatives<E: Export>(
 ) -> Status {
     const F: &str = "fmi3GetOutputDerivatives";
     call3::<E>(c, F, machine3::OUTPUT_DERIVATIVES, |f| {
-        f.require_interface(CS, F)?;
         if nvr != n_values {
             return Err(format!(
-                "{F}: nValues = {n_values} differs from nValueReferences = {nvr}"
+                "nValues = {n_values} differs from nValueReferences = {nvr}"
             ));
         }
-        let vr = slice(vr, nvr, "valueReferences[]", F)?;
-        let order = slice(order, nvr, "orders[]", F)?;
-        let value = slice_mut(value, nvr, "values[]", F)?;
+        let vr = slice(vr, nvr, "valueReferences[]")?;
+        let order = slice(order, nvr, "orders[]")?;
+        let value = slice_mut(value, nvr, "values[]")?;
         ok(f.core.output_derivatives(vr, order, value))
     })
 }

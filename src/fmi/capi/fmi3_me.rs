@@ -3,11 +3,9 @@
 
 use super::fmi3::{call3, put, Bool3};
 use super::{ok, slice, slice_mut, Component};
-use crate::fmi::machine::{self, Interface};
+use crate::fmi::machine::Interface;
 use crate::fmi::machine3;
 use crate::fmi::{Export, Status};
-
-const ME: Interface = Interface::ModelExchange;
 
 /// fmi3UpdateDiscreteStates. Model Exchange: the event at the time and states set (the
 /// core's fmi2NewDiscreteStates). Co-Simulation: the event was applied inside doStep;
@@ -37,7 +35,7 @@ pub unsafe fn update_discrete_states<E: Export>(
         .any(|p| p.is_null())
             || next_event_time.is_null()
         {
-            return Err(format!("{F}: an out argument is NULL"));
+            return Err("an out argument is NULL".to_string());
         }
         let info = match f.core.interface() {
             Interface::ModelExchange => f.core.new_discrete_states()?,
@@ -56,7 +54,6 @@ pub unsafe fn update_discrete_states<E: Export>(
 pub fn enter_continuous_time_mode<E: Export>(c: Component) -> Status {
     const F: &str = "fmi3EnterContinuousTimeMode";
     call3::<E>(c, F, machine3::ENTER_CONTINUOUS_TIME_MODE, |f| {
-        f.require_interface(ME, F)?;
         ok(f.core.enter_continuous_time_mode())
     })
 }
@@ -71,11 +68,8 @@ pub unsafe fn completed_integrator_step<E: Export>(
 ) -> Status {
     const F: &str = "fmi3CompletedIntegratorStep";
     call3::<E>(c, F, machine3::COMPLETED_INTEGRATOR_STEP, |f| {
-        f.require_interface(ME, F)?;
         if enter_event_mode.is_null() || terminate_simulation.is_null() {
-            return Err(format!(
-                "{F}: enterEventMode or terminateSimulation is NULL"
-            ));
+            return Err("enterEventMode or terminateSimulation is NULL".to_string());
         }
         let (enter, terminate) = f.core.completed_integrator_step()?;
         put(enter_event_mode, enter);
@@ -86,10 +80,7 @@ pub unsafe fn completed_integrator_step<E: Export>(
 
 pub fn set_time<E: Export>(c: Component, time: f64) -> Status {
     const F: &str = "fmi3SetTime";
-    call3::<E>(c, F, machine3::SET_TIME, |f| {
-        f.require_interface(ME, F)?;
-        ok(f.core.set_time(time))
-    })
+    call3::<E>(c, F, machine3::SET_TIME, |f| ok(f.core.set_time(time)))
 }
 
 /// # Safety
@@ -97,8 +88,7 @@ pub fn set_time<E: Export>(c: Component, time: f64) -> Status {
 pub unsafe fn set_continuous_states<E: Export>(c: Component, x: *const f64, nx: usize) -> Status {
     const F: &str = "fmi3SetContinuousStates";
     call3::<E>(c, F, machine3::SET_CONTINUOUS_STATES, |f| {
-        f.require_interface(ME, F)?;
-        let x = slice(x, nx, "continuousStates[]", F)?;
+        let x = slice(x, nx, "continuousStates[]")?;
         ok(f.core.set_continuous_states(x))
     })
 }
@@ -108,9 +98,8 @@ pub unsafe fn set_continuous_states<E: Export>(c: Component, x: *const f64, nx: 
 pub unsafe fn get_continuous_states<E: Export>(c: Component, x: *mut f64, nx: usize) -> Status {
     const F: &str = "fmi3GetContinuousStates";
     call3::<E>(c, F, machine3::EVALUATE, |f| {
-        f.require_interface(ME, F)?;
-        let x = slice_mut(x, nx, "continuousStates[]", F)?;
-        ok(f.core.continuous_states_when(machine::ANY, x))
+        let x = slice_mut(x, nx, "continuousStates[]")?;
+        ok(f.core.get_continuous_states(x))
     })
 }
 
@@ -123,9 +112,8 @@ pub unsafe fn get_continuous_state_derivatives<E: Export>(
 ) -> Status {
     const F: &str = "fmi3GetContinuousStateDerivatives";
     call3::<E>(c, F, machine3::EVALUATE, |f| {
-        f.require_interface(ME, F)?;
-        let dx = slice_mut(dx, nx, "derivatives[]", F)?;
-        f.core.derivatives_when(machine::ANY, dx)
+        let dx = slice_mut(dx, nx, "derivatives[]")?;
+        f.core.get_derivatives(dx)
     })
 }
 
@@ -134,9 +122,8 @@ pub unsafe fn get_continuous_state_derivatives<E: Export>(
 pub unsafe fn get_event_indicators<E: Export>(c: Component, z: *mut f64, ni: usize) -> Status {
     const F: &str = "fmi3GetEventIndicators";
     call3::<E>(c, F, machine3::EVALUATE, |f| {
-        f.require_interface(ME, F)?;
-        let z = slice_mut(z, ni, "eventIndicators[]", F)?;
-        f.core.event_indicators_when(machine::ANY, z)
+        let z = slice_mut(z, ni, "eventIndicators[]")?;
+        f.core.get_event_indicators(z)
     })
 }
 
@@ -149,9 +136,8 @@ pub unsafe fn get_nominals_of_continuous_states<E: Export>(
 ) -> Status {
     const F: &str = "fmi3GetNominalsOfContinuousStates";
     call3::<E>(c, F, machine3::EVALUATE, |f| {
-        f.require_interface(ME, F)?;
-        let nominals = slice_mut(nominals, nx, "nominals[]", F)?;
-        ok(f.core.nominals_when(machine::ANY, nominals))
+        let nominals = slice_mut(nominals, nx, "nominals[]")?;
+        ok(f.core.get_nominals(nominals))
     })
 }
 
@@ -163,7 +149,7 @@ pub unsafe fn get_number_of_event_indicators<E: Export>(c: Component, n: *mut us
     const F: &str = "fmi3GetNumberOfEventIndicators";
     call3::<E>(c, F, machine3::COUNTS, |f| {
         if n.is_null() {
-            return Err(format!("{F}: nEventIndicators is NULL"));
+            return Err("nEventIndicators is NULL".to_string());
         }
         *n = f.core.number_of_event_indicators();
         Ok(Status::Ok)
@@ -176,7 +162,7 @@ pub unsafe fn get_number_of_continuous_states<E: Export>(c: Component, n: *mut u
     const F: &str = "fmi3GetNumberOfContinuousStates";
     call3::<E>(c, F, machine3::COUNTS, |f| {
         if n.is_null() {
-            return Err(format!("{F}: nContinuousStates is NULL"));
+            return Err("nContinuousStates is NULL".to_string());
         }
         *n = f.core.info.layout.n_states;
         Ok(Status::Ok)

@@ -2,6 +2,7 @@
 //! does first).
 
 use super::{call, ok, slice, slice_mut, Component};
+use crate::fmi::machine;
 use crate::fmi::{EventInfo, Export, Status};
 use std::ffi::c_int;
 
@@ -31,16 +32,18 @@ impl From<EventInfo> for EventInfoC {
 }
 
 pub fn enter_event_mode<E: Export>(c: Component) -> Status {
-    call::<E>(c, "fmi2EnterEventMode", |inst| ok(inst.enter_event_mode()))
+    call::<E>(c, "fmi2EnterEventMode", machine::ENTER_EVENT_MODE, |inst| {
+        ok(inst.enter_event_mode())
+    })
 }
 
 /// # Safety
 /// `info` points to a writable fmi2EventInfo.
 pub unsafe fn new_discrete_states<E: Export>(c: Component, info: *mut EventInfoC) -> Status {
     const F: &str = "fmi2NewDiscreteStates";
-    call::<E>(c, F, |inst| {
+    call::<E>(c, F, machine::NEW_DISCRETE_STATES, |inst| {
         if info.is_null() {
-            return Err(format!("{F}: fmi2EventInfo is NULL"));
+            return Err("fmi2EventInfo is NULL".to_string());
         }
         let answer = inst.new_discrete_states()?;
         *info = answer.into();
@@ -49,9 +52,12 @@ pub unsafe fn new_discrete_states<E: Export>(c: Component, info: *mut EventInfoC
 }
 
 pub fn enter_continuous_time_mode<E: Export>(c: Component) -> Status {
-    call::<E>(c, "fmi2EnterContinuousTimeMode", |inst| {
-        ok(inst.enter_continuous_time_mode())
-    })
+    call::<E>(
+        c,
+        "fmi2EnterContinuousTimeMode",
+        machine::ENTER_CONTINUOUS_TIME_MODE,
+        |inst| ok(inst.enter_continuous_time_mode()),
+    )
 }
 
 /// # Safety
@@ -63,11 +69,9 @@ pub unsafe fn completed_integrator_step<E: Export>(
     terminate_simulation: *mut c_int,
 ) -> Status {
     const F: &str = "fmi2CompletedIntegratorStep";
-    call::<E>(c, F, |inst| {
+    call::<E>(c, F, machine::COMPLETED_INTEGRATOR_STEP, |inst| {
         if enter_event_mode.is_null() || terminate_simulation.is_null() {
-            return Err(format!(
-                "{F}: enterEventMode or terminateSimulation is NULL"
-            ));
+            return Err("enterEventMode or terminateSimulation is NULL".to_string());
         }
         let (enter, terminate) = inst.completed_integrator_step()?;
         *enter_event_mode = enter as c_int;
@@ -77,15 +81,17 @@ pub unsafe fn completed_integrator_step<E: Export>(
 }
 
 pub fn set_time<E: Export>(c: Component, time: f64) -> Status {
-    call::<E>(c, "fmi2SetTime", |inst| ok(inst.set_time(time)))
+    call::<E>(c, "fmi2SetTime", machine::SET_TIME, |inst| {
+        ok(inst.set_time(time))
+    })
 }
 
 /// # Safety
 /// `x` points to `nx` values when `nx > 0`.
 pub unsafe fn set_continuous_states<E: Export>(c: Component, x: *const f64, nx: usize) -> Status {
     const F: &str = "fmi2SetContinuousStates";
-    call::<E>(c, F, |inst| {
-        let x = slice(x, nx, "x[]", F)?;
+    call::<E>(c, F, machine::SET_CONTINUOUS_STATES, |inst| {
+        let x = slice(x, nx, "x[]")?;
         ok(inst.set_continuous_states(x))
     })
 }
@@ -94,8 +100,8 @@ pub unsafe fn set_continuous_states<E: Export>(c: Component, x: *const f64, nx: 
 /// `x` points to `nx` writable values when `nx > 0`.
 pub unsafe fn get_continuous_states<E: Export>(c: Component, x: *mut f64, nx: usize) -> Status {
     const F: &str = "fmi2GetContinuousStates";
-    call::<E>(c, F, |inst| {
-        let x = slice_mut(x, nx, "x[]", F)?;
+    call::<E>(c, F, machine::GET_CONTINUOUS_STATES, |inst| {
+        let x = slice_mut(x, nx, "x[]")?;
         ok(inst.get_continuous_states(x))
     })
 }
@@ -104,8 +110,8 @@ pub unsafe fn get_continuous_states<E: Export>(c: Component, x: *mut f64, nx: us
 /// As [`get_continuous_states`].
 pub unsafe fn get_derivatives<E: Export>(c: Component, dx: *mut f64, nx: usize) -> Status {
     const F: &str = "fmi2GetDerivatives";
-    call::<E>(c, F, |inst| {
-        let dx = slice_mut(dx, nx, "derivatives[]", F)?;
+    call::<E>(c, F, machine::GET_DERIVATIVES, |inst| {
+        let dx = slice_mut(dx, nx, "derivatives[]")?;
         inst.get_derivatives(dx)
     })
 }
@@ -114,8 +120,8 @@ pub unsafe fn get_derivatives<E: Export>(c: Component, dx: *mut f64, nx: usize) 
 /// `z` points to `ni` writable values when `ni > 0`.
 pub unsafe fn get_event_indicators<E: Export>(c: Component, z: *mut f64, ni: usize) -> Status {
     const F: &str = "fmi2GetEventIndicators";
-    call::<E>(c, F, |inst| {
-        let z = slice_mut(z, ni, "eventIndicators[]", F)?;
+    call::<E>(c, F, machine::GET_EVENT_INDICATORS, |inst| {
+        let z = slice_mut(z, ni, "eventIndicators[]")?;
         inst.get_event_indicators(z)
     })
 }
@@ -128,8 +134,8 @@ pub unsafe fn get_nominals_of_continuous_states<E: Export>(
     nx: usize,
 ) -> Status {
     const F: &str = "fmi2GetNominalsOfContinuousStates";
-    call::<E>(c, F, |inst| {
-        let nominals = slice_mut(nominals, nx, "x_nominal[]", F)?;
+    call::<E>(c, F, machine::GET_NOMINALS, |inst| {
+        let nominals = slice_mut(nominals, nx, "x_nominal[]")?;
         ok(inst.get_nominals(nominals))
     })
 }

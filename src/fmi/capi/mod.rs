@@ -1,13 +1,16 @@
 //! The C side of the boundary: raw pointers in, checked Rust values out.
 //!
-//! Every function here is generic over the exported model and is called by a one-line
-//! `extern "C"` symbol from [`export_fmu!`](crate::export_fmu): this module the functions
-//! both interfaces have (instantiation, get/set, FMU state, directional derivatives,
-//! logging), [`cs`] Co-Simulation's own, [`me`] Model Exchange's own. Each one:
-//! - rejects NULL pointers and impossible lengths before touching memory,
-//! - runs its body under `catch_unwind`, so no panic crosses into the host,
-//! - turns every `Err` into fmi2Error and one line through the logger,
-//! - returns fmi2Warning from a call that logged a warning and would return fmi2OK.
+//! Every function here is generic over the exported model and is called by a one-row
+//! `extern "C"` symbol from [`export_fmu!`](crate::export_fmu). This module is FMI 2.0's
+//! front-end for what both interfaces have (instantiation, get/set, FMU state, directional
+//! derivatives, logging), [`cs`] and [`me`] each interface's own; [`fmi3`], [`fmi3_cs`]
+//! and [`fmi3_me`] are FMI 3.0's. Each function goes through the one [`guard`], which
+//! - checks its version's state table once (a [`Gate`] of `machine.rs` / `machine3.rs`),
+//! - runs the body under `catch_unwind`, so no panic crosses into the host,
+//! - turns every `Err` into Error and one line "function: message" through the logger,
+//! - returns Warning from a call that logged a warning and would return OK;
+//!
+//! and the body rejects NULL pointers and impossible lengths before touching memory.
 
 mod cs;
 pub mod fmi3;
@@ -19,8 +22,9 @@ pub use cs::*;
 pub use me::*;
 
 use super::logger::CallbackFunctions;
-use super::machine::{self, Interface};
+use super::machine::{self, Gate, Interface};
 use super::{Export, Instance, Logger, Snapshot, Status};
+use crate::model::System;
 use std::collections::BTreeMap;
 use std::ffi::{c_char, c_int, c_uint, c_void, CStr};
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -76,44 +80,73 @@ fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
         .unwrap_or_else(|| "unknown panic".into())
 }
 
-/// Runs `body` on the instance behind `c`: NULL check, debug log, panic guard, error log,
-/// and fmi2OK raised to fmi2Warning when the body logged a warning.
+/// What the guard needs of an instance of either FMI version.
+pub(crate) trait Guarded {
+    fn logger(&self) -> &Logger;
+    /// Moves to the error state (after a panic was caught: nothing can be trusted).
+    fn poison(&mut self);
+    /// Fails unless this version's state table lets a function behind `gate` run now.
+    fn allows(&self, gate: Gate) -> Result<(), String>;
+}
+
+/// FMI 2.0 reads the core's mode as its own state.
+impl<M: System> Guarded for Instance<M> {
+    fn logger(&self) -> &Logger {
+        &self.logger
+    }
+    fn poison(&mut self) {
+        Instance::poison(self)
+    }
+    fn allows(&self, gate: Gate) -> Result<(), String> {
+        machine::check(gate, self.machine(), self.interface())
+    }
+}
+
+/// The one guard of every C entry point that takes an instance: the NULL check, the debug
+/// line, the state table (`gate`, checked once, before the body), the panic guard, every
+/// `Err` as one line "function: message" and Error, and OK raised to Warning when the call
+/// logged a warning.
 #[inline(always)] // (each FMI function has its own body: one call site per instance)
-pub(crate) fn call<E: Export>(
+pub(crate) fn guard<I: Guarded>(
     c: Component,
-    function: &str,
-    body: impl FnOnce(&mut Inst<E>) -> Result<Status, String>,
+    function: &'static str,
+    gate: Gate,
+    body: impl FnOnce(&mut I) -> Result<Status, String>,
 ) -> Status {
     if c.is_null() {
         return Status::Error;
     }
-    let ptr = c as *mut Inst<E>;
+    let ptr = c as *mut I;
     let outcome = catch_unwind(AssertUnwindSafe(|| {
-        // SAFETY: `c` came from our fmi2Instantiate (a Box<Instance>) and the standard
-        // forbids using it after fmi2FreeInstance or from two threads at once.
+        // SAFETY: `c` came from our fmi2Instantiate / fmi3Instantiate* (a Box of this
+        // version's instance) and the standard forbids using it after freeing it or from
+        // two threads at once.
         let inst = unsafe { &mut *ptr };
-        inst.logger.take_warned(); // this call's warnings only
-        if inst.logger.debug_enabled() {
-            inst.logger.debug(&format!("{function} called"));
+        let logger = inst.logger();
+        logger.set_function(function);
+        logger.take_warned(); // this call's warnings only
+        if logger.debug_enabled() {
+            logger.debug("called");
         }
+        inst.allows(gate)?;
         body(inst)
     }));
     // SAFETY: as above; the body's borrow has ended.
     let inst = unsafe { &mut *ptr };
     match outcome {
-        Ok(Ok(Status::Ok)) if inst.logger.take_warned() => Status::Warning,
+        Ok(Ok(Status::Ok)) if inst.logger().take_warned() => Status::Warning,
         Ok(Ok(status)) => status,
         Ok(Err(message)) => {
-            inst.logger.failure(Status::Error, &message);
+            inst.logger().failure(Status::Error, &message);
             Status::Error
         }
         Err(payload) => {
             inst.poison();
             let text = panic_text(payload.as_ref());
             let _ = catch_unwind(AssertUnwindSafe(|| {
-                inst.logger.failure(
+                inst.logger().failure(
                     Status::Error,
-                    &format!("{function}: internal error, the instance is unusable: {text}"),
+                    &format!("internal error, the instance is unusable: {text}"),
                 )
             }));
             Status::Error
@@ -121,24 +154,30 @@ pub(crate) fn call<E: Export>(
     }
 }
 
+/// [`guard`] for an FMI 2.0 instance.
+#[inline(always)]
+pub(crate) fn call<E: Export>(
+    c: Component,
+    function: &'static str,
+    gate: Gate,
+    body: impl FnOnce(&mut Inst<E>) -> Result<Status, String>,
+) -> Status {
+    guard::<Inst<E>>(c, function, gate, body)
+}
+
 /// A slice from a C array, or an error naming the NULL argument.
 ///
 /// # Safety
 /// When `n > 0` and `ptr` is not NULL, `ptr` must point to `n` valid values.
-pub(crate) unsafe fn slice<'a, T>(
-    ptr: *const T,
-    n: usize,
-    what: &str,
-    function: &str,
-) -> Result<&'a [T], String> {
+pub(crate) unsafe fn slice<'a, T>(ptr: *const T, n: usize, what: &str) -> Result<&'a [T], String> {
     if n == 0 {
         return Ok(&[]);
     }
     if ptr.is_null() {
-        return Err(format!("{function}: {what} is NULL but nvr = {n}"));
+        return Err(format!("{what} is NULL but nvr = {n}"));
     }
     if n > isize::MAX as usize / std::mem::size_of::<T>().max(1) {
-        return Err(format!("{function}: nvr = {n} is impossibly large"));
+        return Err(format!("nvr = {n} is impossibly large"));
     }
     Ok(std::slice::from_raw_parts(ptr, n))
 }
@@ -149,16 +188,15 @@ pub(crate) unsafe fn slice_mut<'a, T>(
     ptr: *mut T,
     n: usize,
     what: &str,
-    function: &str,
 ) -> Result<&'a mut [T], String> {
     if n == 0 {
         return Ok(&mut []);
     }
     if ptr.is_null() {
-        return Err(format!("{function}: {what} is NULL but nvr = {n}"));
+        return Err(format!("{what} is NULL but nvr = {n}"));
     }
     if n > isize::MAX as usize / std::mem::size_of::<T>().max(1) {
-        return Err(format!("{function}: nvr = {n} is impossibly large"));
+        return Err(format!("nvr = {n} is impossibly large"));
     }
     Ok(std::slice::from_raw_parts_mut(ptr, n))
 }
@@ -203,8 +241,9 @@ pub unsafe fn instantiate<E: Export>(
             logging_on != 0,
         );
         let info = E::info();
+        logger.set_function("fmi2Instantiate");
         let fail = |message: String| {
-            logger.failure(Status::Error, &format!("fmi2Instantiate: {message}"));
+            logger.failure(Status::Error, &message);
             std::ptr::null_mut()
         };
         match name.as_deref() {
@@ -284,21 +323,17 @@ pub unsafe fn set_debug_logging<E: Export>(
     n: usize,
     categories: *const *const c_char,
 ) -> Status {
-    call::<E>(c, "fmi2SetDebugLogging", |inst| {
-        inst.require(machine::ANY, "fmi2SetDebugLogging")?;
-        let ptrs = slice(categories, n, "categories[]", "fmi2SetDebugLogging")?;
+    call::<E>(c, "fmi2SetDebugLogging", machine::ANY, |inst| {
+        let ptrs = slice(categories, n, "categories[]")?;
         let mut names = Vec::with_capacity(n);
         for &p in ptrs {
             if p.is_null() {
-                return Err("fmi2SetDebugLogging: a category is NULL".into());
+                return Err("a category is NULL".into());
             }
             names.push(CStr::from_ptr(p).to_string_lossy().into_owned());
         }
         let names: Vec<&str> = names.iter().map(String::as_str).collect();
-        ok(inst
-            .logger
-            .set_debug_logging(logging_on != 0, &names)
-            .map_err(|e| format!("fmi2SetDebugLogging: {e}")))
+        ok(inst.logger.set_debug_logging(logging_on != 0, &names))
     })
 }
 
@@ -310,33 +345,46 @@ pub fn setup_experiment<E: Export>(
     stop_time_defined: c_int,
     stop_time: f64,
 ) -> Status {
-    call::<E>(c, "fmi2SetupExperiment", |inst| {
-        ok(inst.setup_experiment(
-            (tolerance_defined != 0).then_some(tolerance),
-            start_time,
-            (stop_time_defined != 0).then_some(stop_time),
-        ))
-    })
+    call::<E>(
+        c,
+        "fmi2SetupExperiment",
+        machine::SETUP_EXPERIMENT,
+        |inst| {
+            ok(inst.setup_experiment(
+                (tolerance_defined != 0).then_some(tolerance),
+                start_time,
+                (stop_time_defined != 0).then_some(stop_time),
+            ))
+        },
+    )
 }
 
 pub fn enter_initialization_mode<E: Export>(c: Component) -> Status {
-    call::<E>(c, "fmi2EnterInitializationMode", |inst| {
-        ok(inst.enter_initialization_mode())
-    })
+    call::<E>(
+        c,
+        "fmi2EnterInitializationMode",
+        machine::ENTER_INIT,
+        |inst| ok(inst.enter_initialization_mode()),
+    )
 }
 
 pub fn exit_initialization_mode<E: Export>(c: Component) -> Status {
-    call::<E>(c, "fmi2ExitInitializationMode", |inst| {
-        inst.exit_initialization_mode()
-    })
+    call::<E>(
+        c,
+        "fmi2ExitInitializationMode",
+        machine::EXIT_INIT,
+        |inst| inst.exit_initialization_mode(),
+    )
 }
 
 pub fn terminate<E: Export>(c: Component) -> Status {
-    call::<E>(c, "fmi2Terminate", |inst| ok(inst.terminate()))
+    call::<E>(c, "fmi2Terminate", machine::TERMINATE, |inst| {
+        ok(inst.terminate())
+    })
 }
 
 pub fn reset<E: Export>(c: Component) -> Status {
-    call::<E>(c, "fmi2Reset", |inst| ok(inst.reset()))
+    call::<E>(c, "fmi2Reset", machine::RESET, |inst| ok(inst.reset()))
 }
 
 /// # Safety
@@ -347,9 +395,9 @@ pub unsafe fn get_real<E: Export>(
     nvr: usize,
     value: *mut f64,
 ) -> Status {
-    call::<E>(c, "fmi2GetReal", |inst| {
-        let vr = slice(vr, nvr, "vr[]", "fmi2GetReal")?;
-        let value = slice_mut(value, nvr, "value[]", "fmi2GetReal")?;
+    call::<E>(c, "fmi2GetReal", machine::GET, |inst| {
+        let vr = slice(vr, nvr, "vr[]")?;
+        let value = slice_mut(value, nvr, "value[]")?;
         ok(inst.get_real(vr, value))
     })
 }
@@ -362,9 +410,9 @@ pub unsafe fn set_real<E: Export>(
     nvr: usize,
     value: *const f64,
 ) -> Status {
-    call::<E>(c, "fmi2SetReal", |inst| {
-        let vr = slice(vr, nvr, "vr[]", "fmi2SetReal")?;
-        let value = slice(value, nvr, "value[]", "fmi2SetReal")?;
+    call::<E>(c, "fmi2SetReal", machine::SET_REAL, |inst| {
+        let vr = slice(vr, nvr, "vr[]")?;
+        let value = slice(value, nvr, "value[]")?;
         ok(inst.set_real(vr, value))
     })
 }
@@ -377,9 +425,9 @@ pub unsafe fn get_integer<E: Export>(
     nvr: usize,
     value: *mut c_int,
 ) -> Status {
-    call::<E>(c, "fmi2GetInteger", |inst| {
-        let vr = slice(vr, nvr, "vr[]", "fmi2GetInteger")?;
-        let value = slice_mut(value, nvr, "value[]", "fmi2GetInteger")?;
+    call::<E>(c, "fmi2GetInteger", machine::GET, |inst| {
+        let vr = slice(vr, nvr, "vr[]")?;
+        let value = slice_mut(value, nvr, "value[]")?;
         ok(inst.get_integer(vr, value))
     })
 }
@@ -392,9 +440,9 @@ pub unsafe fn set_integer<E: Export>(
     nvr: usize,
     value: *const c_int,
 ) -> Status {
-    call::<E>(c, "fmi2SetInteger", |inst| {
-        let vr = slice(vr, nvr, "vr[]", "fmi2SetInteger")?;
-        let value = slice(value, nvr, "value[]", "fmi2SetInteger")?;
+    call::<E>(c, "fmi2SetInteger", machine::SET_INTEGER, |inst| {
+        let vr = slice(vr, nvr, "vr[]")?;
+        let value = slice(value, nvr, "value[]")?;
         ok(inst.set_integer(vr, value))
     })
 }
@@ -405,21 +453,22 @@ pub unsafe fn set_integer<E: Export>(
 /// `vr` and `value` point to `nvr` elements when `nvr > 0`.
 pub unsafe fn no_such_type<E: Export, T>(
     c: Component,
-    function: &str,
-    mask: u32,
+    function: &'static str,
+    gate: Gate,
     vr: *const c_uint,
     nvr: usize,
     value: *const T,
 ) -> Status {
-    call::<E>(c, function, |inst| {
-        let vr = slice(vr, nvr, "vr[]", function)?;
-        slice(value, nvr, "value[]", function)?;
-        ok(inst.no_variables_of_type(function, mask, vr))
+    call::<E>(c, function, gate, |inst| {
+        let vr = slice(vr, nvr, "vr[]")?;
+        slice(value, nvr, "value[]")?;
+        ok(inst.no_variables_of_type(vr))
     })
 }
 
-pub const GET_MASK: u32 = machine::GET;
-pub const SET_MASK: u32 = machine::SET_INTEGER;
+/// The gates of fmi2Get/SetBoolean and fmi2Get/SetString (those of fmi2Get/SetInteger).
+pub const GETTER: Gate = machine::GET;
+pub const SETTER: Gate = machine::SET_INTEGER;
 
 /// Who may use an FMU state in a call.
 #[derive(Clone, Copy, PartialEq)]
@@ -440,27 +489,26 @@ unsafe fn state_ref<'a, E: Export>(
     c: Component,
     state: FmuState,
     access: Use,
-    function: &str,
 ) -> Result<&'a mut StateBox, String> {
     if state.is_null() {
-        return Err(format!("{function}: FMUstate is NULL"));
+        return Err("FMUstate is NULL".to_string());
     }
     match states().get(&(state as usize)) {
         None => {
             return Err(format!(
-                "{function}: FMUstate {state:p} is not a live FMU state of this FMU (never made by it, or freed already)"
+                "FMUstate {state:p} is not a live FMU state of this FMU (never made by it, or freed already)"
             ))
         }
         Some(&owner) if access == Use::Own && owner != c as usize => {
             return Err(format!(
-                "{function}: FMUstate {state:p} was made by another instance; only that one may free or overwrite it"
+                "FMUstate {state:p} was made by another instance; only that one may free or overwrite it"
             ))
         }
         Some(_) => {}
     }
     let b = &mut *(state as *mut StateBox);
     if b.tag != STATE_TAG || b.guid != E::info().guid {
-        return Err(format!("{function}: FMUstate was not made by this model"));
+        return Err("FMUstate was not made by this model".to_string());
     }
     Ok(b)
 }
@@ -469,9 +517,8 @@ unsafe fn state_ref<'a, E: Export>(
 /// `state` points to an `fmi2FMUstate` (NULL or one of ours).
 pub unsafe fn get_fmu_state<E: Export>(c: Component, state: *mut FmuState) -> Status {
     const F: &str = "fmi2GetFMUstate";
-    call::<E>(c, F, |inst| {
-        inst.require(machine::FMU_STATE, F)?;
-        get_fmu_state_of::<E>(c, inst, state, F)
+    call::<E>(c, F, machine::FMU_STATE, |inst| {
+        get_fmu_state_of::<E>(c, inst, state)
     })
 }
 
@@ -484,16 +531,15 @@ pub(crate) unsafe fn get_fmu_state_of<E: Export>(
     c: Component,
     inst: &mut Inst<E>,
     state: *mut FmuState,
-    function: &str,
 ) -> Result<Status, String> {
     if state.is_null() {
-        return Err(format!("{function}: FMUstate is NULL"));
+        return Err("FMUstate is NULL".to_string());
     }
     let snapshot = inst.snapshot();
     if (*state).is_null() {
         *state = new_state::<E>(c, snapshot);
     } else {
-        state_ref::<E>(c, *state, Use::Own, function)?.snapshot = snapshot;
+        state_ref::<E>(c, *state, Use::Own)?.snapshot = snapshot;
     }
     Ok(Status::Ok)
 }
@@ -502,7 +548,9 @@ pub(crate) unsafe fn get_fmu_state_of<E: Export>(
 /// `state` is NULL or one of ours.
 pub unsafe fn set_fmu_state<E: Export>(c: Component, state: FmuState) -> Status {
     const F: &str = "fmi2SetFMUstate";
-    call::<E>(c, F, |inst| set_fmu_state_of::<E>(c, inst, state, F))
+    call::<E>(c, F, machine::FMU_STATE, |inst| {
+        set_fmu_state_of::<E>(c, inst, state)
+    })
 }
 
 /// The body of fmi2SetFMUstate and fmi3SetFMUState.
@@ -513,9 +561,8 @@ pub(crate) unsafe fn set_fmu_state_of<E: Export>(
     c: Component,
     inst: &mut Inst<E>,
     state: FmuState,
-    function: &str,
 ) -> Result<Status, String> {
-    let b = state_ref::<E>(c, state, Use::Read, function)?;
+    let b = state_ref::<E>(c, state, Use::Read)?;
     ok(inst.restore(&b.snapshot))
 }
 
@@ -523,9 +570,8 @@ pub(crate) unsafe fn set_fmu_state_of<E: Export>(
 /// `state` points to an `fmi2FMUstate` (NULL or one of ours).
 pub unsafe fn free_fmu_state<E: Export>(c: Component, state: *mut FmuState) -> Status {
     const F: &str = "fmi2FreeFMUstate";
-    call::<E>(c, F, |inst| {
-        inst.require(machine::FMU_STATE, F)?;
-        free_fmu_state_of::<E>(c, state, F)
+    call::<E>(c, F, machine::FMU_STATE, |_| {
+        free_fmu_state_of::<E>(c, state)
     })
 }
 
@@ -536,15 +582,14 @@ pub unsafe fn free_fmu_state<E: Export>(c: Component, state: *mut FmuState) -> S
 pub(crate) unsafe fn free_fmu_state_of<E: Export>(
     c: Component,
     state: *mut FmuState,
-    function: &str,
 ) -> Result<Status, String> {
     if state.is_null() {
-        return Err(format!("{function}: FMUstate is NULL"));
+        return Err("FMUstate is NULL".to_string());
     }
     if (*state).is_null() {
         return Ok(Status::Ok);
     }
-    state_ref::<E>(c, *state, Use::Own, function)?;
+    state_ref::<E>(c, *state, Use::Own)?;
     states().remove(&(*state as usize));
     // SAFETY: a live Box<StateBox> of this instance, just taken out of the registry.
     drop(Box::from_raw(*state as *mut StateBox));
@@ -560,9 +605,8 @@ pub unsafe fn serialized_fmu_state_size<E: Export>(
     size: *mut usize,
 ) -> Status {
     const F: &str = "fmi2SerializedFMUstateSize";
-    call::<E>(c, F, |inst| {
-        inst.require(machine::FMU_STATE, F)?;
-        serialized_fmu_state_size_of::<E>(c, inst, state, size, F)
+    call::<E>(c, F, machine::FMU_STATE, |inst| {
+        serialized_fmu_state_size_of::<E>(c, inst, state, size)
     })
 }
 
@@ -575,11 +619,10 @@ pub(crate) unsafe fn serialized_fmu_state_size_of<E: Export>(
     inst: &Inst<E>,
     state: FmuState,
     size: *mut usize,
-    function: &str,
 ) -> Result<Status, String> {
-    let b = state_ref::<E>(c, state, Use::Read, function)?;
+    let b = state_ref::<E>(c, state, Use::Read)?;
     if size.is_null() {
-        return Err(format!("{function}: size is NULL"));
+        return Err("size is NULL".to_string());
     }
     *size = inst.serialize(&b.snapshot).len();
     Ok(Status::Ok)
@@ -594,9 +637,8 @@ pub unsafe fn serialize_fmu_state<E: Export>(
     size: usize,
 ) -> Status {
     const F: &str = "fmi2SerializeFMUstate";
-    call::<E>(c, F, |inst| {
-        inst.require(machine::FMU_STATE, F)?;
-        serialize_fmu_state_of::<E>(c, inst, state, bytes as *mut u8, size, F)
+    call::<E>(c, F, machine::FMU_STATE, |inst| {
+        serialize_fmu_state_of::<E>(c, inst, state, bytes as *mut u8, size)
     })
 }
 
@@ -610,17 +652,16 @@ pub(crate) unsafe fn serialize_fmu_state_of<E: Export>(
     state: FmuState,
     bytes: *mut u8,
     size: usize,
-    function: &str,
 ) -> Result<Status, String> {
-    let b = state_ref::<E>(c, state, Use::Read, function)?;
+    let b = state_ref::<E>(c, state, Use::Read)?;
     let blob = inst.serialize(&b.snapshot);
     if size != blob.len() {
         return Err(format!(
-            "{function}: size {size} differs from the serialized size {}",
+            "size {size} differs from the serialized size {}",
             blob.len()
         ));
     }
-    let out = slice_mut(bytes, size, "serializedState[]", function)?;
+    let out = slice_mut(bytes, size, "serializedState[]")?;
     out.copy_from_slice(&blob);
     Ok(Status::Ok)
 }
@@ -634,9 +675,8 @@ pub unsafe fn deserialize_fmu_state<E: Export>(
     state: *mut FmuState,
 ) -> Status {
     const F: &str = "fmi2DeSerializeFMUstate";
-    call::<E>(c, F, |inst| {
-        inst.require(machine::FMU_STATE, F)?;
-        deserialize_fmu_state_of::<E>(c, inst, bytes as *const u8, size, state, F)
+    call::<E>(c, F, machine::FMU_STATE, |inst| {
+        deserialize_fmu_state_of::<E>(c, inst, bytes as *const u8, size, state)
     })
 }
 
@@ -650,17 +690,16 @@ pub(crate) unsafe fn deserialize_fmu_state_of<E: Export>(
     bytes: *const u8,
     size: usize,
     state: *mut FmuState,
-    function: &str,
 ) -> Result<Status, String> {
     if state.is_null() {
-        return Err(format!("{function}: FMUstate is NULL"));
+        return Err("FMUstate is NULL".to_string());
     }
-    let blob = slice(bytes, size, "serializedState[]", function)?;
+    let blob = slice(bytes, size, "serializedState[]")?;
     let snapshot = inst.deserialize(blob)?;
     if (*state).is_null() {
         *state = new_state::<E>(c, snapshot);
     } else {
-        state_ref::<E>(c, *state, Use::Own, function)?.snapshot = snapshot;
+        state_ref::<E>(c, *state, Use::Own)?.snapshot = snapshot;
     }
     Ok(Status::Ok)
 }
@@ -677,11 +716,11 @@ pub unsafe fn get_directional_derivative<E: Export>(
     dv_unknown: *mut f64,
 ) -> Status {
     const F: &str = "fmi2GetDirectionalDerivative";
-    call::<E>(c, F, |inst| {
-        let unknown = slice(unknown, n_unknown, "vUnknown_ref[]", F)?;
-        let known = slice(known, n_known, "vKnown_ref[]", F)?;
-        let dv_known = slice(dv_known, n_known, "dvKnown[]", F)?;
-        let dv_unknown = slice_mut(dv_unknown, n_unknown, "dvUnknown[]", F)?;
+    call::<E>(c, F, machine::DIRECTIONAL_DERIVATIVE, |inst| {
+        let unknown = slice(unknown, n_unknown, "vUnknown_ref[]")?;
+        let known = slice(known, n_known, "vKnown_ref[]")?;
+        let dv_known = slice(dv_known, n_known, "dvKnown[]")?;
+        let dv_unknown = slice_mut(dv_unknown, n_unknown, "dvUnknown[]")?;
         ok(inst.directional_derivative(unknown, known, dv_known, dv_unknown))
     })
 }
