@@ -15,6 +15,7 @@
 // be checked against it; the compiler rounds them to the nearest f64.
 #![allow(clippy::excessive_precision)]
 
+use super::blob::{put_f64s, Reader};
 use super::buffers::sized;
 use super::explicit_rk::{
     carried_proposal, check_attempt, initial_step, max_step, stage, Goal, PiController, PiGains,
@@ -404,6 +405,57 @@ impl Ahead {
             *o = c(0, i) + s * (c(1, i) + s1 * (c(2, i) + s * (c(3, i) + s1 * conpar)));
         }
         Ok(())
+    }
+}
+
+impl Ahead {
+    /// Its block of the FMU state (see [`super::Memory::write`]): the point, then the last
+    /// step's record and its extension, each after a flag (empty before the first step /
+    /// until built).
+    pub(crate) fn write(&self, b: &mut Vec<u8>) {
+        let fields = [self.t, self.t0, self.err_prev];
+        put_f64s(b, fields.iter().chain(&self.x).chain(&self.f));
+        for block in [&self.step, &self.cont] {
+            b.push(!block.is_empty() as u8);
+            put_f64s(b, block.iter());
+        }
+    }
+
+    /// Reads what [`Ahead::write`] wrote for `n` states, and checks it.
+    pub(crate) fn read(r: &mut Reader, n: usize) -> Result<Ahead, String> {
+        let (t, t0, err_prev) = (r.f64()?, r.f64()?, r.f64()?);
+        let (x, f) = (r.f64s(n)?, r.f64s(n)?);
+        let step = if r.flag()? {
+            r.f64s(11 * n)?
+        } else {
+            Vec::new()
+        };
+        let cont = if r.flag()? {
+            r.f64s(8 * n)?
+        } else {
+            Vec::new()
+        };
+        let finite = [t, t0, err_prev]
+            .iter()
+            .chain(&x)
+            .chain(&f)
+            .chain(&step)
+            .chain(&cont)
+            .all(|v| v.is_finite());
+        let consistent =
+            t0 <= t && (step.is_empty() == (t0 == t)) && (cont.is_empty() || !step.is_empty());
+        if !finite || !consistent {
+            return Err("FMU state holds an invalid DOP853 integrator point".into());
+        }
+        Ok(Ahead {
+            t,
+            x,
+            f,
+            t0,
+            err_prev,
+            step,
+            cont,
+        })
     }
 }
 

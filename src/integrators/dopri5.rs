@@ -7,6 +7,7 @@
 //! (initial step), IV.2 (PI / "Lund" stabilization); and Hairer's reference code `dopri5.f`
 //! (subroutines DOPCOR and HINIT), whose default constants are reproduced below.
 
+use super::blob::{put_f64s, Reader};
 use super::buffers::sized;
 use super::explicit_rk::{
     carried_proposal, check_attempt, eval, initial_step, max_step, stage, Goal, PiController,
@@ -183,6 +184,44 @@ impl Ahead {
     }
 }
 
+impl Ahead {
+    /// Its block of the FMU state (see [`super::Memory::write`]).
+    pub(crate) fn write(&self, b: &mut Vec<u8>) {
+        let fields = [self.t, self.t0, self.err_prev];
+        put_f64s(
+            b,
+            fields
+                .iter()
+                .chain(&self.x)
+                .chain(&self.f)
+                .chain(&self.rcont),
+        );
+    }
+
+    /// Reads what [`Ahead::write`] wrote for `n` states, and checks it.
+    pub(crate) fn read(r: &mut Reader, n: usize) -> Result<Ahead, String> {
+        let (t, t0, err_prev) = (r.f64()?, r.f64()?, r.f64()?);
+        let (x, f, rcont) = (r.f64s(n)?, r.f64s(n)?, r.f64s(5 * n)?);
+        let finite = [t, t0, err_prev]
+            .iter()
+            .chain(&x)
+            .chain(&f)
+            .chain(&rcont)
+            .all(|v| v.is_finite());
+        if !finite || t0 > t {
+            return Err("FMU state holds an invalid integrator point".into());
+        }
+        Ok(Ahead {
+            t,
+            x,
+            f,
+            t0,
+            rcont,
+            err_prev,
+        })
+    }
+}
+
 /// Hairer's stiffness detection (dopri5.f, NSTIFF): both f(t+h, y₁) and the sixth stage
 /// f(t+h, y₆) are taken at t + h, so `h·|f(y₁) − f(y₆)| / |y₁ − y₆|` estimates h·|λ| for
 /// the dominant eigenvalue. Above 3.25 (DOPRI5's stability boundary on the negative axis
@@ -211,6 +250,31 @@ const STIFF_STEPS: u32 = 15;
 const CALM_STEPS: u32 = 6;
 
 impl StiffnessMonitor {
+    /// Its block of the FMU state (see [`super::Memory::write`]).
+    pub(crate) fn write(&self, b: &mut Vec<u8>) {
+        b.extend_from_slice(&self.suspicious.to_le_bytes());
+        b.extend_from_slice(&self.calm.to_le_bytes());
+        b.push(self.detected_at.is_some() as u8);
+        put_f64s(b, &[self.detected_at.unwrap_or(0.0)]);
+        b.push(self.reported as u8);
+    }
+
+    /// Reads what [`StiffnessMonitor::write`] wrote, and checks it.
+    pub(crate) fn read(r: &mut Reader) -> Result<StiffnessMonitor, String> {
+        let (suspicious, calm) = (r.u32()?, r.u32()?);
+        let (has_detected, detected) = (r.take(1)?[0], r.f64()?);
+        let reported = r.take(1)?[0];
+        if has_detected > 1 || reported > 1 || !detected.is_finite() {
+            return Err("FMU state holds an invalid stiffness monitor".into());
+        }
+        Ok(StiffnessMonitor {
+            suspicious,
+            calm,
+            detected_at: (has_detected == 1).then_some(detected),
+            reported: reported == 1,
+        })
+    }
+
     /// One accepted step of size `h` ending at `t` with `(f(y₁), f(y₆))` and `(y₁, y₆)`.
     fn observe(&mut self, h: f64, (f1, f6): (&[f64], &[f64]), (y1, y6): (&[f64], &[f64]), t: f64) {
         let num: f64 = f1.iter().zip(f6).map(|(a, b)| (a - b) * (a - b)).sum();
