@@ -1,7 +1,6 @@
 //! The adaptive methods' point ahead of the communication time (dense output): the one
-//! [`Ahead`] a [`Memory`] keeps, run by [`advance_dense`] through the [`Dense`] trait each
-//! method implements, checked and serialized by the method that owns it, so the FMU never
-//! reads a method's internals.
+//! [`Ahead`] a [`Memory`] keeps, started, stepped and read by [`advance_dense`], checked and
+//! serialized by the method that owns it, so the FMU never reads a method's internals.
 
 use super::blob::Reader;
 use super::problem::Problem;
@@ -96,6 +95,12 @@ pub fn advance_dense(
     memory: &mut Memory,
     work: &mut Workspace,
 ) -> Result<(), Failure> {
+    let method = settings.method;
+    assert!(
+        method.is_adaptive(),
+        "{} has no dense output",
+        method.name()
+    );
     let mut point = std::mem::take(&mut work.point);
     let out = sized(&mut point, state.1.len());
     let call = &mut Call {
@@ -107,61 +112,37 @@ pub fn advance_dense(
         memory,
         work,
     };
-    let result = match settings.method {
-        Method::Dopri5 => dense::<dopri5::Ahead>(call, state, out),
-        Method::Dop853 => dense::<dop853::Ahead>(call, state, out),
-        Method::Radau5 => dense::<radau5::Ahead>(call, state, out),
-        other => panic!("{} has no dense output", other.name()),
-    };
+    let result = dense(call, state, out);
     work.point = point;
     result
 }
 
 /// One call of [`advance_dense`]: what a method's steps need besides its own state.
-pub(crate) struct Call<'c, 'p> {
-    pub problem: &'c mut Problem<'p>,
-    pub project: &'c mut dyn FnMut(f64, &mut [f64]),
+struct Call<'c, 'p> {
+    problem: &'c mut Problem<'p>,
+    project: &'c mut dyn FnMut(f64, &mut [f64]),
     /// Steps until the last covers `t_out`, never past `t_limit`.
-    pub t_out: f64,
-    pub t_limit: f64,
-    pub settings: &'c Settings,
-    pub memory: &'c mut Memory,
-    pub work: &'c mut Workspace,
+    t_out: f64,
+    t_limit: f64,
+    settings: &'c Settings,
+    memory: &'c mut Memory,
+    work: &'c mut Workspace,
 }
 
-/// What [`advance_dense`] needs of a method's point ahead.
-pub(crate) trait Dense: Sized {
-    /// This method's, if `ahead` is.
-    fn own(ahead: Ahead) -> Option<Self>;
-    fn into_ahead(self) -> Ahead;
-    /// The time it started from, and the time and state its last accepted step reached.
-    fn span(&self) -> (f64, f64, &[f64]);
-    /// Whether integration from `t` can go on from it: a time its steps covered.
-    fn resumes(&self, t: f64) -> bool {
-        let (t0, t1, _) = self.span();
-        t0 <= t && t <= t1
-    }
-    /// A new one at `(t, x)` (evaluates f).
-    fn start(call: &mut Call, t: f64, x: &[f64]) -> Result<Self, Failure>;
-    /// Steps until its last step covers `call.t_out`, and x(`t_out`) into `out`.
-    fn advance(&mut self, call: &mut Call, out: &mut [f64]) -> Result<(), Failure>;
-}
-
-fn dense<A: Dense>(
-    call: &mut Call,
-    (t, x): (&mut f64, &mut [f64]),
-    out: &mut [f64],
-) -> Result<(), Failure> {
-    let kept = call.memory.ahead.take().and_then(A::own);
-    let mut ahead = match kept {
-        Some(a) if a.resumes(*t) => a,
-        _ => A::start(call, *t, x)?,
+/// The running method's point ahead if it resumes at `*t`, else a new one; stepped until
+/// its last step covers `call.t_out`.
+fn dense(call: &mut Call, (t, x): (&mut f64, &mut [f64]), out: &mut [f64]) -> Result<(), Failure> {
+    let method = call.settings.method;
+    let kept = call.memory.ahead.take();
+    let mut ahead = match kept.filter(|a| a.method() == method && a.resumes(*t)) {
+        Some(a) => a,
+        None => Ahead::start(call, *t, x)?,
     };
     match ahead.advance(call, out) {
         Ok(()) => {
             x.copy_from_slice(out);
             *t = call.t_out;
-            call.memory.ahead = Some(ahead.into_ahead());
+            call.memory.ahead = Some(ahead);
             Ok(())
         }
         Err(e) => {
@@ -175,80 +156,56 @@ fn dense<A: Dense>(
     }
 }
 
-impl Dense for dopri5::Ahead {
-    fn own(ahead: Ahead) -> Option<Self> {
-        let Ahead::Dopri5(a) = ahead else { return None };
-        Some(a)
-    }
-    fn into_ahead(self) -> Ahead {
-        Ahead::Dopri5(self)
-    }
-    fn span(&self) -> (f64, f64, &[f64]) {
-        (self.t0, self.t, &self.x)
-    }
-    fn start(call: &mut Call, t: f64, x: &[f64]) -> Result<Self, Failure> {
-        dopri5::Ahead::start(call.problem.rhs, t, x, &mut call.memory.stats)
-    }
-    fn advance(&mut self, c: &mut Call, out: &mut [f64]) -> Result<(), Failure> {
-        let (rhs, ends, work) = (
-            &mut *c.problem.rhs,
-            (c.t_out, c.t_limit),
-            &mut c.work.dopri5,
-        );
-        dopri5::advance_dense_in(rhs, c.project, self, ends, c.settings, c.memory, out, work)
-    }
-}
-
-impl Dense for dop853::Ahead {
-    fn own(ahead: Ahead) -> Option<Self> {
-        let Ahead::Dop853(a) = ahead else { return None };
-        Some(a)
-    }
-    fn into_ahead(self) -> Ahead {
-        Ahead::Dop853(self)
-    }
-    fn span(&self) -> (f64, f64, &[f64]) {
-        (self.t0, self.t, &self.x)
-    }
-    fn start(call: &mut Call, t: f64, x: &[f64]) -> Result<Self, Failure> {
-        dop853::Ahead::start(call.problem, t, x, &mut call.memory.stats)
-    }
-    fn advance(&mut self, c: &mut Call, out: &mut [f64]) -> Result<(), Failure> {
-        let (ends, work) = ((c.t_out, c.t_limit), &mut c.work.dop853);
-        dop853::advance_dense_in(
-            c.problem, c.project, self, ends, c.settings, c.memory, out, work,
-        )
-    }
-}
-
-impl Dense for radau5::Ahead {
-    fn own(ahead: Ahead) -> Option<Self> {
-        let Ahead::Radau5(a) = ahead else { return None };
-        Some(a)
-    }
-    fn into_ahead(self) -> Ahead {
-        Ahead::Radau5(self)
-    }
-    /// (Its start is not kept: [`Dense::resumes`] below needs only its end.)
-    fn span(&self) -> (f64, f64, &[f64]) {
-        (f64::NEG_INFINITY, self.t, &self.x)
-    }
-    /// RADAU5's state covers everything up to its own time (its collocation polynomial
-    /// the last step, and before any step the point itself).
-    fn resumes(&self, t: f64) -> bool {
-        t <= self.t
-    }
-    /// With the carried step proposal; a failure resets it.
-    fn start(c: &mut Call, t: f64, x: &[f64]) -> Result<Self, Failure> {
-        let (h, stats) = (c.memory.h, &mut c.memory.stats);
-        radau5::Ahead::start(c.problem, t, x, h, c.t_limit, c.settings, stats).inspect_err(|_| {
-            c.memory.h = 0.0;
+impl Ahead {
+    /// A new one of the running method at `(t, x)` (evaluates f). RADAU5 starts with the
+    /// carried step proposal, and a failure resets it.
+    fn start(c: &mut Call, t: f64, x: &[f64]) -> Result<Ahead, Failure> {
+        let stats = &mut c.memory.stats;
+        Ok(match c.settings.method {
+            Method::Dopri5 => Ahead::Dopri5(dopri5::Ahead::start(c.problem.rhs, t, x, stats)?),
+            Method::Dop853 => Ahead::Dop853(dop853::Ahead::start(c.problem, t, x, stats)?),
+            _ => {
+                let (h, t_limit) = (c.memory.h, c.t_limit);
+                let a = radau5::Ahead::start(c.problem, t, x, h, t_limit, c.settings, stats);
+                Ahead::Radau5(a.inspect_err(|_| c.memory.h = 0.0)?)
+            }
         })
     }
+
+    /// The time it started from, and the time and state its last accepted step reached
+    /// (RADAU5 keeps no start: its state covers everything up to its own time, its
+    /// collocation polynomial the last step, and before any step the point itself).
+    fn span(&self) -> (f64, f64, &[f64]) {
+        match self {
+            Ahead::Dopri5(a) => (a.t0, a.t, &a.x),
+            Ahead::Dop853(a) => (a.t0, a.t, &a.x),
+            Ahead::Radau5(a) => (f64::NEG_INFINITY, a.t, &a.x),
+        }
+    }
+
+    /// Whether integration from `t` can go on from it: a time its steps covered.
+    fn resumes(&self, t: f64) -> bool {
+        let (t0, t1, _) = self.span();
+        t0 <= t && t <= t1
+    }
+
+    /// Steps until its last step covers `c.t_out`, and x(`t_out`) into `out`.
     fn advance(&mut self, c: &mut Call, out: &mut [f64]) -> Result<(), Failure> {
-        let (ends, work) = ((c.t_out, c.t_limit), &mut c.work.radau5);
-        radau5::advance_dense_in(
-            c.problem, c.project, self, ends, c.settings, c.memory, out, work,
-        )
+        let (ends, settings, memory) = ((c.t_out, c.t_limit), c.settings, &mut *c.memory);
+        let work = &mut *c.work;
+        match self {
+            Ahead::Dopri5(a) => {
+                let (rhs, work) = (&mut *c.problem.rhs, &mut work.dopri5);
+                dopri5::advance_dense_in(rhs, c.project, a, ends, settings, memory, out, work)
+            }
+            Ahead::Dop853(a) => {
+                let work = &mut work.dop853;
+                dop853::advance_dense_in(c.problem, c.project, a, ends, settings, memory, out, work)
+            }
+            Ahead::Radau5(a) => {
+                let work = &mut work.radau5;
+                radau5::advance_dense_in(c.problem, c.project, a, ends, settings, memory, out, work)
+            }
+        }
     }
 }
