@@ -1,6 +1,7 @@
-//! What DOPRI5 and DOP853 share: the stage sum, Hairer's error weights, the initial
-//! step (E. Hairer, S. P. Nørsett, G. Wanner, *Solving Ordinary Differential Equations
-//! I*, II.4 p. 169; HINIT of dopri5.f / dop853.f), and the landing and step-floor rules.
+//! What DOPRI5 and DOP853 share: the stepping loop itself ([`run`], over a [`Pair`]'s
+//! tableau), the stage sum, Hairer's error weights, the initial step (E. Hairer, S. P.
+//! Nørsett, G. Wanner, *Solving Ordinary Differential Equations I*, II.4 p. 169; HINIT of
+//! dopri5.f / dop853.f), the PI controller, and the landing and step-floor rules.
 
 use super::buffers::sized;
 use super::{Failure, Memory, Settings, Stats};
