@@ -15,7 +15,7 @@
 #![allow(clippy::type_complexity)]
 
 mod ahead;
-pub mod blob;
+pub(crate) mod blob;
 mod buffers;
 pub mod dop853;
 pub mod dopri5;
@@ -480,7 +480,7 @@ impl Memory {
 
     /// Appends this memory to an FMU state: the step proposal, the counters, then each
     /// method's own block (the stiffness monitor, the point ahead).
-    pub fn write(&self, b: &mut Vec<u8>) {
+    pub(crate) fn write(&self, b: &mut Vec<u8>) {
         blob::put_f64(b, self.h);
         let s = self.stats;
         for v in [s.rhs_evals, s.steps, s.rejected, s.jacobians] {
@@ -491,7 +491,7 @@ impl Memory {
     }
 
     /// Reads what [`Memory::write`] wrote for `n` states, each block checked by its owner.
-    pub fn read(r: &mut blob::Reader, n: usize) -> Result<Memory, String> {
+    pub(crate) fn read(r: &mut blob::Reader, n: usize) -> Result<Memory, String> {
         let h = r.f64()?;
         let stats = Stats {
             rhs_evals: r.u64()?,
