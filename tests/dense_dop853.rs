@@ -77,7 +77,7 @@ fn a_changed_input_restarts_at_the_communication_point() {
     steps(&case, &mut inst, comm, 0, 100);
     let at_switch = case.state(&inst);
     inst.set_real(&[case.vr("F")], &[1.0]).unwrap();
-    assert!(inst.snapshot().memory.dop853_ahead.is_none());
+    assert!(inst.snapshot().memory.ahead.is_none());
     let got = steps(&case, &mut inst, comm, 100, 200);
     let reference = fresh_from(
         &case,

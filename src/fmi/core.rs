@@ -706,9 +706,7 @@ impl<M: System> Instance<M> {
         if !(m.h.is_finite() && m.h >= 0.0) {
             return Err(format!("the step-size proposal {} is not a step", m.h));
         }
-        if inputs::moving(&s.u_der)
-            && (m.ahead.is_some() || m.radau5_ahead.is_some() || m.dop853_ahead.is_some())
-        {
+        if inputs::moving(&s.u_der) && m.ahead.is_some() {
             return Err(
                 "an integrator state ahead is kept while input derivatives are set (doStep lands on each communication point then)".into(),
             );
@@ -723,18 +721,10 @@ impl<M: System> Instance<M> {
     /// parameters (so neither changed under it). Costs one evaluation of f (DOP853: up to 3
     /// more, for an extension not yet built).
     fn check_ahead(&self, s: &Snapshot) -> Res {
-        let m = &s.memory;
-        let kept = [
-            (Method::Dopri5, m.ahead.is_some()),
-            (Method::Radau5, m.radau5_ahead.is_some()),
-            (Method::Dop853, m.dop853_ahead.is_some()),
-        ];
-        let Some(&(owner, _)) = kept.iter().find(|(_, present)| *present) else {
+        let Some(ahead) = &s.memory.ahead else {
             return Ok(());
         };
-        if kept.iter().filter(|(_, present)| *present).count() > 1 {
-            return Err("integrator states ahead of two methods are kept".into());
-        }
+        let owner = ahead.method();
         if owner != s.method {
             return Err(format!(
                 "an integrator state ahead of {} is kept for solver {}",
@@ -745,24 +735,8 @@ impl<M: System> Instance<M> {
         let (u, p, time, n) = (&s.u, &s.params, s.time, s.x.len());
         let mut rhs = |t: f64, x: &[f64], dx: &mut [f64]| M::derivatives(t, x, u, p, dx);
         let mut point = vec![0.0; n];
-        // (end of the last step, state and f there, whether f must be f(t, x) there,
-        // whether the last step covers the time)
-        let (t_ahead, x_ahead, f_ahead, f_holds, covers) = if let Some(a) = &m.ahead {
-            a.interpolate(time, &mut point);
-            (a.t, &a.x, &a.f, true, a.t0 <= time && time <= a.t)
-        } else if let Some(a) = &m.radau5_ahead {
-            a.interpolate(time, &mut point);
-            // After landing on the stop time radau5.f has no f at the end (not needed).
-            (a.t, &a.x, &a.f, !a.landed, time <= a.t)
-        } else {
-            let a = m.dop853_ahead.as_ref().expect("the one kept");
-            let mut scratch = a.clone();
-            let mut problem = Problem::new(&mut rhs);
-            let mut stats = integrators::Stats::default();
-            let built = scratch.point(&mut problem, time, &mut point, &mut stats);
-            let covers = a.t0 <= time && time <= a.t && built.is_ok();
-            (a.t, &a.x, &a.f, true, covers)
-        };
+        let covers = ahead.point_at(&mut Problem::new(&mut rhs), time, &mut point);
+        let (t_ahead, x_ahead, f_ahead) = ahead.end();
         if !covers {
             return Err(format!(
                 "the {} state ahead (at t = {t_ahead}) does not cover the time {time}",
@@ -779,7 +753,7 @@ impl<M: System> Instance<M> {
         }
         let mut f = vec![0.0; n];
         rhs(t_ahead, x_ahead, &mut f);
-        if f_holds && bits(&f) != bits(f_ahead) {
+        if f_ahead.is_some_and(|f_ahead| bits(&f) != bits(f_ahead)) {
             return Err(format!(
                 "the {} state ahead was computed with other inputs or parameters than the ones held",
                 owner.name()

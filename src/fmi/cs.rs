@@ -290,8 +290,7 @@ impl<M: System> Instance<M> {
 
     /// DOPRI5's stiffness detection, reported once (a warning).
     fn report_stiffness(&mut self) {
-        if let Some(at) = self.data.memory.stiffness.detected_at.take() {
-            self.data.memory.stiffness.reported = true;
+        if let Some(at) = self.data.memory.take_stiffness_report() {
             self.logger.failure(
                 Status::Warning,
                 &format!(

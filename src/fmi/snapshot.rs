@@ -10,18 +10,19 @@
 //! rejected.
 
 use super::machine::{Interface, Machine};
-use crate::integrators::dopri5::{Ahead, StiffnessMonitor};
-use crate::integrators::{dop853, radau5, Memory, Method, Stats};
+use crate::integrators::blob::Reader;
+use crate::integrators::{Memory, Method};
 
 pub const SNAPSHOT_MAGIC: [u8; 8] = *b"MBFMU\0ST";
-/// 2: adds DOPRI5's dense-output point ([`crate::integrators::dopri5::Ahead`]) and
-/// stiffness monitor. 3: adds RADAU5's loop state ([`radau5::Ahead`]). 4: adds DOP853's
-/// dense-output point ([`dop853::Ahead`]). 5: ends with a CRC-32 of the blob. 6: adds
+/// 2: adds DOPRI5's dense-output point and stiffness monitor. 3: adds RADAU5's loop state.
+/// 4: adds DOP853's dense-output point. 5: ends with a CRC-32 of the blob. 6: adds
 /// `solver_max_steps` after `solver_step`. 7: adds the inputs' first and second time
 /// derivatives (fmi2SetRealInputDerivatives) after the inputs. 8: counts the Jacobians
 /// (doStep's work bound) after the rejected steps. 9: ends (before the checksum) with the
 /// interface the state was taken in, `me_projection` and Model Exchange's event reference.
-pub const SNAPSHOT_VERSION: u32 = 9;
+/// 10: the integrator memory as [`Memory::write`] writes it (one point ahead, after its
+/// method's code, instead of a flag for each method's).
+pub const SNAPSHOT_VERSION: u32 = 10;
 
 /// Bytes of the checksum that ends a blob.
 const CRC_LEN: usize = 4;
@@ -56,168 +57,6 @@ pub struct Snapshot {
     pub event_reference: Option<f64>,
 }
 
-struct Reader<'a> {
-    bytes: &'a [u8],
-}
-
-impl<'a> Reader<'a> {
-    fn take(&mut self, n: usize) -> Result<&'a [u8], String> {
-        if self.bytes.len() < n {
-            return Err("serialized FMU state is truncated".into());
-        }
-        let (head, rest) = self.bytes.split_at(n);
-        self.bytes = rest;
-        Ok(head)
-    }
-    /// How many bytes of `all` (the slice this reader started on) were read.
-    fn offset(&self, all: &[u8]) -> usize {
-        all.len() - self.bytes.len()
-    }
-    fn u32(&mut self) -> Result<u32, String> {
-        Ok(u32::from_le_bytes(
-            self.take(4)?.try_into().expect("4 bytes"),
-        ))
-    }
-    fn u64(&mut self) -> Result<u64, String> {
-        Ok(u64::from_le_bytes(
-            self.take(8)?.try_into().expect("8 bytes"),
-        ))
-    }
-    fn f64(&mut self) -> Result<f64, String> {
-        Ok(f64::from_bits(self.u64()?))
-    }
-    fn f64s(&mut self, n: usize) -> Result<Vec<f64>, String> {
-        (0..n).map(|_| self.f64()).collect()
-    }
-    fn flag(&mut self) -> Result<bool, String> {
-        match self.take(1)?[0] {
-            0 => Ok(false),
-            1 => Ok(true),
-            other => Err(format!("FMU state has invalid flag {other}")),
-        }
-    }
-}
-
-fn put_f64(b: &mut Vec<u8>, v: f64) {
-    b.extend_from_slice(&v.to_bits().to_le_bytes());
-}
-
-/// DOP853's point ahead, after its presence flag: the point, then the last step's record
-/// and its extension, each after a flag (empty before the first step / until built).
-fn write_dop853(b: &mut Vec<u8>, a: &dop853::Ahead) {
-    for &v in [a.t, a.t0, a.err_prev].iter().chain(&a.x).chain(&a.f) {
-        put_f64(b, v);
-    }
-    for block in [&a.step, &a.cont] {
-        b.push(!block.is_empty() as u8);
-        for &v in block.iter() {
-            put_f64(b, v);
-        }
-    }
-}
-
-/// Reads what [`write_dop853`] wrote for `n` states, and checks it.
-fn read_dop853(r: &mut Reader, n: usize) -> Result<dop853::Ahead, String> {
-    let (t, t0, err_prev) = (r.f64()?, r.f64()?, r.f64()?);
-    let (x, f) = (r.f64s(n)?, r.f64s(n)?);
-    let step = if r.flag()? {
-        r.f64s(11 * n)?
-    } else {
-        Vec::new()
-    };
-    let cont = if r.flag()? {
-        r.f64s(8 * n)?
-    } else {
-        Vec::new()
-    };
-    let finite = [t, t0, err_prev]
-        .iter()
-        .chain(&x)
-        .chain(&f)
-        .chain(&step)
-        .chain(&cont)
-        .all(|v| v.is_finite());
-    let consistent =
-        t0 <= t && (step.is_empty() == (t0 == t)) && (cont.is_empty() || !step.is_empty());
-    if !finite || !consistent {
-        return Err("FMU state holds an invalid DOP853 integrator point".into());
-    }
-    Ok(dop853::Ahead {
-        t,
-        x,
-        f,
-        t0,
-        err_prev,
-        step,
-        cont,
-    })
-}
-
-/// RADAU5's loop state, after its presence flag.
-fn write_radau5(b: &mut Vec<u8>, a: &radau5::Ahead) {
-    for v in [
-        a.t, a.h, a.hopt, a.hold, a.hmaxn, a.hacc, a.erracc, a.faccon,
-    ] {
-        put_f64(b, v);
-    }
-    let flags = [
-        a.have_cont,
-        a.first,
-        a.reject,
-        a.last,
-        a.landed,
-        a.need_jac,
-        a.caljac,
-    ];
-    b.extend(flags.map(u8::from));
-    b.extend_from_slice(&a.nsing.to_le_bytes());
-    for &v in a.x.iter().chain(&a.f).chain(&a.cont).chain(&a.jac) {
-        put_f64(b, v);
-    }
-}
-
-/// Reads what [`write_radau5`] wrote for `n` states, and checks it.
-fn read_radau5(r: &mut Reader, n: usize) -> Result<radau5::Ahead, String> {
-    let [t, h, hopt, hold, hmaxn, hacc, erracc, faccon] = [(); 8].map(|()| r.f64());
-    let (t, h, hopt, hold, hmaxn) = (t?, h?, hopt?, hold?, hmaxn?);
-    let (hacc, erracc, faccon) = (hacc?, erracc?, faccon?);
-    let [have_cont, first, reject, last, landed, need_jac, caljac] = [(); 7].map(|()| r.flag());
-    let a = radau5::Ahead {
-        t,
-        h,
-        hopt,
-        hold,
-        hmaxn,
-        hacc,
-        erracc,
-        faccon,
-        have_cont: have_cont?,
-        first: first?,
-        reject: reject?,
-        last: last?,
-        landed: landed?,
-        need_jac: need_jac?,
-        caljac: caljac?,
-        nsing: r.u32()?,
-        x: r.f64s(n)?,
-        f: r.f64s(n)?,
-        cont: r.f64s(3 * n)?,
-        jac: r.f64s(n * n)?,
-    };
-    // hmaxn is +∞ without a step bound and a stop time.
-    let finite = [t, h, hopt, hold, hacc, erracc, faccon]
-        .iter()
-        .chain(&a.x)
-        .chain(&a.f)
-        .chain(&a.cont)
-        .chain(&a.jac)
-        .all(|v| v.is_finite());
-    if !(finite && h >= 0.0 && hold > 0.0 && hmaxn > 0.0) {
-        return Err("FMU state holds an invalid RADAU5 integrator state".into());
-    }
-    Ok(a)
-}
-
 impl Snapshot {
     /// The serialized bytes of this snapshot for the model with this GUID.
     pub fn serialize(&self, guid: &str) -> Vec<u8> {
@@ -249,34 +88,7 @@ impl Snapshot {
         b.push(self.stop_time.is_some() as u8);
         f(&mut b, self.stop_time.unwrap_or(0.0));
         f(&mut b, self.tolerance);
-        f(&mut b, self.memory.h);
-        let s = self.memory.stats;
-        for v in [s.rhs_evals, s.steps, s.rejected, s.jacobians] {
-            b.extend_from_slice(&v.to_le_bytes());
-        }
-        let st = &self.memory.stiffness;
-        b.extend_from_slice(&st.suspicious.to_le_bytes());
-        b.extend_from_slice(&st.calm.to_le_bytes());
-        b.push(st.detected_at.is_some() as u8);
-        f(&mut b, st.detected_at.unwrap_or(0.0));
-        b.push(st.reported as u8);
-        b.push(self.memory.ahead.is_some() as u8);
-        if let Some(a) = &self.memory.ahead {
-            for v in [a.t, a.t0, a.err_prev] {
-                f(&mut b, v);
-            }
-            for &v in a.x.iter().chain(&a.f).chain(&a.rcont) {
-                f(&mut b, v);
-            }
-        }
-        b.push(self.memory.radau5_ahead.is_some() as u8);
-        if let Some(a) = &self.memory.radau5_ahead {
-            write_radau5(&mut b, a);
-        }
-        b.push(self.memory.dop853_ahead.is_some() as u8);
-        if let Some(a) = &self.memory.dop853_ahead {
-            write_dop853(&mut b, a);
-        }
+        self.memory.write(&mut b);
         b.extend_from_slice(&self.machine.code().to_le_bytes());
         b.push(self.interface.code());
         b.push(self.me_projection as u8);
@@ -348,60 +160,7 @@ impl Snapshot {
         let has_stop = r.take(1)?[0];
         let stop = r.f64()?;
         let tolerance = r.f64()?;
-        let h = r.f64()?;
-        let stats = Stats {
-            rhs_evals: r.u64()?,
-            steps: r.u64()?,
-            rejected: r.u64()?,
-            jacobians: r.u64()?,
-            work_limit: 0,
-        };
-        let (suspicious, calm) = (r.u32()?, r.u32()?);
-        let (has_detected, detected) = (r.take(1)?[0], r.f64()?);
-        let reported = r.take(1)?[0];
-        if has_detected > 1 || reported > 1 || !detected.is_finite() {
-            return Err("FMU state holds an invalid stiffness monitor".into());
-        }
-        let stiffness = StiffnessMonitor {
-            suspicious,
-            calm,
-            detected_at: (has_detected == 1).then_some(detected),
-            reported: reported == 1,
-        };
-        let ahead = match r.take(1)?[0] {
-            0 => None,
-            1 => {
-                let n = counts[1];
-                let (t, t0, err_prev) = (r.f64()?, r.f64()?, r.f64()?);
-                let (x, f, rcont) = (r.f64s(n)?, r.f64s(n)?, r.f64s(5 * n)?);
-                let finite = [t, t0, err_prev]
-                    .iter()
-                    .chain(&x)
-                    .chain(&f)
-                    .chain(&rcont)
-                    .all(|v| v.is_finite());
-                if !finite || t0 > t {
-                    return Err("FMU state holds an invalid integrator point".into());
-                }
-                Some(Ahead {
-                    t,
-                    x,
-                    f,
-                    t0,
-                    rcont,
-                    err_prev,
-                })
-            }
-            other => return Err(format!("FMU state has invalid flag {other}")),
-        };
-        let radau5_ahead = match r.flag()? {
-            false => None,
-            true => Some(read_radau5(&mut r, counts[1])?),
-        };
-        let dop853_ahead = match r.flag()? {
-            false => None,
-            true => Some(read_dop853(&mut r, counts[1])?),
-        };
+        let memory = Memory::read(&mut r, counts[1])?;
         let code = r.u32()?;
         let machine = Machine::from_code(code)
             .ok_or_else(|| format!("FMU state names unknown machine state {code}"))?;
@@ -434,14 +193,7 @@ impl Snapshot {
             start_time,
             stop_time: (has_stop == 1).then_some(stop),
             tolerance,
-            memory: Memory {
-                h,
-                stats,
-                ahead,
-                radau5_ahead,
-                dop853_ahead,
-                stiffness,
-            },
+            memory,
             machine,
             interface,
             me_projection,

@@ -15,10 +15,9 @@
 // be checked against it; the compiler rounds them to the nearest f64.
 #![allow(clippy::excessive_precision)]
 
+use super::blob::{put_f64s, Reader};
 use super::buffers::sized;
-use super::explicit_rk::{
-    carried_proposal, check_attempt, initial_step, max_step, stage, Goal, PiController, PiGains,
-};
+use super::explicit_rk::{self, land, stage, step_past, Pair, PiGains, Stages};
 use super::problem::{start, Problem};
 use super::{Failure, Memory, Settings, Stats};
 
@@ -131,6 +130,123 @@ const GAINS: PiGains = PiGains {
     fac_min: FAC_MIN,
     fac_max: FAC_MAX,
 };
+/// DOP853 in the loop it shares with DOPRI5.
+pub(super) struct Dop853;
+
+impl Pair for Dop853 {
+    const NAME: &'static str = "DOP853";
+    const ORDER: i32 = ORDER;
+    const GAINS: PiGains = GAINS;
+    const STAGES: &'static [(f64, &'static [(f64, usize)])] = &[
+        (C2, &[(A21, 0)]),
+        (C3, &[(A31, 0), (A32, 1)]),
+        (C4, &[(A41, 0), (A43, 2)]),
+        (C5, &[(A51, 0), (A53, 2), (A54, 3)]),
+        (C6, &[(A61, 0), (A64, 3), (A65, 4)]),
+        (C7, &[(A71, 0), (A74, 3), (A75, 4), (A76, 5)]),
+        (C8, &[(A81, 0), (A84, 3), (A85, 4), (A86, 5), (A87, 6)]),
+        (
+            C9,
+            &[(A91, 0), (A94, 3), (A95, 4), (A96, 5), (A97, 6), (A98, 7)],
+        ),
+        (
+            C10,
+            &[
+                (A101, 0),
+                (A104, 3),
+                (A105, 4),
+                (A106, 5),
+                (A107, 6),
+                (A108, 7),
+                (A109, 8),
+            ],
+        ),
+        (
+            C11,
+            &[
+                (A111, 0),
+                (A114, 3),
+                (A115, 4),
+                (A116, 5),
+                (A117, 6),
+                (A118, 7),
+                (A119, 8),
+                (A1110, 9),
+            ],
+        ),
+        (
+            1.0,
+            &[
+                (A121, 0),
+                (A124, 3),
+                (A125, 4),
+                (A126, 5),
+                (A127, 6),
+                (A128, 7),
+                (A129, 8),
+                (A1210, 9),
+                (A1211, 10),
+            ],
+        ),
+    ];
+    const SOLUTION: Option<&'static [(f64, usize)]> = Some(&[
+        (B1, 0),
+        (B6, 5),
+        (B7, 6),
+        (B8, 7),
+        (B9, 8),
+        (B10, 9),
+        (B11, 10),
+        (B12, 11),
+    ]);
+    const KEEP: Option<usize> = None;
+
+    /// dop853.f's combined error estimate err5²/√(err5² + 0.01·err3²) in Hairer's RMS norm.
+    fn error(x: &[f64], y: &[f64], k: &[&[f64]], hs: f64, settings: &Settings) -> f64 {
+        let &[k1, _, _, _, _, k6, k7, k8, k9, k10, k11, k12] = k else {
+            unreachable!("DOP853 has 12 stages")
+        };
+        let n = x.len();
+        let (mut err5, mut err3) = (0.0, 0.0);
+        for i in 0..n {
+            let sk = settings.atol[i] + settings.rtol * x[i].abs().max(y[i].abs());
+            let bsum = B1 * k1[i]
+                + B6 * k6[i]
+                + B7 * k7[i]
+                + B8 * k8[i]
+                + B9 * k9[i]
+                + B10 * k10[i]
+                + B11 * k11[i]
+                + B12 * k12[i];
+            let e3 = bsum - BHH1 * k1[i] - BHH2 * k9[i] - BHH3 * k12[i];
+            let e5 = ER1 * k1[i]
+                + ER6 * k6[i]
+                + ER7 * k7[i]
+                + ER8 * k8[i]
+                + ER9 * k9[i]
+                + ER10 * k10[i]
+                + ER11 * k11[i]
+                + ER12 * k12[i];
+            err3 += (e3 / sk).powi(2);
+            err5 += (e5 / sk).powi(2);
+        }
+        let mut deno = err5 + ERR3_WEIGHT * err3;
+        if deno <= 0.0 {
+            deno = 1.0;
+        }
+        hs.abs() * err5 * (1.0 / (n.max(1) as f64 * deno)).sqrt()
+    }
+
+    /// The step's record (see [`Ahead::step`]) for its extension.
+    fn record(x: &[f64], w: &Stages, k1: &[f64], f1: &[f64], _: f64, record: &mut Vec<f64>) {
+        record.clear();
+        let k6_to_k12 = w.k[4..].iter().map(|k| &k[..]);
+        for block in [x, &w.y, k1].into_iter().chain(k6_to_k12).chain([f1]) {
+            record.extend_from_slice(block);
+        }
+    }
+}
+
 /// Weight of the third-order estimate in the denominator of the combined estimate
 /// (dop853.f: `DENO = ERR + 0.01*ERR2`): keeps the 5th-order estimate from vanishing
 /// accidentally when the 3rd-order one does not.
@@ -268,23 +384,8 @@ pub fn advance_in(
     if !start("DOP853", *t, x, t_end)? {
         return Ok(());
     }
-    let w = &mut *work;
-    let k1 = &mut w.k1;
-    sized(k1, x.len());
-    let result = if problem.eval(*t, x, k1, &mut memory.stats) {
-        let goal = Goal::Land(t_end);
-        let scratch = (&mut w.stages, &mut w.f1, &mut w.step);
-        run(
-            problem, t, x, k1, goal, None, None, settings, memory, scratch,
-        )
-        .map(|_| ())
-    } else {
-        Err(Failure::NonFinite { t: *t })
-    };
-    if result.is_err() {
-        memory.h = 0.0;
-    }
-    result
+    let rhs = &mut *problem.rhs;
+    land::<Dop853>(rhs, (t, x), t_end, settings, memory, &mut work.rk)
 }
 
 /// Dense-output mode, as [`super::dopri5::Ahead`]: the integrator's own point at the end of
@@ -407,6 +508,57 @@ impl Ahead {
     }
 }
 
+impl Ahead {
+    /// Its block of the FMU state (see [`super::Memory::write`]): the point, then the last
+    /// step's record and its extension, each after a flag (empty before the first step /
+    /// until built).
+    pub(crate) fn write(&self, b: &mut Vec<u8>) {
+        let fields = [self.t, self.t0, self.err_prev];
+        put_f64s(b, fields.iter().chain(&self.x).chain(&self.f));
+        for block in [&self.step, &self.cont] {
+            b.push(!block.is_empty() as u8);
+            put_f64s(b, block.iter());
+        }
+    }
+
+    /// Reads what [`Ahead::write`] wrote for `n` states, and checks it.
+    pub(crate) fn read(r: &mut Reader, n: usize) -> Result<Ahead, String> {
+        let (t, t0, err_prev) = (r.f64()?, r.f64()?, r.f64()?);
+        let (x, f) = (r.f64s(n)?, r.f64s(n)?);
+        let step = if r.flag()? {
+            r.f64s(11 * n)?
+        } else {
+            Vec::new()
+        };
+        let cont = if r.flag()? {
+            r.f64s(8 * n)?
+        } else {
+            Vec::new()
+        };
+        let finite = [t, t0, err_prev]
+            .iter()
+            .chain(&x)
+            .chain(&f)
+            .chain(&step)
+            .chain(&cont)
+            .all(|v| v.is_finite());
+        let consistent =
+            t0 <= t && (step.is_empty() == (t0 == t)) && (cont.is_empty() || !step.is_empty());
+        if !finite || !consistent {
+            return Err("FMU state holds an invalid DOP853 integrator point".into());
+        }
+        Ok(Ahead {
+            t,
+            x,
+            f,
+            t0,
+            err_prev,
+            step,
+            cont,
+        })
+    }
+}
+
 /// Dense mode (see [`Ahead`]): steps `ahead` until its last step covers `t_out`, then
 /// writes x(`t_out`) into `out`. Steps are cut only to land on `t_limit`, which the
 /// integrator never passes; `t_out` must lie in [`ahead.t0`, `t_limit`]. `project` is
@@ -449,44 +601,23 @@ pub fn advance_dense_in(
     out: &mut [f64],
     work: &mut Scratch,
 ) -> Result<(), Failure> {
-    if t_out > ahead.t {
-        let Ahead {
-            t,
-            x,
-            f,
-            t0,
-            err_prev,
-            step,
-            cont,
-        } = ahead;
-        let goal = Goal::Pass { t_out, t_limit };
-        let known = (*err_prev > 0.0).then_some(*err_prev);
-        let w = &mut *work;
-        let scratch = (&mut w.stages, &mut w.f1, &mut w.step);
-        match run(
-            problem,
-            t,
-            x,
-            f,
-            goal,
-            known,
-            Some(project),
-            settings,
-            memory,
-            scratch,
-        ) {
-            Ok(Some(last)) => {
-                *t0 = last.t0;
-                std::mem::swap(step, &mut w.step);
-                *err_prev = last.err_prev;
-                cont.clear();
-            }
-            Ok(None) => unreachable!("a dense run returns its last step"),
-            Err(e) => {
-                memory.h = 0.0;
-                return Err(e);
-            }
-        }
+    let Ahead {
+        t,
+        x,
+        f,
+        t0,
+        err_prev,
+        step,
+        cont,
+    } = ahead;
+    let (rhs, point, ends) = (&mut *problem.rhs, (t, &mut x[..], f), (t_out, t_limit));
+    let rk = &mut work.rk;
+    let past = step_past::<Dop853>(rhs, project, point, *err_prev, ends, settings, memory, rk)?;
+    if let Some(last) = past {
+        *t0 = last.t0;
+        std::mem::swap(step, &mut rk.record);
+        *err_prev = last.err_prev;
+        cont.clear();
     }
     let result = ahead.point_in(problem, t_out, out, &mut memory.stats, work);
     if result.is_err() {
@@ -578,303 +709,13 @@ fn extension(
     Ok(())
 }
 
-/// The last accepted step of a dense run, besides its record (which [`run`] leaves in its
-/// scratch, to be swapped into [`Ahead::step`]).
-struct LastStep {
-    t0: f64,
-    err_prev: f64,
-}
-
-/// DOP853's part of a [`Workspace`]: f at the start of a landing call, the stages, f at
-/// the end of a dense step, the record of the last step of a call, and the stages of the
+/// DOP853's part of a [`Workspace`](super::Workspace): the pair's scratch (its record is
+/// the last step of a dense call, swapped into [`Ahead::step`]) and the stages of the
 /// continuous extension (its argument, k14, k15, k16).
 #[derive(Default)]
 pub struct Scratch {
-    k1: Vec<f64>,
-    stages: Stages,
-    f1: Vec<f64>,
-    step: Vec<f64>,
+    rk: explicit_rk::Scratch,
     extension: [Vec<f64>; 4],
-}
-
-/// The work vectors of one DOP853 step: stages k2 … k12 (`k[0]` … `k[10]`) and the new
-/// solution `y`.
-#[derive(Default)]
-struct Stages {
-    k: [Vec<f64>; 11],
-    y: Vec<f64>,
-}
-
-impl Stages {
-    /// Every vector with `n` entries (each is written in full before it is read).
-    fn size(&mut self, n: usize) {
-        for v in self.k.iter_mut().chain([&mut self.y]) {
-            sized(v, n);
-        }
-    }
-
-    /// One attempted step `x → y` of size `hs` from `t0` (ending at `t_new`) with
-    /// `k1 = f(t0, x)`; returns dop853.f's combined error estimate
-    /// err5²/√(err5² + 0.01·err3²) in Hairer's RMS norm.
-    #[allow(clippy::too_many_arguments)]
-    fn attempt(
-        &mut self,
-        problem: &mut Problem,
-        k1: &[f64],
-        (t0, t_new): (f64, f64),
-        x: &[f64],
-        hs: f64,
-        settings: &Settings,
-        stats: &mut Stats,
-    ) -> Result<f64, Failure> {
-        let n = x.len();
-        let bad = || Failure::NonFinite { t: t0 };
-        let [k2, k3, k4, k5, k6, k7, k8, k9, k10, k11, k12] = &mut self.k;
-        let y = &mut self.y;
-        stage(y, x, hs, &[(A21, k1)]);
-        if !problem.eval(t0 + C2 * hs, y, k2, stats) {
-            return Err(bad());
-        }
-        stage(y, x, hs, &[(A31, k1), (A32, k2)]);
-        if !problem.eval(t0 + C3 * hs, y, k3, stats) {
-            return Err(bad());
-        }
-        stage(y, x, hs, &[(A41, k1), (A43, k3)]);
-        if !problem.eval(t0 + C4 * hs, y, k4, stats) {
-            return Err(bad());
-        }
-        stage(y, x, hs, &[(A51, k1), (A53, k3), (A54, k4)]);
-        if !problem.eval(t0 + C5 * hs, y, k5, stats) {
-            return Err(bad());
-        }
-        stage(y, x, hs, &[(A61, k1), (A64, k4), (A65, k5)]);
-        if !problem.eval(t0 + C6 * hs, y, k6, stats) {
-            return Err(bad());
-        }
-        stage(y, x, hs, &[(A71, k1), (A74, k4), (A75, k5), (A76, k6)]);
-        if !problem.eval(t0 + C7 * hs, y, k7, stats) {
-            return Err(bad());
-        }
-        let row8 = [(A81, k1), (A84, k4), (A85, k5), (A86, k6), (A87, k7)];
-        stage(y, x, hs, &row8);
-        if !problem.eval(t0 + C8 * hs, y, k8, stats) {
-            return Err(bad());
-        }
-        let row9 = [
-            (A91, k1),
-            (A94, k4),
-            (A95, k5),
-            (A96, k6),
-            (A97, k7),
-            (A98, k8),
-        ];
-        stage(y, x, hs, &row9);
-        if !problem.eval(t0 + C9 * hs, y, k9, stats) {
-            return Err(bad());
-        }
-        let row10 = [
-            (A101, k1),
-            (A104, k4),
-            (A105, k5),
-            (A106, k6),
-            (A107, k7),
-            (A108, k8),
-            (A109, k9),
-        ];
-        stage(y, x, hs, &row10);
-        if !problem.eval(t0 + C10 * hs, y, k10, stats) {
-            return Err(bad());
-        }
-        let row11 = [
-            (A111, k1),
-            (A114, k4),
-            (A115, k5),
-            (A116, k6),
-            (A117, k7),
-            (A118, k8),
-            (A119, k9),
-            (A1110, k10),
-        ];
-        stage(y, x, hs, &row11);
-        if !problem.eval(t0 + C11 * hs, y, k11, stats) {
-            return Err(bad());
-        }
-        let row12 = [
-            (A121, k1),
-            (A124, k4),
-            (A125, k5),
-            (A126, k6),
-            (A127, k7),
-            (A128, k8),
-            (A129, k9),
-            (A1210, k10),
-            (A1211, k11),
-        ];
-        stage(y, x, hs, &row12);
-        if !problem.eval(t_new, y, k12, stats) {
-            return Err(bad());
-        }
-        let weights = [
-            (B1, k1),
-            (B6, k6),
-            (B7, k7),
-            (B8, k8),
-            (B9, k9),
-            (B10, k10),
-            (B11, k11),
-            (B12, k12),
-        ];
-        stage(y, x, hs, &weights);
-        if !y.iter().all(|v| v.is_finite()) {
-            return Err(bad());
-        }
-
-        let (mut err5, mut err3) = (0.0, 0.0);
-        for i in 0..n {
-            let sk = settings.atol[i] + settings.rtol * x[i].abs().max(y[i].abs());
-            let bsum = B1 * k1[i]
-                + B6 * k6[i]
-                + B7 * k7[i]
-                + B8 * k8[i]
-                + B9 * k9[i]
-                + B10 * k10[i]
-                + B11 * k11[i]
-                + B12 * k12[i];
-            let e3 = bsum - BHH1 * k1[i] - BHH2 * k9[i] - BHH3 * k12[i];
-            let e5 = ER1 * k1[i]
-                + ER6 * k6[i]
-                + ER7 * k7[i]
-                + ER8 * k8[i]
-                + ER9 * k9[i]
-                + ER10 * k10[i]
-                + ER11 * k11[i]
-                + ER12 * k12[i];
-            err3 += (e3 / sk).powi(2);
-            err5 += (e5 / sk).powi(2);
-        }
-        let mut deno = err5 + ERR3_WEIGHT * err3;
-        if deno <= 0.0 {
-            deno = 1.0;
-        }
-        let err = hs.abs() * err5 * (1.0 / (n.max(1) as f64 * deno)).sqrt();
-        if err.is_nan() {
-            return Err(bad());
-        }
-        Ok(err)
-    }
-}
-
-/// The stepping loop of both modes. `k1` holds f(t, x) on entry. Landing mode evaluates f
-/// at the start of each following step (so the last step of a call does not pay for it)
-/// and returns `None`; dense mode evaluates it at once (the extension needs it), leaves it
-/// in `k1`, applies `project` after every accepted step and returns the last step's
-/// record for its extension.
-#[allow(clippy::too_many_arguments)]
-fn run(
-    problem: &mut Problem,
-    t: &mut f64,
-    x: &mut [f64],
-    k1: &mut Vec<f64>,
-    goal: Goal,
-    err_prev: Option<f64>,
-    mut project: Option<&mut dyn FnMut(f64, &mut [f64])>,
-    settings: &Settings,
-    memory: &mut Memory,
-    (w, f1, record): (&mut Stages, &mut Vec<f64>, &mut Vec<f64>),
-) -> Result<Option<LastStep>, Failure> {
-    let n = x.len();
-    assert_eq!(
-        settings.atol.len(),
-        n,
-        "DOP853 needs one absolute tolerance per state"
-    );
-    let h_max = max_step(settings);
-    let stats = &mut memory.stats;
-    w.size(n);
-    let carried = memory.h > 0.0 && memory.h.is_finite();
-    let mut h = if carried {
-        memory.h.min(h_max)
-    } else {
-        let mut probe = |t: f64, y: &[f64], k: &mut [f64]| problem.eval(t, y, k, stats);
-        initial_step(
-            &mut probe,
-            *t,
-            x,
-            k1,
-            settings,
-            h_max,
-            ORDER,
-            (&mut w.y, &mut w.k[0]),
-        )
-    };
-    let mut controller = PiController::resuming(GAINS, carried, err_prev);
-    let mut k1_fresh = true;
-    // f at the end of an accepted step, in dense mode (then swapped into `k1`).
-    sized(f1, n);
-    let mut attempts: u64 = 0;
-
-    loop {
-        check_attempt((*t, h), (attempts, settings.max_steps), stats, x.len())?;
-        attempts += 1;
-        let (hs, t_new, landing) = goal.step_from(*t, h);
-        let t0 = *t;
-        if !k1_fresh {
-            if !problem.eval(t0, x, k1, stats) {
-                return Err(Failure::NonFinite { t: t0 });
-            }
-            k1_fresh = true;
-        }
-        let err = w.attempt(problem, k1, (t0, t_new), x, hs, settings, stats)?;
-        if err > 1.0 {
-            stats.rejected += 1;
-            h = controller.rejected(err, hs);
-            continue;
-        }
-        let h_new = controller.accepted(err, hs, h_max);
-        let done = goal.reached(t_new, landing);
-        if let Goal::Land(_) = goal {
-            stats.steps += 1;
-            x.copy_from_slice(&w.y);
-            *t = t_new;
-            k1_fresh = false;
-            if done {
-                memory.h = carried_proposal(landing, h_new, hs, h);
-                return Ok(None);
-            }
-            h = h_new;
-            continue;
-        }
-        if !problem.eval(t_new, &w.y, f1, stats) {
-            return Err(Failure::NonFinite { t: t0 });
-        }
-        stats.steps += 1;
-        // The last step of the run is recorded for its extension before x moves on.
-        if done {
-            let [_, _, _, _, k6, k7, k8, k9, k10, k11, k12] = &w.k;
-            let blocks: [&[f64]; 11] = [x, &w.y, k1, k6, k7, k8, k9, k10, k11, k12, f1];
-            record.clear();
-            for block in blocks {
-                record.extend_from_slice(block);
-            }
-        }
-        x.copy_from_slice(&w.y);
-        std::mem::swap(k1, f1);
-        *t = t_new;
-        if let Some(project) = project.as_mut() {
-            project(t_new, x);
-            if x != &w.y[..] && !problem.eval(t_new, x, k1, stats) {
-                return Err(Failure::NonFinite { t: t_new });
-            }
-        }
-        if done {
-            memory.h = carried_proposal(landing, h_new, hs, h);
-            return Ok(Some(LastStep {
-                t0,
-                err_prev: controller.err_prev,
-            }));
-        }
-        h = h_new;
-    }
 }
 
 #[cfg(test)]

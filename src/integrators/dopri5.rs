@@ -7,11 +7,9 @@
 //! (initial step), IV.2 (PI / "Lund" stabilization); and Hairer's reference code `dopri5.f`
 //! (subroutines DOPCOR and HINIT), whose default constants are reproduced below.
 
+use super::blob::{put_f64s, Reader};
 use super::buffers::sized;
-use super::explicit_rk::{
-    carried_proposal, check_attempt, eval, initial_step, max_step, stage, Goal, PiController,
-    PiGains,
-};
+use super::explicit_rk::{self, eval, land, step_past, Pair, PiGains, Stages};
 use super::{Failure, Memory, Settings, Stats};
 
 // Butcher tableau (Table II.5.2 / dopri5.f). c_i are the nodes, a_ij the stage weights.
@@ -72,6 +70,57 @@ const GAINS: PiGains = PiGains {
     fac_min: FAC_MIN,
     fac_max: FAC_MAX,
 };
+
+/// DOPRI5 in the loop it shares with DOP853.
+pub(super) struct Dopri5;
+
+impl Pair for Dopri5 {
+    const NAME: &'static str = "DOPRI5";
+    const ORDER: i32 = 5;
+    const GAINS: PiGains = GAINS;
+    const STAGES: &'static [(f64, &'static [(f64, usize)])] = &[
+        (C2, &[(A21, 0)]),
+        (C3, &[(A31, 0), (A32, 1)]),
+        (C4, &[(A41, 0), (A42, 1), (A43, 2)]),
+        (C5, &[(A51, 0), (A52, 1), (A53, 2), (A54, 3)]),
+        (1.0, &[(A61, 0), (A62, 1), (A63, 2), (A64, 3), (A65, 4)]),
+        (1.0, &[(A71, 0), (A73, 2), (A74, 3), (A75, 4), (A76, 5)]),
+    ];
+    const SOLUTION: Option<&'static [(f64, usize)]> = None;
+    /// The sixth stage's argument y₆, for the stiffness test.
+    const KEEP: Option<usize> = Some(4);
+
+    /// Hairer's RMS norm of the local error estimate `h·Σ eᵢ kᵢ` with weights
+    /// `atol + rtol·max(|x|, |y|)` (scipy's RK45 uses the same norm).
+    fn error(x: &[f64], y: &[f64], k: &[&[f64]], hs: f64, settings: &Settings) -> f64 {
+        let &[k1, _, k3, k4, k5, k6, k7] = k else {
+            unreachable!("DOPRI5 has 7 stages")
+        };
+        let mut sum = 0.0;
+        for i in 0..x.len() {
+            let e =
+                hs * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
+            let sk = settings.atol[i] + settings.rtol * x[i].abs().max(y[i].abs());
+            sum += (e / sk).powi(2);
+        }
+        (sum / x.len().max(1) as f64).sqrt()
+    }
+
+    fn accepted(memory: &mut Memory, hs: f64, t_new: f64, w: &Stages) {
+        let stiffness = &mut memory.stiffness;
+        stiffness.observe(hs, (&w.k[5], &w.k[4]), (&w.y, &w.kept), t_new);
+    }
+
+    /// The continuous extension (dopri5.f RCONT), 5 blocks of n.
+    fn record(x: &[f64], w: &Stages, k1: &[f64], k7: &[f64], hs: f64, record: &mut Vec<f64>) {
+        let [_, k3, k4, k5, k6, _] = &w.k[..] else {
+            unreachable!("DOPRI5 has 7 stages")
+        };
+        let r = sized(record, 5 * x.len());
+        continuous_extension(x, &w.y, hs, [k1, k3, k4, k5, k6, k7], r);
+    }
+}
+
 /// Advance with DOPRI5 from `*t` to `t_end` (> `*t`, `x` finite; see [`super::advance`]).
 ///
 /// Counts: each call evaluates f once for its first stage (fresh, because inputs may have
@@ -99,20 +148,7 @@ pub fn advance_in(
     memory: &mut Memory,
     work: &mut Scratch,
 ) -> Result<(), Failure> {
-    let w = &mut *work;
-    let k1 = &mut w.k1;
-    sized(k1, x.len());
-    if !eval(rhs, *t, x, k1, &mut memory.stats) {
-        memory.h = 0.0;
-        return Err(Failure::NonFinite { t: *t });
-    }
-    let goal = Goal::Land(t_end);
-    let steps = (&mut w.stages, &mut w.rcont);
-    let result = run(rhs, t, x, k1, goal, None, None, settings, memory, steps);
-    if result.is_err() {
-        memory.h = 0.0;
-    }
-    result.map(|_| ())
+    land::<Dopri5>(rhs, (t, x), t_end, settings, memory, work)
 }
 
 /// Dense-output mode: integration that runs ahead of the communication points.
@@ -183,6 +219,44 @@ impl Ahead {
     }
 }
 
+impl Ahead {
+    /// Its block of the FMU state (see [`super::Memory::write`]).
+    pub(crate) fn write(&self, b: &mut Vec<u8>) {
+        let fields = [self.t, self.t0, self.err_prev];
+        put_f64s(
+            b,
+            fields
+                .iter()
+                .chain(&self.x)
+                .chain(&self.f)
+                .chain(&self.rcont),
+        );
+    }
+
+    /// Reads what [`Ahead::write`] wrote for `n` states, and checks it.
+    pub(crate) fn read(r: &mut Reader, n: usize) -> Result<Ahead, String> {
+        let (t, t0, err_prev) = (r.f64()?, r.f64()?, r.f64()?);
+        let (x, f, rcont) = (r.f64s(n)?, r.f64s(n)?, r.f64s(5 * n)?);
+        let finite = [t, t0, err_prev]
+            .iter()
+            .chain(&x)
+            .chain(&f)
+            .chain(&rcont)
+            .all(|v| v.is_finite());
+        if !finite || t0 > t {
+            return Err("FMU state holds an invalid integrator point".into());
+        }
+        Ok(Ahead {
+            t,
+            x,
+            f,
+            t0,
+            rcont,
+            err_prev,
+        })
+    }
+}
+
 /// Hairer's stiffness detection (dopri5.f, NSTIFF): both f(t+h, y₁) and the sixth stage
 /// f(t+h, y₆) are taken at t + h, so `h·|f(y₁) − f(y₆)| / |y₁ − y₆|` estimates h·|λ| for
 /// the dominant eigenvalue. Above 3.25 (DOPRI5's stability boundary on the negative axis
@@ -211,6 +285,31 @@ const STIFF_STEPS: u32 = 15;
 const CALM_STEPS: u32 = 6;
 
 impl StiffnessMonitor {
+    /// Its block of the FMU state (see [`super::Memory::write`]).
+    pub(crate) fn write(&self, b: &mut Vec<u8>) {
+        b.extend_from_slice(&self.suspicious.to_le_bytes());
+        b.extend_from_slice(&self.calm.to_le_bytes());
+        b.push(self.detected_at.is_some() as u8);
+        put_f64s(b, &[self.detected_at.unwrap_or(0.0)]);
+        b.push(self.reported as u8);
+    }
+
+    /// Reads what [`StiffnessMonitor::write`] wrote, and checks it.
+    pub(crate) fn read(r: &mut Reader) -> Result<StiffnessMonitor, String> {
+        let (suspicious, calm) = (r.u32()?, r.u32()?);
+        let (has_detected, detected) = (r.take(1)?[0], r.f64()?);
+        let reported = r.take(1)?[0];
+        if has_detected > 1 || reported > 1 || !detected.is_finite() {
+            return Err("FMU state holds an invalid stiffness monitor".into());
+        }
+        Ok(StiffnessMonitor {
+            suspicious,
+            calm,
+            detected_at: (has_detected == 1).then_some(detected),
+            reported: reported == 1,
+        })
+    }
+
     /// One accepted step of size `h` ending at `t` with `(f(y₁), f(y₆))` and `(y₁, y₆)`.
     fn observe(&mut self, h: f64, (f1, f6): (&[f64], &[f64]), (y1, y6): (&[f64], &[f64]), t: f64) {
         let num: f64 = f1.iter().zip(f6).map(|(a, b)| (a - b) * (a - b)).sum();
@@ -287,236 +386,28 @@ pub fn advance_dense_in(
         "dopri5::advance_dense: t_out = {t_out} outside [{}, {t_limit}]",
         ahead.t0
     );
-    if t_out > ahead.t {
-        let Ahead {
-            t,
-            x,
-            f,
-            t0,
-            rcont,
-            err_prev,
-        } = ahead;
-        let goal = Goal::Pass { t_out, t_limit };
-        let known = (*err_prev > 0.0).then_some(*err_prev);
-        let w = &mut *work;
-        let steps = (&mut w.stages, &mut w.rcont);
-        match run(
-            rhs,
-            t,
-            x,
-            f,
-            goal,
-            known,
-            Some(project),
-            settings,
-            memory,
-            steps,
-        ) {
-            Ok(dense) => {
-                *t0 = dense.t0;
-                std::mem::swap(rcont, &mut w.rcont);
-                *err_prev = dense.err_prev;
-            }
-            Err(e) => {
-                memory.h = 0.0;
-                return Err(e);
-            }
-        }
+    let Ahead {
+        t,
+        x,
+        f,
+        t0,
+        rcont,
+        err_prev,
+    } = ahead;
+    let (point, ends) = ((t, &mut x[..], f), (t_out, t_limit));
+    let past = step_past::<Dopri5>(rhs, project, point, *err_prev, ends, settings, memory, work)?;
+    if let Some(last) = past {
+        *t0 = last.t0;
+        *err_prev = last.err_prev;
+        std::mem::swap(rcont, &mut work.record);
     }
     ahead.interpolate(t_out, out);
     Ok(())
 }
 
-/// The last accepted step, besides its continuous extension (which [`run`] leaves in its
-/// scratch).
-struct Dense {
-    t0: f64,
-    /// The PI controller's error memory after the step.
-    err_prev: f64,
-}
-
-/// DOPRI5's part of a [`Workspace`]: f at the start of a landing call, the stages, and the
-/// continuous extension of the last step of a call (swapped into [`Ahead::rcont`]).
-#[derive(Default)]
-pub struct Scratch {
-    k1: Vec<f64>,
-    stages: Stages,
-    rcont: Vec<f64>,
-}
-
-/// The work vectors of one DOPRI5 step: stages k2 … k7 (`k[0]` … `k[5]`), the new
-/// solution `y` and the sixth stage's argument `y6` (kept for the stiffness test).
-#[derive(Default)]
-struct Stages {
-    k: [Vec<f64>; 6],
-    y: Vec<f64>,
-    y6: Vec<f64>,
-}
-
-impl Stages {
-    fn new(n: usize) -> Stages {
-        let mut stages = Stages::default();
-        stages.size(n);
-        stages
-    }
-
-    /// Every vector with `n` entries (each is written in full before it is read).
-    fn size(&mut self, n: usize) {
-        for v in self.k.iter_mut().chain([&mut self.y, &mut self.y6]) {
-            sized(v, n);
-        }
-    }
-
-    /// One attempted step `x → y` of size `hs` from `t0` (ending at `t_new`, given so a
-    /// landing step ends exactly there) with `k1 = f(t0, x)`; returns Hairer's RMS norm of
-    /// the local error estimate `h·Σ eᵢ kᵢ` with weights `atol + rtol·max(|x|, |y|)`
-    /// (scipy's RK45 uses the same norm).
-    #[allow(clippy::too_many_arguments)]
-    fn attempt(
-        &mut self,
-        rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
-        k1: &[f64],
-        (t0, t_new): (f64, f64),
-        x: &[f64],
-        hs: f64,
-        settings: &Settings,
-        stats: &mut Stats,
-    ) -> Result<f64, Failure> {
-        let bad = || Failure::NonFinite { t: t0 };
-        let [k2, k3, k4, k5, k6, k7] = &mut self.k;
-        let y = &mut self.y;
-        stage(y, x, hs, &[(A21, k1)]);
-        if !eval(rhs, t0 + C2 * hs, y, k2, stats) {
-            return Err(bad());
-        }
-        stage(y, x, hs, &[(A31, k1), (A32, k2)]);
-        if !eval(rhs, t0 + C3 * hs, y, k3, stats) {
-            return Err(bad());
-        }
-        stage(y, x, hs, &[(A41, k1), (A42, k2), (A43, k3)]);
-        if !eval(rhs, t0 + C4 * hs, y, k4, stats) {
-            return Err(bad());
-        }
-        stage(y, x, hs, &[(A51, k1), (A52, k2), (A53, k3), (A54, k4)]);
-        if !eval(rhs, t0 + C5 * hs, y, k5, stats) {
-            return Err(bad());
-        }
-        let row6 = [(A61, k1), (A62, k2), (A63, k3), (A64, k4), (A65, k5)];
-        stage(&mut self.y6, x, hs, &row6);
-        if !eval(rhs, t_new, &self.y6, k6, stats) {
-            return Err(bad());
-        }
-        let row7 = [(A71, k1), (A73, k3), (A74, k4), (A75, k5), (A76, k6)];
-        stage(y, x, hs, &row7);
-        if !y.iter().all(|v| v.is_finite()) || !eval(rhs, t_new, y, k7, stats) {
-            return Err(bad());
-        }
-        let mut sum = 0.0;
-        for i in 0..x.len() {
-            let e =
-                hs * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
-            let sk = settings.atol[i] + settings.rtol * x[i].abs().max(y[i].abs());
-            sum += (e / sk).powi(2);
-        }
-        let err = (sum / x.len().max(1) as f64).sqrt();
-        if err.is_nan() {
-            // Only possible with a zero weight (atol = rtol·|x| = 0): no error can be judged.
-            return Err(bad());
-        }
-        Ok(err)
-    }
-}
-
-/// The stepping loop shared by both modes. `k1` holds f(t, x) on entry and f at the
-/// final point on success (FSAL). `err_prev`: the PI controller's previous error when the
-/// caller kept it; `project` is applied after every accepted step (see [`advance_dense`]).
-/// Works in the scratch `(w, rcont)`, and leaves the continuous extension of the last step
-/// in `rcont`.
-#[allow(clippy::too_many_arguments)]
-fn run(
-    rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
-    t: &mut f64,
-    x: &mut [f64],
-    k1: &mut Vec<f64>,
-    goal: Goal,
-    err_prev: Option<f64>,
-    mut project: Option<&mut dyn FnMut(f64, &mut [f64])>,
-    settings: &Settings,
-    memory: &mut Memory,
-    (w, rcont): (&mut Stages, &mut Vec<f64>),
-) -> Result<Dense, Failure> {
-    let n = x.len();
-    assert_eq!(
-        settings.atol.len(),
-        n,
-        "DOPRI5 needs one absolute tolerance per state"
-    );
-    let h_max = max_step(settings);
-    let stats = &mut memory.stats;
-    w.size(n);
-    let carried = memory.h > 0.0 && memory.h.is_finite();
-    let mut h = if carried {
-        memory.h.min(h_max)
-    } else {
-        let mut probe = |t: f64, y: &[f64], k: &mut [f64]| eval(rhs, t, y, k, stats);
-        initial_step(
-            &mut probe,
-            *t,
-            x,
-            k1,
-            settings,
-            h_max,
-            5,
-            (&mut w.y, &mut w.k[0]),
-        )
-    };
-    let mut controller = PiController::resuming(GAINS, carried, err_prev);
-    let mut attempts: u64 = 0;
-
-    loop {
-        check_attempt((*t, h), (attempts, settings.max_steps), stats, x.len())?;
-        attempts += 1;
-        // `h` stays the controller's proposal; `hs` is the step actually taken.
-        let (hs, t_new, landing) = goal.step_from(*t, h);
-        let t0 = *t;
-        let err = w.attempt(rhs, k1, (t0, t_new), x, hs, settings, stats)?;
-
-        if err > 1.0 {
-            stats.rejected += 1;
-            h = controller.rejected(err, hs);
-            continue;
-        }
-        let h_new = controller.accepted(err, hs, h_max);
-        stats.steps += 1;
-        memory
-            .stiffness
-            .observe(hs, (&w.k[5], &w.k[4]), (&w.y, &w.y6), t_new);
-        let done = goal.reached(t_new, landing);
-        if done {
-            let [_, k3, k4, k5, k6, k7] = &w.k;
-            let r = sized(rcont, 5 * n);
-            continuous_extension(x, &w.y, hs, [k1, k3, k4, k5, k6, k7], r);
-        }
-        x.copy_from_slice(&w.y);
-        std::mem::swap(k1, &mut w.k[5]); // FSAL
-        *t = t_new;
-        if let Some(project) = project.as_mut() {
-            w.y.copy_from_slice(x);
-            project(t_new, x);
-            if x != &w.y[..] && !eval(rhs, t_new, x, k1, stats) {
-                return Err(Failure::NonFinite { t: t_new });
-            }
-        }
-        if done {
-            memory.h = carried_proposal(landing, h_new, hs, h);
-            return Ok(Dense {
-                t0,
-                err_prev: controller.err_prev,
-            });
-        }
-        h = h_new;
-    }
-}
+/// DOPRI5's part of a [`Workspace`](super::Workspace): its record is the continuous
+/// extension of the last step of a dense call (swapped into [`Ahead::rcont`]).
+pub type Scratch = explicit_rk::Scratch;
 
 /// scipy's `solve_ivp(method="RK45")` step-size controller around this file's step, for
 /// conformance testing only (not an FMU solver): the same Dormand–Prince pair and error
@@ -577,7 +468,8 @@ pub fn scipy_rk45(
     };
     let mut h_abs = (100.0 * h0).min(h1).min(interval).min(max_step);
 
-    let mut w = Stages::new(n);
+    let mut w = Stages::default();
+    w.size(Dopri5::STAGES.len(), n);
     let mut t = t0;
     let mut times = Vec::new();
     while t < t_bound {
@@ -591,7 +483,7 @@ pub fn scipy_rk45(
             let t_new = (t + h_abs).min(t_bound);
             let h = t_new - t;
             h_abs = h.abs();
-            let err = w.attempt(rhs, &f, (t, t_new), x, h, &settings, stats)?;
+            let err = w.attempt::<Dopri5>(rhs, &f, (t, t_new), x, h, &settings, stats)?;
             if err < 1.0 {
                 let mut factor = if err == 0.0 {
                     MAX_FACTOR

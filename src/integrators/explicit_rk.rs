@@ -1,8 +1,10 @@
-//! What DOPRI5 and DOP853 share: the stage sum, Hairer's error weights, the initial
-//! step (E. Hairer, S. P. Nørsett, G. Wanner, *Solving Ordinary Differential Equations
-//! I*, II.4 p. 169; HINIT of dopri5.f / dop853.f), and the landing and step-floor rules.
+//! What DOPRI5 and DOP853 share: the stepping loop itself ([`run`], over a [`Pair`]'s
+//! tableau), the stage sum, Hairer's error weights, the initial step (E. Hairer, S. P.
+//! Nørsett, G. Wanner, *Solving Ordinary Differential Equations I*, II.4 p. 169; HINIT of
+//! dopri5.f / dop853.f), the PI controller, and the landing and step-floor rules.
 
-use super::{Failure, Settings, Stats};
+use super::buffers::sized;
+use super::{Failure, Memory, Settings, Stats};
 
 /// A step that would end less than 1 % before the target is stretched to land on it,
 /// instead of leaving a sliver step (dopri5.f and dop853.f do the same).
@@ -243,5 +245,287 @@ pub(super) fn carried_proposal(landing: bool, h_new: f64, hs: f64, h: f64) -> f6
         h_new
     } else {
         h_new.max(h)
+    }
+}
+
+/// An explicit embedded Runge–Kutta pair as data: the tableau [`run`] steps with, and the
+/// hooks where Hairer's two codes (dopri5.f, dop853.f) differ.
+pub(super) trait Pair {
+    /// Name in the panic for a tolerance vector of the wrong size.
+    const NAME: &'static str;
+    /// Order for the initial step (the codes' IORD).
+    const ORDER: i32;
+    const GAINS: PiGains;
+    /// The stages after k1, each `(c, row)`: its node (1: the step's end, taken as `t_new`
+    /// exactly) and its weights `(a, j)` on the stages (k1 is 0), zeros omitted, in the
+    /// order the codes add them.
+    const STAGES: &'static [(f64, &'static [(f64, usize)])];
+    /// The solution's weights; `None` when the last stage's argument is the solution, so
+    /// that stage is f at the step's end (first same as last).
+    const SOLUTION: Option<&'static [(f64, usize)]>;
+    /// A stage whose argument is kept (in [`Stages::kept`]) after the step.
+    const KEEP: Option<usize>;
+    /// The error norm of the step `x → y` of size `hs` from its stages (`k[0]` is k1).
+    fn error(x: &[f64], y: &[f64], k: &[&[f64]], hs: f64, settings: &Settings) -> f64;
+    /// After each accepted step (DOPRI5 watches for stiffness).
+    fn accepted(_memory: &mut Memory, _hs: f64, _t_new: f64, _w: &Stages) {}
+    /// Writes into `record` what the dense output of the last step of a dense call is built
+    /// from, `f_end` being f at its end (before `x` moves on).
+    fn record(x: &[f64], w: &Stages, k1: &[f64], f_end: &[f64], hs: f64, record: &mut Vec<f64>);
+}
+
+/// The most stages a [`Pair`] has (DOP853: 12).
+const MAX_STAGES: usize = 12;
+
+/// The work vectors of one step: the stages after k1, the new solution `y`, the kept
+/// stage argument and f at the end of a dense step when no stage is.
+#[derive(Default)]
+pub(super) struct Stages {
+    pub k: Vec<Vec<f64>>,
+    pub y: Vec<f64>,
+    pub kept: Vec<f64>,
+    f_end: Vec<f64>,
+}
+
+impl Stages {
+    /// `stages` vectors of `n` entries each (each is written in full before it is read).
+    pub(super) fn size(&mut self, stages: usize, n: usize) {
+        self.k.resize_with(stages, Vec::new);
+        for v in self.k.iter_mut().chain([&mut self.y, &mut self.kept]) {
+            sized(v, n);
+        }
+    }
+
+    /// One attempted step `x → y` of size `hs` from `t0` (ending at `t_new`, given so a
+    /// landing step ends exactly there) with `k1 = f(t0, x)`; its error norm.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn attempt<P: Pair>(
+        &mut self,
+        rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
+        k1: &[f64],
+        (t0, t_new): (f64, f64),
+        x: &[f64],
+        hs: f64,
+        settings: &Settings,
+        stats: &mut Stats,
+    ) -> Result<f64, Failure> {
+        let bad = || Failure::NonFinite { t: t0 };
+        let last = P::STAGES.len() - 1;
+        for (s, &(c, row)) in P::STAGES.iter().enumerate() {
+            let (done, rest) = self.k.split_at_mut(s);
+            let arg = if P::KEEP == Some(s) {
+                &mut self.kept
+            } else {
+                &mut self.y
+            };
+            stage_row(arg, x, hs, row, &stages(k1, done));
+            // (The solution as the last stage's argument must be finite before f sees it.)
+            let solution = s == last && P::SOLUTION.is_none();
+            let t = if c == 1.0 { t_new } else { t0 + c * hs };
+            if (solution && !arg.iter().all(|v| v.is_finite()))
+                || !eval(rhs, t, arg, &mut rest[0], stats)
+            {
+                return Err(bad());
+            }
+        }
+        let k = stages(k1, &self.k);
+        if let Some(weights) = P::SOLUTION {
+            stage_row(&mut self.y, x, hs, weights, &k);
+            if !self.y.iter().all(|v| v.is_finite()) {
+                return Err(bad());
+            }
+        }
+        let err = P::error(x, &self.y, &k[..=P::STAGES.len()], hs, settings);
+        if err.is_nan() {
+            // Only possible with a zero weight (atol = rtol·|x| = 0): no error can be judged.
+            return Err(bad());
+        }
+        Ok(err)
+    }
+}
+
+/// The stages by index, k1 first (no allocation: at most [`MAX_STAGES`]).
+fn stages<'k>(k1: &'k [f64], rest: &'k [Vec<f64>]) -> [&'k [f64]; MAX_STAGES] {
+    let mut k: [&[f64]; MAX_STAGES] = [&[]; MAX_STAGES];
+    k[0] = k1;
+    for (slot, v) in k[1..].iter_mut().zip(rest) {
+        *slot = v;
+    }
+    k
+}
+
+/// `out = x + h·Σ a·k[j]` over a tableau row of `(a, j)`: [`stage`] on stages by index.
+fn stage_row(out: &mut [f64], x: &[f64], h: f64, row: &[(f64, usize)], k: &[&[f64]]) {
+    for (i, o) in out.iter_mut().enumerate() {
+        let s: f64 = row.iter().map(|&(a, j)| a * k[j][i]).sum();
+        *o = x[i] + h * s;
+    }
+}
+
+/// The scratch of a pair: f at the start of a landing call, the stages, and the record of
+/// the last step of a dense call (swapped into the method's point ahead).
+#[derive(Default)]
+pub struct Scratch {
+    k1: Vec<f64>,
+    stages: Stages,
+    pub(super) record: Vec<f64>,
+}
+
+/// The last accepted step of a dense call, besides its record.
+pub(super) struct LastStep {
+    pub t0: f64,
+    /// The PI controller's error memory after the step.
+    pub err_prev: f64,
+}
+
+/// Landing mode of a pair: from `*t` (`x` finite) to exactly `t_end`; `memory.h` reset on
+/// failure. Counts f once at the start (fresh: inputs may have changed since the last call).
+pub(super) fn land<P: Pair>(
+    rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
+    (t, x): (&mut f64, &mut [f64]),
+    t_end: f64,
+    settings: &Settings,
+    memory: &mut Memory,
+    work: &mut Scratch,
+) -> Result<(), Failure> {
+    let k1 = &mut work.k1;
+    sized(k1, x.len());
+    let result = if eval(rhs, *t, x, k1, &mut memory.stats) {
+        let ends = (Goal::Land(t_end), None);
+        let steps = (&mut work.stages, &mut work.record);
+        run::<P>(rhs, (t, x), k1, ends, None, settings, memory, steps).map(|_| ())
+    } else {
+        Err(Failure::NonFinite { t: *t })
+    };
+    if result.is_err() {
+        memory.h = 0.0;
+    }
+    result
+}
+
+/// Dense mode's steps of a pair: if `t_out` lies past the point `(t, x, f = f(t, x))`,
+/// steps it until its last step covers `t_out` (cut only to land on `t_limit`), `project`
+/// after every accepted step, and returns that step (its record in `work.record`).
+/// `err_prev`: the controller's memory the point kept (0: none). `memory.h` reset on failure.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn step_past<P: Pair>(
+    rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
+    project: &mut dyn FnMut(f64, &mut [f64]),
+    (t, x, f): (&mut f64, &mut [f64], &mut Vec<f64>),
+    err_prev: f64,
+    (t_out, t_limit): (f64, f64),
+    settings: &Settings,
+    memory: &mut Memory,
+    work: &mut Scratch,
+) -> Result<Option<LastStep>, Failure> {
+    if t_out <= *t {
+        return Ok(None);
+    }
+    let ends = (
+        Goal::Pass { t_out, t_limit },
+        (err_prev > 0.0).then_some(err_prev),
+    );
+    let steps = (&mut work.stages, &mut work.record);
+    let result = run::<P>(rhs, (t, x), f, ends, Some(project), settings, memory, steps);
+    if result.is_err() {
+        memory.h = 0.0;
+    }
+    result.map(Some)
+}
+
+/// The stepping loop of both modes. `k1` holds f(t, x) on entry. Landing mode evaluates f
+/// at the start of a step when no stage gave it (so the last step of a call does not pay
+/// for it); dense mode evaluates it at once (the dense output needs it), leaves it in `k1`,
+/// applies `project` after every accepted step and leaves the last step's record in
+/// `record`. `err_prev`: the PI controller's previous error when the caller kept it.
+#[allow(clippy::too_many_arguments)]
+fn run<P: Pair>(
+    rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
+    (t, x): (&mut f64, &mut [f64]),
+    k1: &mut Vec<f64>,
+    (goal, err_prev): (Goal, Option<f64>),
+    mut project: Option<&mut dyn FnMut(f64, &mut [f64])>,
+    settings: &Settings,
+    memory: &mut Memory,
+    (w, record): (&mut Stages, &mut Vec<f64>),
+) -> Result<LastStep, Failure> {
+    let n = x.len();
+    assert_eq!(
+        settings.atol.len(),
+        n,
+        "{} needs one absolute tolerance per state",
+        P::NAME
+    );
+    let h_max = max_step(settings);
+    let stats = &mut memory.stats;
+    w.size(P::STAGES.len(), n);
+    let carried = memory.h > 0.0 && memory.h.is_finite();
+    let mut h = if carried {
+        memory.h.min(h_max)
+    } else {
+        let mut probe = |t: f64, y: &[f64], k: &mut [f64]| eval(rhs, t, y, k, stats);
+        let scratch = (&mut w.y[..], &mut w.k[0][..]);
+        initial_step(&mut probe, *t, x, k1, settings, h_max, P::ORDER, scratch)
+    };
+    let mut controller = PiController::resuming(P::GAINS, carried, err_prev);
+    let dense = matches!(goal, Goal::Pass { .. });
+    let last = P::STAGES.len() - 1;
+    let mut k1_fresh = true;
+    let mut attempts: u64 = 0;
+    loop {
+        check_attempt((*t, h), (attempts, settings.max_steps), &memory.stats, n)?;
+        attempts += 1;
+        // `h` stays the controller's proposal; `hs` is the step actually taken.
+        let (hs, t_new, landing) = goal.step_from(*t, h);
+        let t0 = *t;
+        let stats = &mut memory.stats;
+        if !k1_fresh {
+            if !eval(rhs, t0, x, k1, stats) {
+                return Err(Failure::NonFinite { t: t0 });
+            }
+            k1_fresh = true;
+        }
+        let err = w.attempt::<P>(rhs, k1, (t0, t_new), x, hs, settings, stats)?;
+        if err > 1.0 {
+            stats.rejected += 1;
+            h = controller.rejected(err, hs);
+            continue;
+        }
+        let h_new = controller.accepted(err, hs, h_max);
+        let done = goal.reached(t_new, landing);
+        // f at the step's end: its last stage, or evaluated now in dense mode.
+        let fsal = P::SOLUTION.is_none();
+        if !fsal && dense && !eval(rhs, t_new, &w.y, sized(&mut w.f_end, n), stats) {
+            return Err(Failure::NonFinite { t: t0 });
+        }
+        stats.steps += 1;
+        P::accepted(memory, hs, t_new, w);
+        if done && dense {
+            let f_end = if fsal { &w.k[last] } else { &w.f_end };
+            P::record(x, w, k1, f_end, hs, record);
+        }
+        x.copy_from_slice(&w.y);
+        if fsal {
+            std::mem::swap(k1, &mut w.k[last]);
+        } else if dense {
+            std::mem::swap(k1, &mut w.f_end);
+        } else {
+            k1_fresh = false;
+        }
+        *t = t_new;
+        if let Some(project) = project.as_mut() {
+            project(t_new, x);
+            if x != &w.y[..] && !eval(rhs, t_new, x, k1, &mut memory.stats) {
+                return Err(Failure::NonFinite { t: t_new });
+            }
+        }
+        if done {
+            memory.h = carried_proposal(landing, h_new, hs, h);
+            return Ok(LastStep {
+                t0,
+                err_prev: controller.err_prev,
+            });
+        }
+        h = h_new;
     }
 }

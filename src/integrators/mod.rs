@@ -14,6 +14,8 @@
 // the interface other modules call, and an alias would hide what it takes.
 #![allow(clippy::type_complexity)]
 
+mod ahead;
+pub(crate) mod blob;
 mod buffers;
 pub mod dop853;
 pub mod dopri5;
@@ -31,6 +33,7 @@ pub mod rk4;
 pub mod verlet;
 mod workspace;
 
+pub use ahead::{advance_dense, Ahead};
 pub(crate) use buffers::{copied, sized, zeroed};
 pub use finite::{all_finite, finite};
 pub use problem::ImplicitFailure;
@@ -311,222 +314,6 @@ pub fn advance_in(
     }
 }
 
-/// The adaptive methods (DOPRI5, DOP853, RADAU5) with dense output, as the FMU runs them:
-/// continues the method's own point ahead of `*t` kept in `memory` (else starts one at
-/// `(*t, x)`), steps until its last step covers `t_end` (never past `t_limit`; `project`
-/// after every accepted step), and reads x(`t_end`) from the continuous extension into `x`,
-/// `*t = t_end`; the point ahead stays in `memory`. On failure `(*t, x)` is the last accepted
-/// step if the integrator got past `*t`, and no point ahead is kept. In the scratch of
-/// `work`: no allocation in steady state (once a point ahead is kept and `work` has held
-/// these sizes). See [`dopri5::Ahead`], [`dop853::Ahead`], [`radau5::Ahead`].
-#[allow(clippy::too_many_arguments)]
-pub fn advance_dense(
-    problem: &mut problem::Problem,
-    project: &mut dyn FnMut(f64, &mut [f64]),
-    (t, x): (&mut f64, &mut [f64]),
-    (t_end, t_limit): (f64, f64),
-    settings: &Settings,
-    memory: &mut Memory,
-    work: &mut Workspace,
-) -> Result<(), Failure> {
-    let mut point = std::mem::take(&mut work.point);
-    let out = sized(&mut point, x.len());
-    let state = (t, x);
-    let ends = (t_end, t_limit);
-    let result = match settings.method {
-        Method::Dopri5 => {
-            dense::<dopri5::Ahead>(problem, project, state, ends, settings, memory, work, out)
-        }
-        Method::Dop853 => {
-            dense::<dop853::Ahead>(problem, project, state, ends, settings, memory, work, out)
-        }
-        Method::Radau5 => {
-            dense::<radau5::Ahead>(problem, project, state, ends, settings, memory, work, out)
-        }
-        other => panic!("{} has no dense output", other.name()),
-    };
-    work.point = point;
-    result
-}
-
-/// What [`advance_dense`] needs of a method's point ahead.
-trait Ahead: Sized {
-    /// Where `memory` keeps it.
-    fn kept(memory: &mut Memory) -> &mut Option<Self>;
-    /// The time it started from, and the time and state its last accepted step reached.
-    fn span(&self) -> (f64, f64, &[f64]);
-    /// Whether integration from `t` can go on from it: a time its steps covered.
-    fn resumes(&self, t: f64) -> bool {
-        let (t0, t1, _) = self.span();
-        t0 <= t && t <= t1
-    }
-    /// A new one at `(t, x)` (evaluates f).
-    fn start(
-        problem: &mut problem::Problem,
-        start: (f64, &[f64]),
-        t_limit: f64,
-        settings: &Settings,
-        memory: &mut Memory,
-    ) -> Result<Self, Failure>;
-    /// Steps until its last step covers `t_out`, and x(`t_out`) into `out`.
-    #[allow(clippy::too_many_arguments)]
-    fn advance(
-        &mut self,
-        problem: &mut problem::Problem,
-        project: &mut dyn FnMut(f64, &mut [f64]),
-        ends: (f64, f64),
-        settings: &Settings,
-        memory: &mut Memory,
-        out: &mut [f64],
-        work: &mut Workspace,
-    ) -> Result<(), Failure>;
-    /// The end of its last accepted step.
-    fn end(&self) -> (f64, &[f64]) {
-        let (_, t, x) = self.span();
-        (t, x)
-    }
-}
-
-#[allow(clippy::too_many_arguments)]
-fn dense<A: Ahead>(
-    problem: &mut problem::Problem,
-    project: &mut dyn FnMut(f64, &mut [f64]),
-    (t, x): (&mut f64, &mut [f64]),
-    (t_end, t_limit): (f64, f64),
-    settings: &Settings,
-    memory: &mut Memory,
-    work: &mut Workspace,
-    out: &mut [f64],
-) -> Result<(), Failure> {
-    let kept = A::kept(memory).take();
-    memory.drop_ahead();
-    let mut ahead = match kept {
-        Some(a) if a.resumes(*t) => a,
-        _ => A::start(problem, (*t, x), t_limit, settings, memory)?,
-    };
-    let ends = (t_end, t_limit);
-    match ahead.advance(problem, project, ends, settings, memory, out, work) {
-        Ok(()) => {
-            x.copy_from_slice(out);
-            *t = t_end;
-            *A::kept(memory) = Some(ahead);
-            Ok(())
-        }
-        Err(e) => {
-            let (t_ahead, x_ahead) = ahead.end();
-            if t_ahead > *t {
-                *t = t_ahead;
-                x.copy_from_slice(x_ahead);
-            }
-            Err(e)
-        }
-    }
-}
-
-impl Ahead for dopri5::Ahead {
-    fn kept(memory: &mut Memory) -> &mut Option<Self> {
-        &mut memory.ahead
-    }
-    fn span(&self) -> (f64, f64, &[f64]) {
-        (self.t0, self.t, &self.x)
-    }
-    fn start(
-        problem: &mut problem::Problem,
-        (t, x): (f64, &[f64]),
-        _: f64,
-        _: &Settings,
-        memory: &mut Memory,
-    ) -> Result<Self, Failure> {
-        dopri5::Ahead::start(problem.rhs, t, x, &mut memory.stats)
-    }
-    fn advance(
-        &mut self,
-        problem: &mut problem::Problem,
-        project: &mut dyn FnMut(f64, &mut [f64]),
-        ends: (f64, f64),
-        settings: &Settings,
-        memory: &mut Memory,
-        out: &mut [f64],
-        work: &mut Workspace,
-    ) -> Result<(), Failure> {
-        let rhs = &mut *problem.rhs;
-        let work = &mut work.dopri5;
-        dopri5::advance_dense_in(rhs, project, self, ends, settings, memory, out, work)
-    }
-}
-
-impl Ahead for dop853::Ahead {
-    fn kept(memory: &mut Memory) -> &mut Option<Self> {
-        &mut memory.dop853_ahead
-    }
-    fn span(&self) -> (f64, f64, &[f64]) {
-        (self.t0, self.t, &self.x)
-    }
-    fn start(
-        problem: &mut problem::Problem,
-        (t, x): (f64, &[f64]),
-        _: f64,
-        _: &Settings,
-        memory: &mut Memory,
-    ) -> Result<Self, Failure> {
-        dop853::Ahead::start(problem, t, x, &mut memory.stats)
-    }
-    fn advance(
-        &mut self,
-        problem: &mut problem::Problem,
-        project: &mut dyn FnMut(f64, &mut [f64]),
-        ends: (f64, f64),
-        settings: &Settings,
-        memory: &mut Memory,
-        out: &mut [f64],
-        work: &mut Workspace,
-    ) -> Result<(), Failure> {
-        let work = &mut work.dop853;
-        dop853::advance_dense_in(problem, project, self, ends, settings, memory, out, work)
-    }
-}
-
-impl Ahead for radau5::Ahead {
-    fn kept(memory: &mut Memory) -> &mut Option<Self> {
-        &mut memory.radau5_ahead
-    }
-    /// RADAU5's state covers everything up to its own time (its collocation polynomial
-    /// the last step, and before any step the point itself).
-    fn resumes(&self, t: f64) -> bool {
-        t <= self.t
-    }
-    /// With the carried step proposal; a failure resets it.
-    fn start(
-        problem: &mut problem::Problem,
-        (t, x): (f64, &[f64]),
-        t_limit: f64,
-        settings: &Settings,
-        memory: &mut Memory,
-    ) -> Result<Self, Failure> {
-        let (h, stats) = (memory.h, &mut memory.stats);
-        radau5::Ahead::start(problem, t, x, h, t_limit, settings, stats).inspect_err(|_| {
-            memory.h = 0.0;
-        })
-    }
-    fn advance(
-        &mut self,
-        problem: &mut problem::Problem,
-        project: &mut dyn FnMut(f64, &mut [f64]),
-        ends: (f64, f64),
-        settings: &Settings,
-        memory: &mut Memory,
-        out: &mut [f64],
-        work: &mut Workspace,
-    ) -> Result<(), Failure> {
-        let work = &mut work.radau5;
-        radau5::advance_dense_in(problem, project, self, ends, settings, memory, out, work)
-    }
-    /// (Its start is not kept: [`Ahead::resumes`] above needs only its end.)
-    fn span(&self) -> (f64, f64, &[f64]) {
-        (f64::NEG_INFINITY, self.t, &self.x)
-    }
-}
-
 /// Refuses, before any work, a fixed-step call from `t` to `t_end` that would need more than
 /// `settings.max_steps` steps of `settings.step` (counted as the methods count them: the last
 /// one shortened, or stretched by a sliver).
@@ -666,30 +453,61 @@ pub struct Memory {
     /// starts from a fresh estimate instead of a step that has just proved hopeless.
     pub h: f64,
     pub stats: Stats,
-    /// DOPRI5's own point ahead of the communication time, in dense-output mode (see
-    /// [`dopri5::Ahead`]); `None` in every other mode and whenever f has changed. At most
-    /// one of the three points ahead is kept, the running method's.
-    pub ahead: Option<dopri5::Ahead>,
-    /// RADAU5's loop state ahead of the communication time, in dense-output mode (see
-    /// [`radau5::Ahead`]); `None` likewise.
-    pub radau5_ahead: Option<radau5::Ahead>,
-    /// DOP853's point ahead, in dense-output mode (see [`dop853::Ahead`]); `None` likewise.
-    pub dop853_ahead: Option<dop853::Ahead>,
+    /// The running method's point ahead of the communication time, in dense-output mode
+    /// (see [`Ahead`]); `None` in every other mode and whenever f has changed.
+    pub ahead: Option<Ahead>,
     /// DOPRI5's stiffness detection (see [`dopri5::StiffnessMonitor`]).
     pub stiffness: dopri5::StiffnessMonitor,
 }
 
 impl Memory {
-    /// Forgets every integrator's point ahead of the communication time: f changed (an
-    /// input), or the mode or method that kept it is not the one running.
+    /// Forgets the point ahead of the communication time: f changed (an input), or the
+    /// mode or method that kept it is not the one running.
     #[inline]
     pub fn drop_ahead(&mut self) {
         // (Tested first: the fixed-step doStep calls this each step, and has none to drop.)
-        if self.ahead.is_some() || self.radau5_ahead.is_some() || self.dop853_ahead.is_some() {
+        if self.ahead.is_some() {
             self.ahead = None;
-            self.radau5_ahead = None;
-            self.dop853_ahead = None;
         }
+    }
+
+    /// Where DOPRI5 first found the problem stiff, once: a second call says `None`.
+    pub fn take_stiffness_report(&mut self) -> Option<f64> {
+        let at = self.stiffness.detected_at.take();
+        self.stiffness.reported |= at.is_some();
+        at
+    }
+
+    /// Appends this memory to an FMU state: the step proposal, the counters, then each
+    /// method's own block (the stiffness monitor, the point ahead).
+    pub(crate) fn write(&self, b: &mut Vec<u8>) {
+        blob::put_f64(b, self.h);
+        let s = self.stats;
+        for v in [s.rhs_evals, s.steps, s.rejected, s.jacobians] {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+        self.stiffness.write(b);
+        Ahead::write(self.ahead.as_ref(), b);
+    }
+
+    /// Reads what [`Memory::write`] wrote for `n` states, each block checked by its owner.
+    pub(crate) fn read(r: &mut blob::Reader, n: usize) -> Result<Memory, String> {
+        let h = r.f64()?;
+        let stats = Stats {
+            rhs_evals: r.u64()?,
+            steps: r.u64()?,
+            rejected: r.u64()?,
+            jacobians: r.u64()?,
+            work_limit: 0,
+        };
+        let stiffness = dopri5::StiffnessMonitor::read(r)?;
+        let ahead = Ahead::read(r, n)?;
+        Ok(Memory {
+            h,
+            stats,
+            ahead,
+            stiffness,
+        })
     }
 }
 

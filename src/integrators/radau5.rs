@@ -27,6 +27,7 @@
 // be checked against it; the compiler rounds them to the nearest f64.
 #![allow(clippy::excessive_precision)]
 
+use super::blob::{put_f64s, Reader};
 use super::buffers::{copied, sized, zeroed};
 use super::lu::Lu;
 use super::problem::{start, Problem};
@@ -252,7 +253,7 @@ pub fn advance_in(
 
 /// The RADAU5 loop between two attempted steps: radau5.f's variables that live from one
 /// step to the next. Landing mode builds one per call; dense-output mode keeps it between
-/// calls (in [`Memory::radau5_ahead`]) so that the steps are the controller's alone, the
+/// calls (in [`Memory::ahead`]) so that the steps are the controller's alone, the
 /// same however many calls a run is cut into, and a communication time inside the last
 /// accepted step is read from its collocation polynomial (radau5.f CONTR5). Valid only while
 /// f is unchanged. `theta` is not kept: radau5.f resets it at every Newton start.
@@ -369,6 +370,84 @@ impl Ahead {
         for (i, o) in out.iter_mut().enumerate() {
             *o = self.x[i] + s * (c(0, i) + (s - c2m1) * (c(1, i) + (s - c1m1) * c(2, i)));
         }
+    }
+}
+
+impl Ahead {
+    /// Its block of the FMU state (see [`super::Memory::write`]).
+    pub(crate) fn write(&self, b: &mut Vec<u8>) {
+        let steps = [
+            self.t,
+            self.h,
+            self.hopt,
+            self.hold,
+            self.hmaxn,
+            self.hacc,
+            self.erracc,
+            self.faccon,
+        ];
+        put_f64s(b, &steps);
+        let flags = [
+            self.have_cont,
+            self.first,
+            self.reject,
+            self.last,
+            self.landed,
+            self.need_jac,
+            self.caljac,
+        ];
+        b.extend(flags.map(u8::from));
+        b.extend_from_slice(&self.nsing.to_le_bytes());
+        put_f64s(
+            b,
+            self.x
+                .iter()
+                .chain(&self.f)
+                .chain(&self.cont)
+                .chain(&self.jac),
+        );
+    }
+
+    /// Reads what [`Ahead::write`] wrote for `n` states, and checks it.
+    pub(crate) fn read(r: &mut Reader, n: usize) -> Result<Ahead, String> {
+        let [t, h, hopt, hold, hmaxn, hacc, erracc, faccon] = [(); 8].map(|()| r.f64());
+        let (t, h, hopt, hold, hmaxn) = (t?, h?, hopt?, hold?, hmaxn?);
+        let (hacc, erracc, faccon) = (hacc?, erracc?, faccon?);
+        let [have_cont, first, reject, last, landed, need_jac, caljac] = [(); 7].map(|()| r.flag());
+        let a = Ahead {
+            t,
+            h,
+            hopt,
+            hold,
+            hmaxn,
+            hacc,
+            erracc,
+            faccon,
+            have_cont: have_cont?,
+            first: first?,
+            reject: reject?,
+            last: last?,
+            landed: landed?,
+            need_jac: need_jac?,
+            caljac: caljac?,
+            nsing: r.u32()?,
+            x: r.f64s(n)?,
+            f: r.f64s(n)?,
+            cont: r.f64s(3 * n)?,
+            jac: r.f64s(n * n)?,
+        };
+        // hmaxn is +∞ without a step bound and a stop time.
+        let finite = [t, h, hopt, hold, hacc, erracc, faccon]
+            .iter()
+            .chain(&a.x)
+            .chain(&a.f)
+            .chain(&a.cont)
+            .chain(&a.jac)
+            .all(|v| v.is_finite());
+        if !(finite && h >= 0.0 && hold > 0.0 && hmaxn > 0.0) {
+            return Err("FMU state holds an invalid RADAU5 integrator state".into());
+        }
+        Ok(a)
     }
 }
 

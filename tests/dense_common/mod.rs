@@ -234,10 +234,7 @@ pub fn rollback<S: System>(case: &Case<S>, solver: i32) {
     steps(case, &mut inst, comm, 0, 300);
     let saved = inst.snapshot();
     let m = &saved.memory;
-    let kept = match solver {
-        RADAU5 => m.radau5_ahead.is_some(),
-        _ => m.dop853_ahead.is_some(),
-    };
+    let kept = m.ahead.as_ref().map(|a| a.method().code()) == Some(solver);
     assert!(
         kept,
         "solver {solver} keeps its state ahead of the communication time"
