@@ -841,3 +841,34 @@ fn set_fmu_state_in_event_mode_stays_in_event_mode() {
     assert_eq!(f.errors(), 1);
     assert_eq!(unsafe { fmi3FreeFMUState(f.c, &mut state) }, Status::Ok);
 }
+
+/// FMI 3.0 has no stepFailed: after fmi3DoStep answered fmi3Discard the instance is in Step
+/// Mode where lastSuccessfulTime says, and steps on from there with a shorter step; inputs
+/// and outputs work as before. (The FMI 2.0 core state stepFailed used to leak into FMI
+/// 3.0: the next fmi3DoStep was refused "in state StepFailed".) Every line names the fmi3
+/// function and no fmi2 one.
+#[test]
+fn a_discarded_step_leaves_the_instance_in_step_mode() {
+    let f = Fmu3::cs(11, false, false);
+    let (solver, max_steps, step) = (vr("solver"), vr("solver_max_steps"), vr("solver_step"));
+    unsafe {
+        assert_eq!(fmi3SetInt64(f.c, &solver, 1, &1, 1), Status::Ok); // RK4
+        assert_eq!(fmi3SetInt32(f.c, &max_steps, 1, &10, 1), Status::Ok);
+        assert_eq!(fmi3SetFloat64(f.c, &step, 1, &0.01, 1), Status::Ok);
+    }
+    f.init();
+    // 100 steps of 0.01 s planned, 10 allowed: refused before any work.
+    let (status, _, _, last) = f.step(0.0, 1.0);
+    assert_eq!(status, Status::Discard);
+    assert_eq!(last, 0.0);
+    let (status, _, _, last) = f.step(0.0, 0.05);
+    assert_eq!(status, Status::Ok, "{:?}", lines(f.tag));
+    assert_eq!(last, 0.05);
+    assert_eq!(f.get(time_vr()), 0.05);
+    assert_eq!(f.step(0.0, 0.05).0, Status::Error, "not the FMU's time");
+    let all = lines(f.tag);
+    assert_eq!(all.len(), 2, "{all:?}");
+    for (_, line) in &all {
+        assert!(line.starts_with("fmi3DoStep: ") && !line.contains("fmi2"), "{line}");
+    }
+}
