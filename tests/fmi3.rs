@@ -869,6 +869,9 @@ fn a_discarded_step_leaves_the_instance_in_step_mode() {
     let all = lines(f.tag);
     assert_eq!(all.len(), 2, "{all:?}");
     for (_, line) in &all {
-        assert!(line.starts_with("fmi3DoStep: ") && !line.contains("fmi2"), "{line}");
+        assert!(
+            line.starts_with("fmi3DoStep: ") && !line.contains("fmi2"),
+            "{line}"
+        );
     }
 }
