@@ -89,6 +89,7 @@ impl Logger {
     }
 
     /// The function now running (see `function`).
+    #[inline]
     pub fn set_function(&self, function: &'static str) {
         self.function.set(function);
     }
@@ -128,6 +129,7 @@ impl Logger {
     /// reported a warning returns fmi2Warning (FMI 2.0, section 2.1.3: things are not quite
     /// right but the computation can continue, and the logger was called to say what): the
     /// C API asks at the start and at the end of every call.
+    #[inline]
     pub fn take_warned(&self) -> bool {
         self.warned.replace(false)
     }

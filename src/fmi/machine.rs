@@ -23,6 +23,7 @@ pub enum Machine {
 }
 
 impl Machine {
+    #[inline]
     pub fn code(self) -> u32 {
         self as u32
     }
@@ -223,28 +224,41 @@ pub const BEFORE_INIT_DONE: u32 = mask(&[Instantiated, InitializationMode]);
 /// before initialisation mode.
 pub const BEFORE_INIT_MODE: u32 = mask(&[Instantiated]);
 
+impl Gate {
+    /// Whether the gate lets a function run in state `code` of an instance made for `own`:
+    /// the per-call check of every entry point, inlined into each (the refusal is cold).
+    #[inline]
+    pub fn admits(self, code: u32, own: Interface) -> bool {
+        self.states & code != 0 && self.interface.is_none_or(|of| of == own)
+    }
+}
+
 /// Fails unless FMI 2.0's table lets a function behind `gate` run in `state` of an
 /// instance made for `own`.
+#[inline]
 pub fn check(gate: Gate, state: Machine, own: Interface) -> Result<(), String> {
-    let wrong_interface = |of: Interface| {
-        format!(
+    match gate.admits(state.code(), own) {
+        true => Ok(()),
+        false => Err(refusal(gate, state, own)),
+    }
+}
+
+/// Why FMI 2.0's table refuses (see [`check`]).
+#[cold]
+#[inline(never)]
+fn refusal(gate: Gate, state: Machine, own: Interface) -> String {
+    match gate.interface {
+        Some(of) if of != own => format!(
             "a {} function; this instance was made for {} (fmuType {} in fmi2Instantiate)",
             of.name(),
             own.name(),
             own.code()
-        )
-    };
-    match gate.interface {
-        Some(of) if of != own => return Err(wrong_interface(of)),
-        _ => {}
-    }
-    if gate.states & state.code() == 0 {
-        return Err(format!(
+        ),
+        _ => format!(
             "not allowed in state {state:?} (allowed in: {})",
             describe(gate.states & own.states())
-        ));
+        ),
     }
-    Ok(())
 }
 
 /// Names of the states a mask admits, for error messages.

@@ -42,6 +42,7 @@ const ALL: [State3; 7] = [
 impl State3 {
     /// The FMI 3.0 state of an instance whose core is in `core`; `cs_event_mode`: a
     /// Co-Simulation instance in Event Mode.
+    #[inline]
     pub fn of(core: Machine, cs_event_mode: bool) -> State3 {
         match core {
             Machine::Instantiated => Instantiated,
@@ -55,6 +56,7 @@ impl State3 {
         }
     }
 
+    #[inline]
     pub fn code(self) -> u32 {
         self as u32
     }
@@ -131,27 +133,32 @@ pub const OUTPUT_DERIVATIVES: Gate = Gate::cs(mask(&[StepMode, Terminated, Error
 
 /// Fails unless FMI 3.0's table lets a function behind `gate` run in `state` of an
 /// instance made for `own`.
+#[inline]
 pub fn check(gate: Gate, state: State3, own: Interface) -> Result<(), String> {
-    match gate.interface {
-        Some(of) if of != own => {
-            return Err(format!(
-                "a {} function; this instance was made by fmi3Instantiate{}",
-                of.name(),
-                match own {
-                    Interface::CoSimulation => "CoSimulation",
-                    Interface::ModelExchange => "ModelExchange",
-                }
-            ))
-        }
-        _ => {}
+    match gate.admits(state.code(), own) {
+        true => Ok(()),
+        false => Err(refusal(gate, state, own)),
     }
-    if gate.states & state.code() == 0 {
-        return Err(format!(
+}
+
+/// Why FMI 3.0's table refuses (see [`check`]).
+#[cold]
+#[inline(never)]
+fn refusal(gate: Gate, state: State3, own: Interface) -> String {
+    match gate.interface {
+        Some(of) if of != own => format!(
+            "a {} function; this instance was made by fmi3Instantiate{}",
+            of.name(),
+            match own {
+                Interface::CoSimulation => "CoSimulation",
+                Interface::ModelExchange => "ModelExchange",
+            }
+        ),
+        _ => format!(
             "not allowed in state {state:?} (allowed in: {})",
             describe(gate.states)
-        ));
+        ),
     }
-    Ok(())
 }
 
 /// Names of the states a mask admits, for error messages.

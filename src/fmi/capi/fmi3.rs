@@ -53,6 +53,7 @@ pub struct Instance3<M: System> {
 }
 
 impl<M: System> Instance3<M> {
+    #[inline]
     pub fn state(&self) -> State3 {
         State3::of(self.core.machine(), self.cs_event_mode)
     }
