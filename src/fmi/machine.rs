@@ -117,6 +117,9 @@ const ME_STATES: u32 = mask(&[
 pub struct Gate {
     pub states: u32,
     pub interface: Option<Interface>,
+    /// Whether an instance of the other interface can be in one of `states` (else the
+    /// states alone settle the interface, and [`Gate::admits`] does not test it).
+    test_interface: bool,
 }
 
 impl Gate {
@@ -125,97 +128,93 @@ impl Gate {
         Gate {
             states,
             interface: None,
+            test_interface: false,
         }
     }
-    /// A Co-Simulation function.
-    pub const fn cs(states: u32) -> Gate {
+
+    /// A function of `interface` alone, whose other interface's instances can be in
+    /// `other_states`.
+    pub const fn only(interface: Interface, states: u32, other_states: u32) -> Gate {
         Gate {
             states,
-            interface: Some(Interface::CoSimulation),
+            interface: Some(interface),
+            test_interface: states & other_states != 0,
         }
     }
-    /// A Model Exchange function.
-    pub const fn me(states: u32) -> Gate {
-        Gate {
-            states,
-            interface: Some(Interface::ModelExchange),
-        }
+
+    /// Whether the gate lets a function run in state `code` of an instance made for `own`:
+    /// the per-call check of every entry point, inlined into each (the refusal is cold).
+    #[inline]
+    pub fn admits(self, code: u32, own: Interface) -> bool {
+        self.states & code != 0 && (!self.test_interface || self.interface == Some(own))
     }
 }
 
-// FMI 2.0's table (sections 3.2.3 and 4.2.4). Both interfaces:
-pub const ANY: Gate = Gate::both(mask(&ALL_STATES));
-pub const SETUP_EXPERIMENT: Gate = Gate::both(mask(&[Instantiated]));
-pub const ENTER_INIT: Gate = Gate::both(mask(&[Instantiated]));
-pub const EXIT_INIT: Gate = Gate::both(mask(&[InitializationMode]));
-pub const TERMINATE: Gate = Gate::both(mask(&[
-    StepComplete,
-    StepFailed,
-    EventMode,
-    ContinuousTimeMode,
-]));
+/// A state table as rows `NAME = interface[states];`, `interface` one of `both`, `cs`,
+/// `me` (the table's own constructors, in scope where it is written).
+macro_rules! gates {
+    ($($(#[$doc:meta])* $name:ident = $interface:ident[$($state:ident),* $(,)?];)*) => {
+        $($(#[$doc])* pub const $name: Gate = $interface(mask(&[$($state),*]));)*
+    };
+}
+pub(crate) use gates;
+
+const fn both(states: u32) -> Gate {
+    Gate::both(states)
+}
+const fn cs(states: u32) -> Gate {
+    Gate::only(Interface::CoSimulation, states, ME_STATES)
+}
+const fn me(states: u32) -> Gate {
+    Gate::only(Interface::ModelExchange, states, CS_STATES)
+}
+
+// FMI 2.0's table (sections 3.2.3 and 4.2.4).
+#[rustfmt::skip]
+gates! {
+    ANY = both[
+        Instantiated, InitializationMode, StepComplete, StepFailed, Terminated, Error,
+        EventMode, ContinuousTimeMode,
+    ];
+    SETUP_EXPERIMENT = both[Instantiated];
+    ENTER_INIT = both[Instantiated];
+    EXIT_INIT = both[InitializationMode];
+    TERMINATE = both[StepComplete, StepFailed, EventMode, ContinuousTimeMode];
+    GET = both[
+        InitializationMode, StepComplete, StepFailed, EventMode, ContinuousTimeMode,
+        Terminated, Error,
+    ];
+    /// fmi2SetReal: in Model Exchange's event and continuous-time modes only inputs may be
+    /// set (checked per variable, as after initialisation in Co-Simulation).
+    SET_REAL = both[
+        Instantiated, InitializationMode, StepComplete, EventMode, ContinuousTimeMode,
+    ];
+    /// fmi2SetInteger: the Integer variables are fixed parameters; Model Exchange admits
+    /// the call in event mode (for tunable ones, which these models do not have).
+    SET_INTEGER = both[Instantiated, InitializationMode, StepComplete, EventMode];
+    // Co-Simulation only.
+    INPUT_DERIVATIVES = cs[Instantiated, InitializationMode, StepComplete];
+    OUTPUT_DERIVATIVES = cs[StepComplete, StepFailed, Terminated, Error];
+    DO_STEP = cs[StepComplete];
+    CANCEL_STEP = cs[];
+    STATUS = cs[StepComplete, StepFailed, Terminated];
+    // Model Exchange only.
+    ENTER_EVENT_MODE = me[EventMode, ContinuousTimeMode];
+    NEW_DISCRETE_STATES = me[EventMode];
+    ENTER_CONTINUOUS_TIME_MODE = me[EventMode];
+    COMPLETED_INTEGRATOR_STEP = me[ContinuousTimeMode];
+    SET_TIME = me[EventMode, ContinuousTimeMode];
+    SET_CONTINUOUS_STATES = me[ContinuousTimeMode];
+    GET_EVENT_INDICATORS = me[
+        InitializationMode, EventMode, ContinuousTimeMode, Terminated, Error,
+    ];
+    GET_DERIVATIVES = me[EventMode, ContinuousTimeMode, Terminated, Error];
+    GET_NOMINALS = me[Instantiated, EventMode, ContinuousTimeMode, Terminated, Error];
+}
 pub const RESET: Gate = ANY;
-pub const GET: Gate = Gate::both(mask(&[
-    InitializationMode,
-    StepComplete,
-    StepFailed,
-    EventMode,
-    ContinuousTimeMode,
-    Terminated,
-    Error,
-]));
-/// fmi2SetReal: in Model Exchange's event and continuous-time modes only inputs may be
-/// set (checked per variable, as after initialisation in Co-Simulation).
-pub const SET_REAL: Gate = Gate::both(mask(&[
-    Instantiated,
-    InitializationMode,
-    StepComplete,
-    EventMode,
-    ContinuousTimeMode,
-]));
-/// fmi2SetInteger: the Integer variables are fixed parameters; Model Exchange admits the
-/// call in event mode (for tunable ones, which these models do not have).
-pub const SET_INTEGER: Gate = Gate::both(mask(&[
-    Instantiated,
-    InitializationMode,
-    StepComplete,
-    EventMode,
-]));
 pub const FMU_STATE: Gate = ANY;
 pub const DIRECTIONAL_DERIVATIVE: Gate = GET;
-
-// Co-Simulation only.
-pub const INPUT_DERIVATIVES: Gate =
-    Gate::cs(mask(&[Instantiated, InitializationMode, StepComplete]));
-pub const OUTPUT_DERIVATIVES: Gate = Gate::cs(mask(&[StepComplete, StepFailed, Terminated, Error]));
-pub const DO_STEP: Gate = Gate::cs(mask(&[StepComplete]));
-pub const CANCEL_STEP: Gate = Gate::cs(0);
-pub const STATUS: Gate = Gate::cs(mask(&[StepComplete, StepFailed, Terminated]));
-
-// Model Exchange only.
-pub const ENTER_EVENT_MODE: Gate = Gate::me(mask(&[EventMode, ContinuousTimeMode]));
-pub const NEW_DISCRETE_STATES: Gate = Gate::me(mask(&[EventMode]));
-pub const ENTER_CONTINUOUS_TIME_MODE: Gate = Gate::me(mask(&[EventMode]));
-pub const COMPLETED_INTEGRATOR_STEP: Gate = Gate::me(mask(&[ContinuousTimeMode]));
-pub const SET_TIME: Gate = Gate::me(mask(&[EventMode, ContinuousTimeMode]));
-pub const SET_CONTINUOUS_STATES: Gate = Gate::me(mask(&[ContinuousTimeMode]));
-pub const GET_EVENT_INDICATORS: Gate = Gate::me(mask(&[
-    InitializationMode,
-    EventMode,
-    ContinuousTimeMode,
-    Terminated,
-    Error,
-]));
 pub const GET_CONTINUOUS_STATES: Gate = GET_EVENT_INDICATORS;
-pub const GET_DERIVATIVES: Gate =
-    Gate::me(mask(&[EventMode, ContinuousTimeMode, Terminated, Error]));
-pub const GET_NOMINALS: Gate = Gate::me(mask(&[
-    Instantiated,
-    EventMode,
-    ContinuousTimeMode,
-    Terminated,
-    Error,
-]));
 
 /// States in which fixed parameters and the start values of states may be set (the core's
 /// rule per variable, the same in every FMI version).
@@ -223,15 +222,6 @@ pub const BEFORE_INIT_DONE: u32 = mask(&[Instantiated, InitializationMode]);
 /// Where a variable with initial = "approx" (a guess: the dependent states) may be set:
 /// before initialisation mode.
 pub const BEFORE_INIT_MODE: u32 = mask(&[Instantiated]);
-
-impl Gate {
-    /// Whether the gate lets a function run in state `code` of an instance made for `own`:
-    /// the per-call check of every entry point, inlined into each (the refusal is cold).
-    #[inline]
-    pub fn admits(self, code: u32, own: Interface) -> bool {
-        self.states & code != 0 && self.interface.is_none_or(|of| of == own)
-    }
-}
 
 /// Fails unless FMI 2.0's table lets a function behind `gate` run in `state` of an
 /// instance made for `own`.

@@ -11,7 +11,7 @@
 //! on from there), and the one state the core has no mode for, Co-Simulation's Event Mode,
 //! is a flag of the FMI 3.0 instance.
 
-use super::machine::{Gate, Interface, Machine};
+use super::machine::{gates, Gate, Interface, Machine};
 
 /// States of an FMI 3.0 instance (Configuration and Reconfiguration Mode and the Clock
 /// states never occur: the models have no structural parameters and no clocks).
@@ -72,64 +72,71 @@ const fn mask(states: &[State3]) -> u32 {
     m
 }
 
-pub const ANY: Gate = Gate::both(mask(&ALL));
-pub const ENTER_INIT: Gate = Gate::both(mask(&[Instantiated]));
-pub const EXIT_INIT: Gate = Gate::both(mask(&[InitializationMode]));
-/// Model Exchange from Continuous-Time Mode; Co-Simulation (eventModeUsed) from Step Mode.
-pub const ENTER_EVENT_MODE: Gate = Gate::both(mask(&[ContinuousTimeMode, StepMode]));
-pub const TERMINATE: Gate = Gate::both(mask(&[EventMode, ContinuousTimeMode, StepMode]));
-pub const GET: Gate = Gate::both(mask(&[
+const CS_STATES: u32 = mask(&[
+    Instantiated,
     InitializationMode,
     EventMode,
-    ContinuousTimeMode,
     StepMode,
     Terminated,
     Error,
-]));
-pub const SET: Gate = Gate::both(mask(&[
+]);
+const ME_STATES: u32 = mask(&[
     Instantiated,
     InitializationMode,
     EventMode,
     ContinuousTimeMode,
-    StepMode,
-]));
-pub const FMU_STATE: Gate = ANY;
-pub const DERIVATIVES: Gate = Gate::both(mask(&[
-    InitializationMode,
-    EventMode,
-    ContinuousTimeMode,
-    StepMode,
-    Terminated,
-]));
-pub const UPDATE_DISCRETE_STATES: Gate = Gate::both(mask(&[EventMode]));
-pub const EVALUATE_DISCRETE_STATES: Gate = Gate::both(mask(&[
-    InitializationMode,
-    EventMode,
-    ContinuousTimeMode,
-    StepMode,
-]));
-// Model Exchange.
-pub const ENTER_CONTINUOUS_TIME_MODE: Gate = Gate::me(mask(&[EventMode]));
-pub const COMPLETED_INTEGRATOR_STEP: Gate = Gate::me(mask(&[ContinuousTimeMode]));
-pub const SET_TIME: Gate = Gate::me(mask(&[EventMode, ContinuousTimeMode]));
-pub const SET_CONTINUOUS_STATES: Gate = Gate::me(mask(&[ContinuousTimeMode]));
-pub const COUNTS: Gate = ANY;
-/// fmi3GetContinuousStates, fmi3GetContinuousStateDerivatives, fmi3GetEventIndicators and
-/// fmi3GetNominalsOfContinuousStates: FMI 3.0.2 section 2.3 allows them in Initialization
-/// Mode, Event Mode, Continuous-Time Mode and Terminated (not in Instantiated; FMI 2.0's
-/// table differs: no derivatives in Initialization Mode, nominals in Instantiated). Error
-/// is FMI 3.0's Terminated after an fmi3Error (values for debugging).
-pub const EVALUATE: Gate = Gate::me(mask(&[
-    InitializationMode,
-    EventMode,
-    ContinuousTimeMode,
     Terminated,
     Error,
-]));
-// Co-Simulation.
-pub const ENTER_STEP_MODE: Gate = Gate::cs(mask(&[EventMode]));
-pub const DO_STEP: Gate = Gate::cs(mask(&[StepMode]));
-pub const OUTPUT_DERIVATIVES: Gate = Gate::cs(mask(&[StepMode, Terminated, Error]));
+]);
+
+const fn both(states: u32) -> Gate {
+    Gate::both(states)
+}
+const fn cs(states: u32) -> Gate {
+    Gate::only(Interface::CoSimulation, states, ME_STATES)
+}
+const fn me(states: u32) -> Gate {
+    Gate::only(Interface::ModelExchange, states, CS_STATES)
+}
+
+#[rustfmt::skip]
+gates! {
+    ANY = both[
+        Instantiated, InitializationMode, EventMode, ContinuousTimeMode, StepMode, Terminated,
+        Error,
+    ];
+    ENTER_INIT = both[Instantiated];
+    EXIT_INIT = both[InitializationMode];
+    /// Model Exchange from Continuous-Time Mode; Co-Simulation (eventModeUsed) from Step
+    /// Mode.
+    ENTER_EVENT_MODE = both[ContinuousTimeMode, StepMode];
+    TERMINATE = both[EventMode, ContinuousTimeMode, StepMode];
+    GET = both[
+        InitializationMode, EventMode, ContinuousTimeMode, StepMode, Terminated, Error,
+    ];
+    SET = both[Instantiated, InitializationMode, EventMode, ContinuousTimeMode, StepMode];
+    DERIVATIVES = both[InitializationMode, EventMode, ContinuousTimeMode, StepMode, Terminated];
+    UPDATE_DISCRETE_STATES = both[EventMode];
+    EVALUATE_DISCRETE_STATES = both[InitializationMode, EventMode, ContinuousTimeMode, StepMode];
+    // Model Exchange.
+    ENTER_CONTINUOUS_TIME_MODE = me[EventMode];
+    COMPLETED_INTEGRATOR_STEP = me[ContinuousTimeMode];
+    SET_TIME = me[EventMode, ContinuousTimeMode];
+    SET_CONTINUOUS_STATES = me[ContinuousTimeMode];
+    /// fmi3GetContinuousStates, fmi3GetContinuousStateDerivatives, fmi3GetEventIndicators
+    /// and fmi3GetNominalsOfContinuousStates: FMI 3.0.2 section 2.3 allows them in
+    /// Initialization Mode, Event Mode, Continuous-Time Mode and Terminated (not in
+    /// Instantiated; FMI 2.0's table differs: no derivatives in Initialization Mode,
+    /// nominals in Instantiated). Error is FMI 3.0's Terminated after an fmi3Error (values
+    /// for debugging).
+    EVALUATE = me[InitializationMode, EventMode, ContinuousTimeMode, Terminated, Error];
+    // Co-Simulation.
+    ENTER_STEP_MODE = cs[EventMode];
+    DO_STEP = cs[StepMode];
+    OUTPUT_DERIVATIVES = cs[StepMode, Terminated, Error];
+}
+pub const FMU_STATE: Gate = ANY;
+pub const COUNTS: Gate = ANY;
 
 /// Fails unless FMI 3.0's table lets a function behind `gate` run in `state` of an
 /// instance made for `own`.
