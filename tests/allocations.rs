@@ -21,7 +21,7 @@
 //! allocations, through `rattle::advance_in` on hand-written `Mechanics` that allocate
 //! nothing.
 
-use mbfmu::fmi::capi::{self, Component};
+use mbfmu::fmi::fmi2::{self as capi, Component};
 use mbfmu::fmi::{Export, Instance, Logger, ModelInfo, Status};
 use mbfmu::integrators::problem::Mechanics;
 use mbfmu::integrators::{rattle, Stats};
@@ -240,7 +240,7 @@ fn run<E: Export>((scene, extra): (&str, &[(&str, f64)]), case: Case) -> Counts 
         let per_call = (case.h / case.step).round() as u64;
         assert_eq!(steps, per_call * COUNTED as u64, "{case:?}");
     }
-    unsafe { capi::free_instance::<E>(c) };
+    unsafe { mbfmu::fmi::boundary::free_instance::<capi::Inst<E>>(c) };
     counts
 }
 

@@ -211,8 +211,8 @@ fn no_consistent_state_is_an_error() {
     assert!(err.contains("no consistent state"), "{err}");
     assert_eq!(states(&inst), before);
     assert_eq!(
-        inst.machine(),
-        mbfmu::fmi::Machine::InitializationMode,
+        inst.mode(),
+        mbfmu::fmi::Mode::Initializing,
         "a refused call changes nothing"
     );
 }

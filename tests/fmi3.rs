@@ -62,7 +62,7 @@ impl Fmu3 {
         tag: usize,
         event_mode_used: bool,
         early_return: bool,
-        update: Option<mbfmu::fmi::capi::fmi3::IntermediateUpdate>,
+        update: Option<mbfmu::fmi::fmi3::IntermediateUpdate>,
     ) -> Fmu3 {
         let name = CString::new(format!("cs{tag}")).unwrap();
         let c = unsafe {

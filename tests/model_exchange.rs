@@ -9,8 +9,8 @@
 mod common;
 
 use common::*;
-use mbfmu::fmi::capi::EventInfoC;
-use mbfmu::fmi::{Instance, Interface, Logger, Machine, ModelInfo, Status, NO_EVENT_INDICATOR};
+use mbfmu::fmi::fmi2::EventInfoC;
+use mbfmu::fmi::{Instance, Interface, Logger, Mode, ModelInfo, Status, NO_EVENT_INDICATOR};
 use mbfmu::model::System;
 use mbfmu::systems::{
     MassSpringDamper, NonlinearBicycle, PulledPendulum, RollingHoop, SliderCrankSurplus,
@@ -76,7 +76,7 @@ type Call = fn(*mut c_void) -> Status;
 
 /// Every function a Model Exchange importer may call, with valid arguments, and the states
 /// in which the standard's table (FMI 2.0.5, section 3.2.3) allows it. Written out here,
-/// independently of `src/fmi/machine.rs`.
+/// independently of `src/fmi/fmi2/mod.rs`.
 fn table() -> Vec<(&'static str, Call, &'static [S])> {
     use S::*;
     vec![
@@ -424,7 +424,7 @@ fn instance<M: System>(
     inst.enter_initialization_mode().unwrap();
     inst.exit_initialization_mode().unwrap();
     if interface == Interface::ModelExchange {
-        assert_eq!(inst.machine(), Machine::EventMode);
+        assert_eq!(inst.mode(), Mode::Event);
         let info = inst.new_discrete_states().unwrap();
         assert!(
             !info.values_of_continuous_states_changed,
@@ -677,7 +677,7 @@ fn an_event_the_model_cannot_pass_terminates_the_simulation() {
     assert!(info.terminate_simulation);
     assert_eq!(states(&me)[..2], x[..2]);
     me.terminate().unwrap();
-    assert_eq!(me.machine(), Machine::Terminated);
+    assert_eq!(me.mode(), Mode::Terminated);
 }
 
 /// The Error state (after a caught panic): the getters answer, the rest is refused (FMI
@@ -703,8 +703,8 @@ fn the_error_state_allows_only_getters_and_reset() {
     assert_eq!(fmi2Terminate(c), Status::Error);
     assert_eq!(fmi2Reset(c), Status::Ok);
     // SAFETY: as above.
-    let (machine, interface) = unsafe { ((*inst).machine(), (*inst).interface()) };
-    assert_eq!(machine, Machine::Instantiated);
+    let (machine, interface) = unsafe { ((*inst).mode(), (*inst).interface()) };
+    assert_eq!(machine, Mode::Instantiated);
     assert_eq!(interface, Interface::ModelExchange);
     unsafe { fmi2FreeInstance(c) };
 }

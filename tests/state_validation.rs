@@ -7,7 +7,7 @@
 mod common;
 
 use common::*;
-use mbfmu::fmi::{Export, Instance, Logger, Machine, ModelInfo, Snapshot, Status, StepOutcome};
+use mbfmu::fmi::{Export, Instance, Logger, Mode, ModelInfo, Snapshot, Status, StepOutcome};
 use mbfmu::integrators::{Ahead, Method};
 use mbfmu::model::System;
 use mbfmu::systems::{self, MassSpringDamper};
@@ -197,7 +197,7 @@ fn bad_states() -> Vec<(&'static str, &'static str, Change)> {
             "instantiated at another time than the start",
             "before initialisation",
             Box::new(|s| {
-                s.machine = Machine::Instantiated;
+                s.mode = Mode::Instantiated;
                 s.memory = Default::default();
             }),
         ),
@@ -205,7 +205,7 @@ fn bad_states() -> Vec<(&'static str, &'static str, Change)> {
             "initialization mode with integrator memory",
             "before initialisation",
             Box::new(|s| {
-                s.machine = Machine::InitializationMode;
+                s.mode = Mode::Initializing;
                 s.time = s.start_time;
             }),
         ),
@@ -363,21 +363,20 @@ fn a_refused_solver_is_refused_in_every_machine_state_after_initialisation() {
         Instance::<systems::CompoundPendulum>::new(info, Logger::silent("fresh")).snapshot()
     };
     for machine in [
-        Machine::Instantiated,
-        Machine::InitializationMode,
-        Machine::StepComplete,
-        Machine::StepFailed,
-        Machine::Terminated,
-        Machine::Error,
+        Mode::Instantiated,
+        Mode::Initializing,
+        Mode::Stepping,
+        Mode::StepDiscarded,
+        Mode::Terminated,
+        Mode::Error,
     ] {
-        let mut bad = if machine == Machine::Instantiated || machine == Machine::InitializationMode
-        {
+        let mut bad = if machine == Mode::Instantiated || machine == Mode::Initializing {
             before_init.clone()
         } else {
             inst.snapshot()
         };
         bad.method = Method::ExactLinear;
-        bad.machine = machine;
+        bad.mode = machine;
         let e = inst.restore(&bad).unwrap_err();
         assert!(e.contains("linear time-invariant"), "{machine:?}: {e}");
         let blob = inst.serialize(&bad);

@@ -2,7 +2,7 @@
 //! system, beside hand-written floors ([`floors`](super::floors)) measured in the same run.
 //!
 //! - doStep: RK4 at `solver_step` = h = 1 ms (one internal step per doStep), logging off,
-//!   through the same `capi::do_step` an exported `fmi2DoStep` forwards to (state
+//!   through the same `fmi2::do_step` an exported `fmi2DoStep` forwards to (state
 //!   machine, argument checks, the step, the outputs' finiteness check), in steady state:
 //!   no allocation (tests/allocations.rs).
 //! - RHS: `System::derivatives` in `f64` at the scene's start point.
@@ -13,7 +13,7 @@
 //! not to matter; the ratios to the floor are what to read (a slower machine moves both).
 
 use super::floors::{self, Floor};
-use crate::fmi::{capi, Export, Instance, Logger, ModelInfo, Status};
+use crate::fmi::{fmi2, Export, Instance, Logger, ModelInfo, Status};
 use crate::model::jacobian::Duals;
 use crate::model::{System, VarKind};
 use std::any::TypeId;
@@ -132,10 +132,10 @@ pub fn measure<M: System>(reps: usize, floor: Option<FloorFn>) -> SpeedRow {
     let dostep_ns = (0..reps)
         .map(|_| {
             let inst = Box::leak(Box::new(started::<M>()));
-            let c = inst as *mut Instance<M> as capi::Component;
+            let c = inst as *mut Instance<M> as fmi2::Component;
             let mut t = 0.0;
             best_ns(1, || {
-                let status = capi::do_step::<Exported<M>>(c, black_box(t), H, 1);
+                let status = fmi2::do_step::<Exported<M>>(c, black_box(t), H, 1);
                 debug_assert_eq!(status, Status::Ok);
                 t += H;
             })

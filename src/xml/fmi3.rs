@@ -1,6 +1,6 @@
 //! The FMI 3.0 modelDescription.xml of a [`System`]: the same variables, value references,
 //! units and dependencies as the FMI 2.0 one ([`super::model_description`]), in FMI 3.0's
-//! form, for the same binary (its fmi3 symbols, `capi::fmi3`).
+//! form, for the same binary (its fmi3 symbols, `fmi::fmi3`).
 //!
 //! What FMI 3.0 adds: `time`, the independent variable, at the first free value reference,
 //! and the event indicator (a model with one) at the next, referenced by `<EventIndicator>`

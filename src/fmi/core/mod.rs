@@ -1,23 +1,30 @@
 //! The instance core, shared by the interfaces: one FMU instance with what Co-Simulation
-//! and Model Exchange have in common — the state machine's checks, variables get/set and
+//! and Model Exchange have in common — the modes, variables get/set and
 //! their checks, parameters and the states' start values, initialisation (consistent
 //! states, projection), directional derivatives from the model's f and g, and the FMU
 //! state (snapshot, its checks and its blob). The interfaces add their own calls in
-//! [`cs`](super::cs) (doStep around an integrator) and [`me`](super::me) (time, states,
+//! [`cs`] (doStep around an integrator) and [`me`] (time, states,
 //! derivatives and events set and read by the importer's solver). Safe code: pointers were
-//! checked by [`capi`](super::capi).
+//! checked by the front-ends ([`boundary`](crate::fmi::boundary)).
 //!
 //! A rejected call has no effect: every argument is checked before anything changes.
 
-use super::inputs;
-use super::machine::{self, Interface, Machine};
-use super::Status;
-use super::{Logger, ModelInfo, Snapshot};
+pub mod cs;
+pub mod inputs;
+pub mod logger;
+pub mod me;
+pub mod mode;
+pub mod snapshot;
+
+use super::{ModelInfo, Status};
 use crate::integrators::problem::Problem;
 use crate::integrators::{self, finite, zeroed, Memory, Method, Settings, Workspace};
 use crate::model::consistent;
 use crate::model::jacobian::{Direction, Duals};
 use crate::model::{Slot, System, Var, VarKind};
+use logger::Logger;
+use mode::{Interface, Mode};
+use snapshot::Snapshot;
 use std::cell::RefCell;
 use std::marker::PhantomData;
 
@@ -104,7 +111,7 @@ impl<M: System> Instance<M> {
             stop_time: None,
             tolerance: info.default_tolerance,
             memory: Memory::default(),
-            machine: Machine::Instantiated,
+            mode: Mode::Instantiated,
             interface,
             me_projection: start(VarKind::MeProjection)[0] != 0.0,
             event_reference: None,
@@ -121,8 +128,8 @@ impl<M: System> Instance<M> {
         }
     }
 
-    pub fn machine(&self) -> Machine {
-        self.data.machine
+    pub fn mode(&self) -> Mode {
+        self.data.mode
     }
 
     pub fn interface(&self) -> Interface {
@@ -131,7 +138,7 @@ impl<M: System> Instance<M> {
 
     /// Moves to the error state (after a panic was caught: nothing can be trusted).
     pub fn poison(&mut self) {
-        self.data.machine = Machine::Error;
+        self.data.mode = Mode::Error;
     }
 
     pub fn time(&self) -> f64 {
@@ -166,7 +173,7 @@ impl<M: System> Instance<M> {
     }
 
     pub fn enter_initialization_mode(&mut self) -> Res {
-        self.data.machine = Machine::InitializationMode;
+        self.data.mode = Mode::Initializing;
         Ok(())
     }
 
@@ -223,7 +230,7 @@ impl<M: System> Instance<M> {
         self.data.memory = Memory::default();
         match self.data.interface {
             Interface::CoSimulation => {
-                self.data.machine = Machine::StepComplete;
+                self.data.mode = Mode::Stepping;
                 self.prepare_steps();
             }
             // Model Exchange: event mode, where fmi2NewDiscreteStates may be called; a sign
@@ -231,7 +238,7 @@ impl<M: System> Instance<M> {
             Interface::ModelExchange => {
                 let d = &mut self.data;
                 d.event_reference = M::event_indicator(d.time, &d.x, &d.u, &d.params);
-                d.machine = Machine::EventMode;
+                d.mode = Mode::Event;
             }
         }
         Ok(if adjusted.is_empty() {
@@ -242,7 +249,7 @@ impl<M: System> Instance<M> {
     }
 
     pub fn terminate(&mut self) -> Res {
-        self.data.machine = Machine::Terminated;
+        self.data.mode = Mode::Terminated;
         Ok(())
     }
 
@@ -359,7 +366,7 @@ impl<M: System> Instance<M> {
                     ));
                 }
                 VarKind::State if var.dependent => {
-                    if machine::BEFORE_INIT_MODE & self.data.machine.code() == 0 {
+                    if self.data.mode != Mode::Instantiated {
                         return Err(format!(
                             "{name} (value reference {vr}) is computed from the constraints (initial=\"approx\": its value is only the starting guess) and can only be set before {}",
                             self.logger.words.enter_initialization_mode
@@ -367,7 +374,7 @@ impl<M: System> Instance<M> {
                     }
                 }
                 VarKind::Parameter | VarKind::SolverStep | VarKind::State => {
-                    if machine::BEFORE_INIT_DONE & self.data.machine.code() == 0 {
+                    if !self.data.mode.before_init_done() {
                         return Err(format!(
                             "{name} (value reference {vr}) can only be set before {}",
                             self.logger.words.exit_initialization_mode
@@ -425,7 +432,7 @@ impl<M: System> Instance<M> {
             let slot = self.integer_slot(vr)?;
             let (_, var) = &self.info.layout.vars[vr as usize];
             let name = &var.name;
-            if machine::BEFORE_INIT_DONE & self.data.machine.code() == 0 {
+            if !self.data.mode.before_init_done() {
                 return Err(format!(
                     "{name} (value reference {vr}) can only be set before {}",
                     self.logger.words.exit_initialization_mode
@@ -598,7 +605,7 @@ impl<M: System> Instance<M> {
     /// Whether an FMU state (of this model's counts) is one this instance could have been
     /// in: every value passes the check of its setter (fmi2SetReal: finite and inside its
     /// [min, max]; fmi2SetInteger: a method this system accepts; fmi2SetupExperiment: the
-    /// tolerance and times), the time fits the state machine and the experiment, and an
+    /// tolerance and times), the time fits the mode and the experiment, and an
     /// integrator state ahead of the communication time belongs to the method and agrees
     /// with the state (see [`Instance::check_ahead`]). A state made by fmi2GetFMUstate always
     /// passes; the message says what does not.
@@ -611,10 +618,10 @@ impl<M: System> Instance<M> {
                 self.data.interface.name()
             ));
         }
-        if s.machine.code() & s.interface.states() == 0 {
+        if !s.interface.has(s.mode) {
             return Err(format!(
-                "machine state {:?} is not a state of {}",
-                s.machine,
+                "mode {:?} is not a mode of {}",
+                s.mode,
                 s.interface.name()
             ));
         }
@@ -622,7 +629,7 @@ impl<M: System> Instance<M> {
         if !me && s.event_reference.is_some() {
             return Err("a Co-Simulation state holds an event indicator reference".into());
         }
-        let before_init = machine::BEFORE_INIT_DONE & s.machine.code() != 0;
+        let before_init = s.mode.before_init_done();
         for (vr, (slot, var)) in layout.vars.iter().enumerate() {
             let value = match slot.kind {
                 VarKind::Parameter => s.params[slot.index],
@@ -646,7 +653,7 @@ impl<M: System> Instance<M> {
         // (fmi2SetInteger checked it against the values then): a method is accepted if the
         // system takes it with the state's parameters or with its start values, so a state
         // fmi2GetFMUstate made restores while a method no parameters make valid (ExactLinear
-        // on a pendulum) is refused in every machine state.
+        // on a pendulum) is refused in every mode.
         check_method::<M>(s.method, &s.u, &s.params, true).or_else(|e| {
             let start = &self.initial.params;
             match before_init && check_method::<M>(s.method, &s.u, start, true).is_ok() {
@@ -667,8 +674,8 @@ impl<M: System> Instance<M> {
         if before_init {
             if time != start || s.memory != Memory::default() || s.event_reference.is_some() {
                 return Err(format!(
-                    "machine state {:?} (before initialisation) goes with the time at startTime = {start} and no integrator memory; found time {time}",
-                    s.machine
+                    "mode {:?} (before initialisation) goes with the time at startTime = {start} and no integrator memory; found time {time}",
+                    s.mode
                 ));
             }
             return Ok(());

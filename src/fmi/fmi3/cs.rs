@@ -1,5 +1,5 @@
 //! The FMI 3.0 Co-Simulation functions: doStep with early return at events, Step and
-//! Event Mode, output derivatives (see [`fmi3`](super::fmi3) for what each does first).
+//! Event Mode, output derivatives (see [`fmi3`](super) for what each does first).
 //!
 //! Events inside a step. The core locates the event indicator's sign change inside doStep
 //! and applies the event there ([`System::on_event`](crate::model::System::on_event)),
@@ -14,9 +14,9 @@
 //!
 //! [`Instance::do_step_until_event`]: crate::fmi::Instance::do_step_until_event
 
-use super::fmi3::{call3, put, Bool3, Inst3};
-use super::{ok, slice, slice_mut, Component};
-use crate::fmi::machine3;
+use super as table;
+use super::{call3, put, Bool3, Inst3};
+use crate::fmi::boundary::{ok, slice, slice_mut, Component};
 use crate::fmi::{Export, Status, StepOutcome};
 
 /// Most early stops at events in one fmi3DoStep that goes on past them (a chattering model).
@@ -113,7 +113,7 @@ pub unsafe fn do_step<E: Export>(
     last_successful_time: *mut f64,
 ) -> Status {
     const F: &str = "fmi3DoStep";
-    call3::<E>(c, F, machine3::DO_STEP, |f| {
+    call3::<E>(c, F, table::DO_STEP, |f| {
         if event_handling_needed.is_null()
             || terminate_simulation.is_null()
             || early_return.is_null()
@@ -133,7 +133,7 @@ pub unsafe fn do_step<E: Export>(
 /// Co-Simulation's Event Mode back to Step Mode.
 pub fn enter_step_mode<E: Export>(c: Component) -> Status {
     const F: &str = "fmi3EnterStepMode";
-    call3::<E>(c, F, machine3::ENTER_STEP_MODE, |f| {
+    call3::<E>(c, F, table::ENTER_STEP_MODE, |f| {
         f.cs_event_mode = false;
         Ok(Status::Ok)
     })
@@ -150,7 +150,7 @@ pub unsafe fn get_output_derivatives<E: Export>(
     n_values: usize,
 ) -> Status {
     const F: &str = "fmi3GetOutputDerivatives";
-    call3::<E>(c, F, machine3::OUTPUT_DERIVATIVES, |f| {
+    call3::<E>(c, F, table::OUTPUT_DERIVATIVES, |f| {
         if nvr != n_values {
             return Err(format!(
                 "nValues = {n_values} differs from nValueReferences = {nvr}"

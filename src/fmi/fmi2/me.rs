@@ -1,8 +1,8 @@
 //! The Model Exchange functions of the C API (see [`super`] for what every function here
 //! does first).
 
+use super as table;
 use super::{call, ok, slice, slice_mut, Component};
-use crate::fmi::machine;
 use crate::fmi::{EventInfo, Export, Status};
 use std::ffi::c_int;
 
@@ -32,7 +32,7 @@ impl From<EventInfo> for EventInfoC {
 }
 
 pub fn enter_event_mode<E: Export>(c: Component) -> Status {
-    call::<E>(c, "fmi2EnterEventMode", machine::ENTER_EVENT_MODE, |inst| {
+    call::<E>(c, "fmi2EnterEventMode", table::ENTER_EVENT_MODE, |inst| {
         ok(inst.enter_event_mode())
     })
 }
@@ -41,7 +41,7 @@ pub fn enter_event_mode<E: Export>(c: Component) -> Status {
 /// `info` points to a writable fmi2EventInfo.
 pub unsafe fn new_discrete_states<E: Export>(c: Component, info: *mut EventInfoC) -> Status {
     const F: &str = "fmi2NewDiscreteStates";
-    call::<E>(c, F, machine::NEW_DISCRETE_STATES, |inst| {
+    call::<E>(c, F, table::NEW_DISCRETE_STATES, |inst| {
         if info.is_null() {
             return Err("fmi2EventInfo is NULL".to_string());
         }
@@ -55,7 +55,7 @@ pub fn enter_continuous_time_mode<E: Export>(c: Component) -> Status {
     call::<E>(
         c,
         "fmi2EnterContinuousTimeMode",
-        machine::ENTER_CONTINUOUS_TIME_MODE,
+        table::ENTER_CONTINUOUS_TIME_MODE,
         |inst| ok(inst.enter_continuous_time_mode()),
     )
 }
@@ -69,7 +69,7 @@ pub unsafe fn completed_integrator_step<E: Export>(
     terminate_simulation: *mut c_int,
 ) -> Status {
     const F: &str = "fmi2CompletedIntegratorStep";
-    call::<E>(c, F, machine::COMPLETED_INTEGRATOR_STEP, |inst| {
+    call::<E>(c, F, table::COMPLETED_INTEGRATOR_STEP, |inst| {
         if enter_event_mode.is_null() || terminate_simulation.is_null() {
             return Err("enterEventMode or terminateSimulation is NULL".to_string());
         }
@@ -81,7 +81,7 @@ pub unsafe fn completed_integrator_step<E: Export>(
 }
 
 pub fn set_time<E: Export>(c: Component, time: f64) -> Status {
-    call::<E>(c, "fmi2SetTime", machine::SET_TIME, |inst| {
+    call::<E>(c, "fmi2SetTime", table::SET_TIME, |inst| {
         ok(inst.set_time(time))
     })
 }
@@ -90,7 +90,7 @@ pub fn set_time<E: Export>(c: Component, time: f64) -> Status {
 /// `x` points to `nx` values when `nx > 0`.
 pub unsafe fn set_continuous_states<E: Export>(c: Component, x: *const f64, nx: usize) -> Status {
     const F: &str = "fmi2SetContinuousStates";
-    call::<E>(c, F, machine::SET_CONTINUOUS_STATES, |inst| {
+    call::<E>(c, F, table::SET_CONTINUOUS_STATES, |inst| {
         let x = slice(x, nx, "x[]")?;
         ok(inst.set_continuous_states(x))
     })
@@ -100,7 +100,7 @@ pub unsafe fn set_continuous_states<E: Export>(c: Component, x: *const f64, nx: 
 /// `x` points to `nx` writable values when `nx > 0`.
 pub unsafe fn get_continuous_states<E: Export>(c: Component, x: *mut f64, nx: usize) -> Status {
     const F: &str = "fmi2GetContinuousStates";
-    call::<E>(c, F, machine::GET_CONTINUOUS_STATES, |inst| {
+    call::<E>(c, F, table::GET_CONTINUOUS_STATES, |inst| {
         let x = slice_mut(x, nx, "x[]")?;
         ok(inst.get_continuous_states(x))
     })
@@ -110,7 +110,7 @@ pub unsafe fn get_continuous_states<E: Export>(c: Component, x: *mut f64, nx: us
 /// As [`get_continuous_states`].
 pub unsafe fn get_derivatives<E: Export>(c: Component, dx: *mut f64, nx: usize) -> Status {
     const F: &str = "fmi2GetDerivatives";
-    call::<E>(c, F, machine::GET_DERIVATIVES, |inst| {
+    call::<E>(c, F, table::GET_DERIVATIVES, |inst| {
         let dx = slice_mut(dx, nx, "derivatives[]")?;
         inst.get_derivatives(dx)
     })
@@ -120,7 +120,7 @@ pub unsafe fn get_derivatives<E: Export>(c: Component, dx: *mut f64, nx: usize) 
 /// `z` points to `ni` writable values when `ni > 0`.
 pub unsafe fn get_event_indicators<E: Export>(c: Component, z: *mut f64, ni: usize) -> Status {
     const F: &str = "fmi2GetEventIndicators";
-    call::<E>(c, F, machine::GET_EVENT_INDICATORS, |inst| {
+    call::<E>(c, F, table::GET_EVENT_INDICATORS, |inst| {
         let z = slice_mut(z, ni, "eventIndicators[]")?;
         inst.get_event_indicators(z)
     })
@@ -134,7 +134,7 @@ pub unsafe fn get_nominals_of_continuous_states<E: Export>(
     nx: usize,
 ) -> Status {
     const F: &str = "fmi2GetNominalsOfContinuousStates";
-    call::<E>(c, F, machine::GET_NOMINALS, |inst| {
+    call::<E>(c, F, table::GET_NOMINALS, |inst| {
         let nominals = slice_mut(nominals, nx, "x_nominal[]")?;
         ok(inst.get_nominals(nominals))
     })

@@ -16,10 +16,9 @@
 //! (valuesOfContinuousStatesChanged); at any event it projects what is off by more than
 //! rounding.
 
-use super::core::{crossed, Res};
-use super::machine;
-use super::Instance;
-use super::Status;
+use super::mode::Mode;
+use super::{crossed, Instance, Res};
+use crate::fmi::Status;
 use crate::integrators::all_finite;
 use crate::model::{System, VarKind};
 
@@ -164,12 +163,12 @@ impl<M: System> Instance<M> {
     }
 
     pub fn enter_event_mode(&mut self) -> Res {
-        self.data.machine = machine::Machine::EventMode;
+        self.data.mode = Mode::Event;
         Ok(())
     }
 
     pub fn enter_continuous_time_mode(&mut self) -> Res {
-        self.data.machine = machine::Machine::ContinuousTimeMode;
+        self.data.mode = Mode::ContinuousTime;
         Ok(())
     }
 

@@ -2,12 +2,11 @@
 //! the general path with dense output and event location), input and output derivatives,
 //! and the status queries, on the shared [`Instance`] core.
 
-use super::core::{crossed, Res};
 use super::inputs::{self, Inputs, MAX_INPUT_DERIVATIVE_ORDER};
-use super::machine::Machine;
-use super::Instance;
-use super::Snapshot;
-use super::Status;
+use super::mode::Mode;
+use super::snapshot::Snapshot;
+use super::{crossed, Instance, Res};
+use crate::fmi::Status;
 use crate::integrators::problem::Problem;
 use crate::integrators::{
     self, all_finite, copied, finite, problem::Mechanics, sized, Memory, Method, Settings,
@@ -212,7 +211,7 @@ impl<M: System> Instance<M> {
         settle_state::<M>(d, layout, (current, t_end), (t, &x, result), outputs, true)
     }
 
-    /// The checks of fmi2DoStep before any work (state machine, arguments); the step's end.
+    /// The checks of a doStep before any work (its arguments; the front-end checked the state); the step's end.
     #[inline]
     fn check_step(&self, current: f64, h: f64) -> Res<f64> {
         let (now, t_end) = (self.data.time, current + h);
@@ -673,7 +672,7 @@ fn failed_step(
     finite: bool,
 ) -> StepOutcome {
     let now = d.time;
-    d.machine = Machine::StepFailed;
+    d.mode = Mode::StepDiscarded;
     let Err(stop) = result else {
         // The state stays at `now`: the point ahead of `t_end` no longer goes with it.
         d.memory.drop_ahead();

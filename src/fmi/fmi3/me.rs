@@ -1,10 +1,10 @@
 //! The FMI 3.0 Model Exchange functions, and fmi3UpdateDiscreteStates of both interfaces
-//! (see [`fmi3`](super::fmi3) for what each does first).
+//! (see [`fmi3`](super) for what each does first).
 
-use super::fmi3::{call3, put, Bool3};
-use super::{ok, slice, slice_mut, Component};
-use crate::fmi::machine::Interface;
-use crate::fmi::machine3;
+use super as table;
+use super::{call3, put, Bool3, Inst3};
+use crate::fmi::boundary::{ok, slice, slice_mut, Component};
+use crate::fmi::Interface;
 use crate::fmi::{Export, Status};
 
 /// fmi3UpdateDiscreteStates. Model Exchange: the event at the time and states set (the
@@ -23,7 +23,7 @@ pub unsafe fn update_discrete_states<E: Export>(
     next_event_time: *mut f64,
 ) -> Status {
     const F: &str = "fmi3UpdateDiscreteStates";
-    call3::<E>(c, F, machine3::UPDATE_DISCRETE_STATES, |f| {
+    call3::<E>(c, F, table::UPDATE_DISCRETE_STATES, |f| {
         if [
             discrete_states_need_update,
             terminate_simulation,
@@ -53,7 +53,7 @@ pub unsafe fn update_discrete_states<E: Export>(
 
 pub fn enter_continuous_time_mode<E: Export>(c: Component) -> Status {
     const F: &str = "fmi3EnterContinuousTimeMode";
-    call3::<E>(c, F, machine3::ENTER_CONTINUOUS_TIME_MODE, |f| {
+    call3::<E>(c, F, table::ENTER_CONTINUOUS_TIME_MODE, |f| {
         ok(f.core.enter_continuous_time_mode())
     })
 }
@@ -67,7 +67,7 @@ pub unsafe fn completed_integrator_step<E: Export>(
     terminate_simulation: *mut Bool3,
 ) -> Status {
     const F: &str = "fmi3CompletedIntegratorStep";
-    call3::<E>(c, F, machine3::COMPLETED_INTEGRATOR_STEP, |f| {
+    call3::<E>(c, F, table::COMPLETED_INTEGRATOR_STEP, |f| {
         if enter_event_mode.is_null() || terminate_simulation.is_null() {
             return Err("enterEventMode or terminateSimulation is NULL".to_string());
         }
@@ -80,14 +80,14 @@ pub unsafe fn completed_integrator_step<E: Export>(
 
 pub fn set_time<E: Export>(c: Component, time: f64) -> Status {
     const F: &str = "fmi3SetTime";
-    call3::<E>(c, F, machine3::SET_TIME, |f| ok(f.core.set_time(time)))
+    call3::<E>(c, F, table::SET_TIME, |f| ok(f.core.set_time(time)))
 }
 
 /// # Safety
 /// `x` points to `nx` values when `nx > 0`.
 pub unsafe fn set_continuous_states<E: Export>(c: Component, x: *const f64, nx: usize) -> Status {
     const F: &str = "fmi3SetContinuousStates";
-    call3::<E>(c, F, machine3::SET_CONTINUOUS_STATES, |f| {
+    call3::<E>(c, F, table::SET_CONTINUOUS_STATES, |f| {
         let x = slice(x, nx, "continuousStates[]")?;
         ok(f.core.set_continuous_states(x))
     })
@@ -97,7 +97,7 @@ pub unsafe fn set_continuous_states<E: Export>(c: Component, x: *const f64, nx: 
 /// `x` points to `nx` writable values when `nx > 0`.
 pub unsafe fn get_continuous_states<E: Export>(c: Component, x: *mut f64, nx: usize) -> Status {
     const F: &str = "fmi3GetContinuousStates";
-    call3::<E>(c, F, machine3::EVALUATE, |f| {
+    call3::<E>(c, F, table::EVALUATE, |f| {
         let x = slice_mut(x, nx, "continuousStates[]")?;
         ok(f.core.get_continuous_states(x))
     })
@@ -111,7 +111,7 @@ pub unsafe fn get_continuous_state_derivatives<E: Export>(
     nx: usize,
 ) -> Status {
     const F: &str = "fmi3GetContinuousStateDerivatives";
-    call3::<E>(c, F, machine3::EVALUATE, |f| {
+    call3::<E>(c, F, table::EVALUATE, |f| {
         let dx = slice_mut(dx, nx, "derivatives[]")?;
         f.core.get_derivatives(dx)
     })
@@ -121,7 +121,7 @@ pub unsafe fn get_continuous_state_derivatives<E: Export>(
 /// `z` points to `ni` writable values when `ni > 0`.
 pub unsafe fn get_event_indicators<E: Export>(c: Component, z: *mut f64, ni: usize) -> Status {
     const F: &str = "fmi3GetEventIndicators";
-    call3::<E>(c, F, machine3::EVALUATE, |f| {
+    call3::<E>(c, F, table::EVALUATE, |f| {
         let z = slice_mut(z, ni, "eventIndicators[]")?;
         f.core.get_event_indicators(z)
     })
@@ -135,7 +135,7 @@ pub unsafe fn get_nominals_of_continuous_states<E: Export>(
     nx: usize,
 ) -> Status {
     const F: &str = "fmi3GetNominalsOfContinuousStates";
-    call3::<E>(c, F, machine3::EVALUATE, |f| {
+    call3::<E>(c, F, table::EVALUATE, |f| {
         let nominals = slice_mut(nominals, nx, "nominals[]")?;
         ok(f.core.get_nominals(nominals))
     })
@@ -146,25 +146,40 @@ pub unsafe fn get_nominals_of_continuous_states<E: Export>(
 /// # Safety
 /// `n` points to a writable `size_t`.
 pub unsafe fn get_number_of_event_indicators<E: Export>(c: Component, n: *mut usize) -> Status {
-    const F: &str = "fmi3GetNumberOfEventIndicators";
-    call3::<E>(c, F, machine3::COUNTS, |f| {
-        if n.is_null() {
-            return Err("nEventIndicators is NULL".to_string());
-        }
-        *n = f.core.number_of_event_indicators();
-        Ok(Status::Ok)
-    })
+    count::<E>(
+        c,
+        "fmi3GetNumberOfEventIndicators",
+        (n, "nEventIndicators"),
+        |f| f.core.number_of_event_indicators(),
+    )
 }
 
 /// # Safety
 /// `n` points to a writable `size_t`.
 pub unsafe fn get_number_of_continuous_states<E: Export>(c: Component, n: *mut usize) -> Status {
-    const F: &str = "fmi3GetNumberOfContinuousStates";
-    call3::<E>(c, F, machine3::COUNTS, |f| {
+    count::<E>(
+        c,
+        "fmi3GetNumberOfContinuousStates",
+        (n, "nContinuousStates"),
+        |f| f.core.info.layout.n_states,
+    )
+}
+
+/// A count of the model's written to `n` (named `what` in the standard).
+///
+/// # Safety
+/// `n` points to a writable `size_t`.
+unsafe fn count<E: Export>(
+    c: Component,
+    function: &'static str,
+    (n, what): (*mut usize, &str),
+    of: impl FnOnce(&Inst3<E>) -> usize,
+) -> Status {
+    call3::<E>(c, function, table::COUNTS, |f| {
         if n.is_null() {
-            return Err("nContinuousStates is NULL".to_string());
+            return Err(format!("{what} is NULL"));
         }
-        *n = f.core.info.layout.n_states;
+        *n = of(f);
         Ok(Status::Ok)
     })
 }

@@ -1,5 +1,5 @@
 //! The full state of an instance (FMU state): model values, time, experiment setup,
-//! integrator memory and the state machine, plus its portable byte layout.
+//! integrator memory and the mode, plus its portable byte layout.
 //!
 //! Serialized layout (little-endian): magic (8 bytes), format version (u32), GUID
 //! (u32 length + UTF-8), counts of parameters, states, inputs (u32 each), then the
@@ -9,7 +9,7 @@
 //! copy: CRC-32 detects every single-bit error and every burst of up to 32 bits) is
 //! rejected.
 
-use super::machine::{Interface, Machine};
+use super::mode::{Interface, Mode, States};
 use crate::integrators::blob::Reader;
 use crate::integrators::{Memory, Method};
 
@@ -44,9 +44,9 @@ pub struct Snapshot {
     pub stop_time: Option<f64>,
     pub tolerance: f64,
     pub memory: Memory,
-    pub machine: Machine,
+    pub mode: Mode,
     /// The interface the instance was made for: a state is restored only into an
-    /// instance of the same one (its machine states are that interface's).
+    /// instance of the same one (its modes are that interface's).
     pub interface: Interface,
     /// `me_projection`: whether Model Exchange keeps a constrained system on its
     /// constraints through step events (Co-Simulation ignores it).
@@ -89,7 +89,7 @@ impl Snapshot {
         f(&mut b, self.stop_time.unwrap_or(0.0));
         f(&mut b, self.tolerance);
         self.memory.write(&mut b);
-        b.extend_from_slice(&self.machine.code().to_le_bytes());
+        b.extend_from_slice(&self.mode.code().to_le_bytes());
         b.push(self.interface.code());
         b.push(self.me_projection as u8);
         b.push(self.event_reference.is_some() as u8);
@@ -162,8 +162,8 @@ impl Snapshot {
         let tolerance = r.f64()?;
         let memory = Memory::read(&mut r, counts[1])?;
         let code = r.u32()?;
-        let machine = Machine::from_code(code)
-            .ok_or_else(|| format!("FMU state names unknown machine state {code}"))?;
+        let mode =
+            Mode::from_code(code).ok_or_else(|| format!("FMU state names unknown mode {code}"))?;
         let code = r.take(1)?[0];
         let interface = Interface::from_code(code)
             .ok_or_else(|| format!("FMU state names unknown interface {code}"))?;
@@ -194,7 +194,7 @@ impl Snapshot {
             stop_time: (has_stop == 1).then_some(stop),
             tolerance,
             memory,
-            machine,
+            mode,
             interface,
             me_projection,
             event_reference: has_reference.then_some(reference),

@@ -1,11 +1,11 @@
-//! The FMI 3.0 front-end of the C API: the same instance core as FMI 2.0, behind the
-//! fmi3 functions (this file those both interfaces have; [`fmi3_cs`](super::fmi3_cs) and
-//! [`fmi3_me`](super::fmi3_me) each interface's own).
+//! FMI 3.0's front-end: its state table (Co-Simulation, standard section 4.3; Model
+//! Exchange, section 3.3) as data ([`State3`]), its words, and its C marshalling of what
+//! both interfaces have; [`cs`] and [`me`] each interface's own. The same core as FMI 2.0.
 //!
 //! An FMI 3.0 instance is an [`Instance3`]: the core [`Instance`] and what FMI 3.0 adds —
 //! Co-Simulation's Event Mode, the importer's `eventModeUsed` / `earlyReturnAllowed` and
 //! its intermediateUpdate callback. Every function passes the guard with FMI 3.0's table
-//! ([`machine3`], the only one checked), then calls the core. Lines go through the
+//! (the only one checked), then calls the core. Lines go through the
 //! importer's `logMessage`, naming the fmi3 function and using FMI 3.0's words.
 //!
 //! Variables: the value references of FMI 2.0, plus `time` (the independent variable) at
@@ -15,15 +15,21 @@
 //! FMI 3.0 reads enumerations as Int64); every other type answers fmi3Error for any value
 //! reference.
 
-use super::{free_states_of, guard, ok, slice, slice_mut, Component, FmuState, Guarded};
-use crate::fmi::machine::{Gate, Interface, Machine};
-use crate::fmi::machine3::{self, State3};
-use crate::fmi::{Export, Instance, Logger, Status};
+mod cs;
+mod me;
+
+pub use cs::*;
+pub use me::*;
+
+use super::boundary::{guard, ok, slice, slice_mut, Component, FmuState, Guarded};
+use super::core::mode::{bits, states};
+use super::gate::{self, gates, Gate, Table};
+use crate::fmi::{Export, Instance, Interface, Logger, Mode, Status};
 use crate::model::{System, VarKind};
 use std::ffi::{c_char, c_void, CStr};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
-pub use crate::fmi::logger::LogMessage3;
+pub use crate::fmi::LogMessage3;
 
 /// `fmi3IntermediateUpdateCallback`.
 pub type IntermediateUpdate = unsafe extern "C" fn(
@@ -40,39 +46,138 @@ pub type IntermediateUpdate = unsafe extern "C" fn(
 /// fmi3Boolean as received: a byte (any non-zero is true, read without assuming 0 or 1).
 pub type Bool3 = u8;
 
+states! {
+    /// States of an FMI 3.0 instance (Configuration and Reconfiguration Mode and the Clock
+    /// states never occur: the models have no structural parameters and no clocks).
+    ///
+    /// FMI 3.0 differs from FMI 2.0: Co-Simulation has Step Mode instead of
+    /// stepComplete/stepFailed, and an Event Mode of its own when the importer instantiated
+    /// with `eventModeUsed`; fmi3EnterInitializationMode takes the experiment (there is no
+    /// fmi3SetupExperiment). The state is derived from the core's mode ([`State3::of`]): Step
+    /// Mode is the core's stepping mode, also after a discarded step (FMI 3.0 has no
+    /// stepFailed: the instance is where lastSuccessfulTime says, and may step on from
+    /// there), and the one state the core has no mode for, Co-Simulation's Event Mode, is a
+    /// flag of the FMI 3.0 instance.
+    pub enum State3 {
+        Instantiated,
+        InitializationMode,
+        EventMode,
+        ContinuousTimeMode,
+        StepMode,
+        Terminated,
+        /// After a panic was caught (the core's error state): only reading, reset and free.
+        Error,
+    }
+}
+
+impl State3 {
+    /// The FMI 3.0 state of an instance whose core is in `mode`; `cs_event_mode`: a
+    /// Co-Simulation instance in Event Mode.
+    #[inline]
+    pub fn of(mode: Mode, cs_event_mode: bool) -> State3 {
+        match mode {
+            Mode::Instantiated => State3::Instantiated,
+            Mode::Initializing => State3::InitializationMode,
+            Mode::Stepping | Mode::StepDiscarded if cs_event_mode => State3::EventMode,
+            Mode::Stepping | Mode::StepDiscarded => State3::StepMode,
+            Mode::Event => State3::EventMode,
+            Mode::ContinuousTime => State3::ContinuousTimeMode,
+            Mode::Terminated => State3::Terminated,
+            Mode::Error => State3::Error,
+        }
+    }
+}
+
+impl Table for State3 {
+    const CS: u32 = bits!(State3[
+        Instantiated, InitializationMode, EventMode, StepMode, Terminated, Error,
+    ]);
+    const ME: u32 = bits!(State3[
+        Instantiated, InitializationMode, EventMode, ContinuousTimeMode, Terminated, Error,
+    ]);
+
+    fn made_by(own: Interface) -> String {
+        match own {
+            Interface::CoSimulation => "by fmi3InstantiateCoSimulation".into(),
+            Interface::ModelExchange => "by fmi3InstantiateModelExchange".into(),
+        }
+    }
+}
+
+// FMI 3.0's table (sections 3.3 and 4.3).
+#[rustfmt::skip]
+gates! { State3;
+    ANY = both[
+        Instantiated, InitializationMode, EventMode, ContinuousTimeMode, StepMode, Terminated,
+        Error,
+    ];
+    ENTER_INIT = both[Instantiated];
+    EXIT_INIT = both[InitializationMode];
+    /// Model Exchange from Continuous-Time Mode; Co-Simulation (eventModeUsed) from Step
+    /// Mode.
+    ENTER_EVENT_MODE = both[ContinuousTimeMode, StepMode];
+    TERMINATE = both[EventMode, ContinuousTimeMode, StepMode];
+    GET = both[
+        InitializationMode, EventMode, ContinuousTimeMode, StepMode, Terminated, Error,
+    ];
+    SET = both[Instantiated, InitializationMode, EventMode, ContinuousTimeMode, StepMode];
+    DERIVATIVES = both[InitializationMode, EventMode, ContinuousTimeMode, StepMode, Terminated];
+    UPDATE_DISCRETE_STATES = both[EventMode];
+    EVALUATE_DISCRETE_STATES = both[InitializationMode, EventMode, ContinuousTimeMode, StepMode];
+    // Model Exchange.
+    ENTER_CONTINUOUS_TIME_MODE = me[EventMode];
+    COMPLETED_INTEGRATOR_STEP = me[ContinuousTimeMode];
+    SET_TIME = me[EventMode, ContinuousTimeMode];
+    SET_CONTINUOUS_STATES = me[ContinuousTimeMode];
+    /// fmi3GetContinuousStates, fmi3GetContinuousStateDerivatives, fmi3GetEventIndicators
+    /// and fmi3GetNominalsOfContinuousStates: FMI 3.0.2 section 2.3 allows them in
+    /// Initialization Mode, Event Mode, Continuous-Time Mode and Terminated (not in
+    /// Instantiated; FMI 2.0's table differs: no derivatives in Initialization Mode,
+    /// nominals in Instantiated). Error is FMI 3.0's Terminated after an fmi3Error (values
+    /// for debugging).
+    EVALUATE = me[InitializationMode, EventMode, ContinuousTimeMode, Terminated, Error];
+    // Co-Simulation.
+    ENTER_STEP_MODE = cs[EventMode];
+    DO_STEP = cs[StepMode];
+    OUTPUT_DERIVATIVES = cs[StepMode, Terminated, Error];
+}
+pub const FMU_STATE: Gate = ANY;
+pub const COUNTS: Gate = ANY;
+
 /// An FMI 3.0 instance: the core and what FMI 3.0 adds.
 pub struct Instance3<M: System> {
     pub core: Instance<M>,
     /// Co-Simulation in Event Mode (the core stays in stepComplete underneath).
-    pub(super) cs_event_mode: bool,
+    cs_event_mode: bool,
     /// fmi3InstantiateCoSimulation's arguments.
-    pub(super) event_mode_used: bool,
-    pub(super) early_return_allowed: bool,
-    pub(super) intermediate_update: Option<IntermediateUpdate>,
-    pub(super) env: *mut c_void,
+    event_mode_used: bool,
+    early_return_allowed: bool,
+    intermediate_update: Option<IntermediateUpdate>,
+    env: *mut c_void,
 }
 
 impl<M: System> Instance3<M> {
     #[inline]
     pub fn state(&self) -> State3 {
-        State3::of(self.core.machine(), self.cs_event_mode)
+        State3::of(self.core.mode(), self.cs_event_mode)
     }
 }
 
 /// FMI 3.0 reads the core's mode and its own Event Mode flag as its state.
 impl<M: System> Guarded for Instance3<M> {
-    fn logger(&self) -> &Logger {
-        &self.core.logger
+    type Model = M;
+    fn core(&self) -> &Instance<M> {
+        &self.core
     }
-    fn poison(&mut self) {
-        self.core.poison()
+    fn core_mut(&mut self) -> &mut Instance<M> {
+        &mut self.core
     }
     fn allows(&self, gate: Gate) -> Result<(), String> {
-        machine3::check(gate, self.state(), self.core.interface())
+        gate::check(gate, self.state(), self.core.interface())
     }
 }
 
-pub(crate) type Inst3<E> = Instance3<<E as Export>::Model>;
+pub type Inst3<E> = Instance3<<E as Export>::Model>;
 
 /// What a value reference is to FMI 3.0.
 #[derive(Clone, Copy, PartialEq, Debug)]
@@ -264,41 +369,6 @@ pub unsafe fn instantiate_scheduled_execution(
     std::ptr::null_mut()
 }
 
-/// # Safety
-/// `c` is NULL or a live FMI 3.0 instance of this model.
-pub unsafe fn free_instance<E: Export>(c: Component) {
-    if c.is_null() {
-        return;
-    }
-    let _ = catch_unwind(AssertUnwindSafe(|| {
-        free_states_of(c);
-        drop(Box::from_raw(c as *mut Inst3<E>))
-    }));
-}
-
-/// # Safety
-/// `categories` points to `n` C strings when `n > 0`.
-pub unsafe fn set_debug_logging<E: Export>(
-    c: Component,
-    logging_on: Bool3,
-    n: usize,
-    categories: *const *const c_char,
-) -> Status {
-    const F: &str = "fmi3SetDebugLogging";
-    call3::<E>(c, F, machine3::ANY, |f| {
-        let ptrs = slice(categories, n, "categories[]")?;
-        let mut names = Vec::with_capacity(n);
-        for &p in ptrs {
-            if p.is_null() {
-                return Err("a category is NULL".to_string());
-            }
-            names.push(CStr::from_ptr(p).to_string_lossy().into_owned());
-        }
-        let names: Vec<&str> = names.iter().map(String::as_str).collect();
-        ok(f.core.logger.set_debug_logging(logging_on != 0, &names))
-    })
-}
-
 pub fn enter_initialization_mode<E: Export>(
     c: Component,
     tolerance_defined: Bool3,
@@ -308,7 +378,7 @@ pub fn enter_initialization_mode<E: Export>(
     stop_time: f64,
 ) -> Status {
     const F: &str = "fmi3EnterInitializationMode";
-    call3::<E>(c, F, machine3::ENTER_INIT, |f| {
+    call3::<E>(c, F, ENTER_INIT, |f| {
         f.core.setup_experiment(
             (tolerance_defined != 0).then_some(tolerance),
             start_time,
@@ -320,7 +390,7 @@ pub fn enter_initialization_mode<E: Export>(
 
 pub fn exit_initialization_mode<E: Export>(c: Component) -> Status {
     const F: &str = "fmi3ExitInitializationMode";
-    call3::<E>(c, F, machine3::EXIT_INIT, |f| {
+    call3::<E>(c, F, EXIT_INIT, |f| {
         let status = f.core.exit_initialization_mode()?;
         // Co-Simulation with eventModeUsed goes to Event Mode, else to Step Mode.
         f.cs_event_mode = f.core.interface() == Interface::CoSimulation && f.event_mode_used;
@@ -332,26 +402,23 @@ pub fn exit_initialization_mode<E: Export>(c: Component) -> Status {
 /// eventModeUsed) from Step Mode.
 pub fn enter_event_mode<E: Export>(c: Component) -> Status {
     const F: &str = "fmi3EnterEventMode";
-    call3::<E>(c, F, machine3::ENTER_EVENT_MODE, |f| {
-        match f.core.interface() {
-            Interface::ModelExchange => ok(f.core.enter_event_mode()),
-            Interface::CoSimulation => {
-                if !f.event_mode_used {
-                    return Err(
-                        "this Co-Simulation instance was made with eventModeUsed = false"
-                            .to_string(),
-                    );
-                }
-                f.cs_event_mode = true;
-                Ok(Status::Ok)
+    call3::<E>(c, F, ENTER_EVENT_MODE, |f| match f.core.interface() {
+        Interface::ModelExchange => ok(f.core.enter_event_mode()),
+        Interface::CoSimulation => {
+            if !f.event_mode_used {
+                return Err(
+                    "this Co-Simulation instance was made with eventModeUsed = false".to_string(),
+                );
             }
+            f.cs_event_mode = true;
+            Ok(Status::Ok)
         }
     })
 }
 
 pub fn terminate<E: Export>(c: Component) -> Status {
     const F: &str = "fmi3Terminate";
-    call3::<E>(c, F, machine3::TERMINATE, |f| {
+    call3::<E>(c, F, TERMINATE, |f| {
         f.core.terminate()?;
         f.cs_event_mode = false;
         Ok(Status::Ok)
@@ -360,7 +427,7 @@ pub fn terminate<E: Export>(c: Component) -> Status {
 
 pub fn reset<E: Export>(c: Component) -> Status {
     const F: &str = "fmi3Reset";
-    call3::<E>(c, F, machine3::ANY, |f| {
+    call3::<E>(c, F, ANY, |f| {
         f.core.reset()?;
         f.cs_event_mode = false;
         Ok(Status::Ok)
@@ -380,7 +447,7 @@ unsafe fn getter<E: Export, T>(
     (value, n_values): (*mut T, usize),
     read: impl FnOnce(&mut Inst3<E>, &[u32], &mut [T]) -> Result<(), String>,
 ) -> Status {
-    call3::<E>(c, function, machine3::GET, |f| {
+    call3::<E>(c, function, GET, |f| {
         require_values(nvr, n_values)?;
         let vr = slice(vr, nvr, "valueReferences[]")?;
         let value = slice_mut(value, nvr, "values[]")?;
@@ -401,7 +468,7 @@ unsafe fn setter<E: Export, T>(
     (value, n_values): (*const T, usize),
     write: impl FnOnce(&mut Inst3<E>, &[u32], &[T]) -> Result<(), String>,
 ) -> Status {
-    call3::<E>(c, function, machine3::SET, |f| {
+    call3::<E>(c, function, SET, |f| {
         require_values(nvr, n_values)?;
         let vr = slice(vr, nvr, "valueReferences[]")?;
         let value = slice(value, nvr, "values[]")?;
@@ -618,17 +685,8 @@ pub unsafe fn no_such_type<E: Export>(
 /// A function this FMU does not offer (clocks, configuration mode, scheduled execution,
 /// variable dependencies): fmi3Error with one line.
 pub fn not_offered<E: Export>(c: Component, function: &'static str, why: &str) -> Status {
-    call3::<E>(c, function, machine3::ANY, |_| {
+    call3::<E>(c, function, ANY, |_| {
         Err(format!("not offered by this FMU ({why})"))
-    })
-}
-
-/// # Safety
-/// `state` points to an `fmi3FMUState` (NULL or one of ours).
-pub unsafe fn get_fmu_state<E: Export>(c: Component, state: *mut FmuState) -> Status {
-    const F: &str = "fmi3GetFMUState";
-    call3::<E>(c, F, machine3::FMU_STATE, |f| {
-        super::get_fmu_state_of::<E>(c, &mut f.core, state)
     })
 }
 
@@ -638,65 +696,15 @@ pub unsafe fn get_fmu_state<E: Export>(c: Component, state: *mut FmuState) -> St
 ///
 /// # Safety
 /// `state` is NULL or one of ours.
-pub unsafe fn set_fmu_state<E: Export>(c: Component, state: FmuState) -> Status {
-    const F: &str = "fmi3SetFMUState";
-    call3::<E>(c, F, machine3::FMU_STATE, |f| {
-        let status = super::set_fmu_state_of::<E>(c, &mut f.core, state)?;
-        f.cs_event_mode &= matches!(
-            f.core.machine(),
-            Machine::StepComplete | Machine::StepFailed
-        );
+pub unsafe fn set_fmu_state<E: Export>(
+    c: Component,
+    (function, gate): (&'static str, Gate),
+    state: FmuState,
+) -> Status {
+    call3::<E>(c, function, gate, |f| {
+        let status = super::boundary::restore(c, &mut f.core, state)?;
+        f.cs_event_mode &= matches!(f.core.mode(), Mode::Stepping | Mode::StepDiscarded);
         Ok(status)
-    })
-}
-
-/// # Safety
-/// `state` points to an `fmi3FMUState` (NULL or one of ours).
-pub unsafe fn free_fmu_state<E: Export>(c: Component, state: *mut FmuState) -> Status {
-    const F: &str = "fmi3FreeFMUState";
-    call3::<E>(c, F, machine3::FMU_STATE, |_| {
-        super::free_fmu_state_of::<E>(c, state)
-    })
-}
-
-/// # Safety
-/// `state` is one of ours; `size` points to a writable `size_t`.
-pub unsafe fn serialized_fmu_state_size<E: Export>(
-    c: Component,
-    state: FmuState,
-    size: *mut usize,
-) -> Status {
-    const F: &str = "fmi3SerializedFMUStateSize";
-    call3::<E>(c, F, machine3::FMU_STATE, |f| {
-        super::serialized_fmu_state_size_of::<E>(c, &f.core, state, size)
-    })
-}
-
-/// # Safety
-/// `state` is one of ours; `bytes` points to `size` writable bytes.
-pub unsafe fn serialize_fmu_state<E: Export>(
-    c: Component,
-    state: FmuState,
-    bytes: *mut u8,
-    size: usize,
-) -> Status {
-    const F: &str = "fmi3SerializeFMUState";
-    call3::<E>(c, F, machine3::FMU_STATE, |f| {
-        super::serialize_fmu_state_of::<E>(c, &f.core, state, bytes, size)
-    })
-}
-
-/// # Safety
-/// `bytes` points to `size` bytes; `state` points to an `fmi3FMUState` (NULL or ours).
-pub unsafe fn deserialize_fmu_state<E: Export>(
-    c: Component,
-    bytes: *const u8,
-    size: usize,
-    state: *mut FmuState,
-) -> Status {
-    const F: &str = "fmi3DeserializeFMUState";
-    call3::<E>(c, F, machine3::FMU_STATE, |f| {
-        super::deserialize_fmu_state_of::<E>(c, &f.core, bytes, size, state)
     })
 }
 
@@ -712,23 +720,45 @@ pub struct Seeds {
     pub n_sensitivity: usize,
 }
 
+/// The arrays of a directional (`adjoint` false: seed per known, sensitivity per
+/// unknown) or adjoint derivative (the other way round).
+type SeedArrays<'a> = (&'a [u32], &'a [u32], &'a [f64], &'a mut [f64]);
+
+impl Seeds {
+    /// The four arrays, once their counts fit the derivative asked for.
+    ///
+    /// # Safety
+    /// The arrays hold as many elements as their counts say.
+    unsafe fn arrays<'a>(&self, adjoint: bool) -> Result<SeedArrays<'a>, String> {
+        let (knowns, unknowns) = (("nKnowns", self.n_knowns), ("nUnknowns", self.n_unknowns));
+        let (seeded, sensed) = if adjoint {
+            (unknowns, knowns)
+        } else {
+            (knowns, unknowns)
+        };
+        if self.n_seed != seeded.1 || self.n_sensitivity != sensed.1 {
+            return Err(format!(
+                "nSeed = {} and nSensitivity = {} must equal {} = {} and {} = {}",
+                self.n_seed, self.n_sensitivity, seeded.0, seeded.1, sensed.0, sensed.1
+            ));
+        }
+        Ok((
+            slice(self.unknowns, self.n_unknowns, "unknowns[]")?,
+            slice(self.knowns, self.n_knowns, "knowns[]")?,
+            slice(self.seed, self.n_seed, "seed[]")?,
+            slice_mut(self.sensitivity, self.n_sensitivity, "sensitivity[]")?,
+        ))
+    }
+}
+
 /// fmi3GetDirectionalDerivative: sensitivity = J · seed (J = ∂unknowns/∂knowns, exact).
 ///
 /// # Safety
 /// The arrays hold as many elements as their counts say.
 pub unsafe fn get_directional_derivative<E: Export>(c: Component, a: Seeds) -> Status {
     const F: &str = "fmi3GetDirectionalDerivative";
-    call3::<E>(c, F, machine3::DERIVATIVES, |f| {
-        if a.n_seed != a.n_knowns || a.n_sensitivity != a.n_unknowns {
-            return Err(format!(
-                "nSeed = {} and nSensitivity = {} must equal nKnowns = {} and nUnknowns = {}",
-                a.n_seed, a.n_sensitivity, a.n_knowns, a.n_unknowns
-            ));
-        }
-        let unknowns = slice(a.unknowns, a.n_unknowns, "unknowns[]")?;
-        let knowns = slice(a.knowns, a.n_knowns, "knowns[]")?;
-        let seed = slice(a.seed, a.n_seed, "seed[]")?;
-        let out = slice_mut(a.sensitivity, a.n_sensitivity, "sensitivity[]")?;
+    call3::<E>(c, F, DERIVATIVES, |f| {
+        let (unknowns, knowns, seed, out) = a.arrays(false)?;
         ok(f.core.directional_derivative(unknowns, knowns, seed, out))
     })
 }
@@ -740,17 +770,8 @@ pub unsafe fn get_directional_derivative<E: Export>(c: Component, a: Seeds) -> S
 /// The arrays hold as many elements as their counts say.
 pub unsafe fn get_adjoint_derivative<E: Export>(c: Component, a: Seeds) -> Status {
     const F: &str = "fmi3GetAdjointDerivative";
-    call3::<E>(c, F, machine3::DERIVATIVES, |f| {
-        if a.n_seed != a.n_unknowns || a.n_sensitivity != a.n_knowns {
-            return Err(format!(
-                "nSeed = {} and nSensitivity = {} must equal nUnknowns = {} and nKnowns = {}",
-                a.n_seed, a.n_sensitivity, a.n_unknowns, a.n_knowns
-            ));
-        }
-        let unknowns = slice(a.unknowns, a.n_unknowns, "unknowns[]")?;
-        let knowns = slice(a.knowns, a.n_knowns, "knowns[]")?;
-        let seed = slice(a.seed, a.n_seed, "seed[]")?;
-        let out = slice_mut(a.sensitivity, a.n_sensitivity, "sensitivity[]")?;
+    call3::<E>(c, F, DERIVATIVES, |f| {
+        let (unknowns, knowns, seed, out) = a.arrays(true)?;
         if let Some(v) = seed.iter().find(|v| !v.is_finite()) {
             return Err(format!("a seed is not finite ({v})"));
         }
@@ -777,7 +798,7 @@ pub unsafe fn get_adjoint_derivative<E: Export>(c: Component, a: Seeds) -> Statu
 /// fmi3EvaluateDiscreteStates: the models have no discrete states, nothing to evaluate.
 pub fn evaluate_discrete_states<E: Export>(c: Component) -> Status {
     const F: &str = "fmi3EvaluateDiscreteStates";
-    call3::<E>(c, F, machine3::EVALUATE_DISCRETE_STATES, |_| Ok(Status::Ok))
+    call3::<E>(c, F, EVALUATE_DISCRETE_STATES, |_| Ok(Status::Ok))
 }
 
 /// Writes `value` through an fmi3Boolean out-pointer.
