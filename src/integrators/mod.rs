@@ -7,8 +7,9 @@
 //! lives in [`Memory`], which is part of the serialized FMU state, so a restored state
 //! continues bit for bit as the original would have. What only saves allocations (buffers
 //! of the right sizes) lives in a [`Workspace`], which is not: the caller keeps one so that
-//! a call in steady state allocates nothing. [`advance`] and [`advance_with`] (and each
-//! method's function without `_in`) are the same in a fresh workspace.
+//! a call in steady state allocates nothing. [`advance`] and [`advance_with`] are the same
+//! in a fresh workspace. Below them every fixed-step method takes one
+//! [`FixedCall`](problem::FixedCall) and every dense mode one [`DenseCall`](problem::DenseCall).
 
 // The `rhs` parameter spells out `&mut dyn FnMut(f64, &[f64], &mut [f64])` on purpose: it is
 // the interface other modules call, and an alias would hide what it takes.
