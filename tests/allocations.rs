@@ -23,6 +23,7 @@
 
 use mbfmu::fmi::fmi2::{self as capi, Component};
 use mbfmu::fmi::{Export, Instance, Logger, ModelInfo, Status};
+use mbfmu::integrators::problem::FixedCall;
 use mbfmu::integrators::problem::Mechanics;
 use mbfmu::integrators::{rattle, Stats};
 use mbfmu::model::{System, VarKind};
@@ -433,12 +434,18 @@ impl Mechanics for PolarSpringPendulum {
 fn rattle_allocations(mech: &mut dyn Mechanics, x0: [f64; 4]) -> [u64; 2] {
     [1.0, 4.0].map(|steps| {
         let (h, mut stats) = (1e-3, Stats::default());
-        let (mut y, mut scratch) = (Vec::new(), rattle::Scratch::default());
+        let mut scratch = rattle::Scratch::default();
         let (mut t, mut x) = (0.0, x0);
         let mut call = |stats: &mut Stats| {
             let t_end = t + steps * h;
-            let work = (&mut y, &mut scratch);
-            rattle::advance_in(mech, &mut t, &mut x, t_end, h, stats, work).unwrap();
+            let call = FixedCall {
+                t: &mut t,
+                x: &mut x,
+                t_end,
+                h,
+                stats,
+            };
+            rattle::advance_in(mech, call, &mut scratch).unwrap();
         };
         for _ in 0..WARM_UP {
             call(&mut stats);

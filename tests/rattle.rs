@@ -5,6 +5,7 @@
 //! stays bounded; through the FMU it is selectable where it applies and refused elsewhere.
 
 use mbfmu::fmi::{Instance, Logger, ModelInfo, StepOutcome};
+use mbfmu::integrators::problem::FixedCall;
 use mbfmu::integrators::{advance, rattle, Memory, Method, Settings, Stats, MAX_STEPS};
 use mbfmu::model::lagrangian;
 use mbfmu::model::System;
@@ -55,7 +56,14 @@ fn slider_crank_stays_on_its_constraints_without_projection() {
     let mut windows = vec![0.0f64; 20];
     for i in 1..=2000 {
         let t_end = i as f64 * 0.01;
-        rattle::advance(mech.as_mut(), &mut t, &mut x, t_end, h, &mut stats).unwrap();
+        let call = FixedCall {
+            t: &mut t,
+            x: &mut x,
+            t_end,
+            h,
+            stats: &mut stats,
+        };
+        rattle::advance_in(mech.as_mut(), call, &mut rattle::Scratch::default()).unwrap();
         let (a, b) = residuals(&x, &p);
         phi = phi.max(a);
         gv = gv.max(b);
@@ -139,7 +147,14 @@ fn slider_crank_converges_to_the_reduced_model_at_second_order() {
     let error = |h: f64| {
         let mut mech = SliderCrankSurplus::mechanics(&u, &ps).unwrap();
         let (mut t, mut x) = (0.0, surplus_state(0.0, 10.0, &ps).to_vec());
-        rattle::advance(mech.as_mut(), &mut t, &mut x, 1.0, h, &mut Stats::default()).unwrap();
+        let call = FixedCall {
+            t: &mut t,
+            x: &mut x,
+            t_end: 1.0,
+            h,
+            stats: &mut Stats::default(),
+        };
+        rattle::advance_in(mech.as_mut(), call, &mut rattle::Scratch::default()).unwrap();
         (x[0] - reference[0]).abs()
     };
     let e = [error(4e-3), error(2e-3), error(1e-3)];
@@ -165,15 +180,14 @@ fn double_pendulum_energy_stays_bounded() {
     let mut windows = vec![0.0f64; 10];
     for i in 1..=1000 {
         let t_end = i as f64;
-        rattle::advance(
-            mech.as_mut(),
-            &mut t,
-            &mut x,
+        let call = FixedCall {
+            t: &mut t,
+            x: &mut x,
             t_end,
-            0.01,
-            &mut Stats::default(),
-        )
-        .unwrap();
+            h: 0.01,
+            stats: &mut Stats::default(),
+        };
+        rattle::advance_in(mech.as_mut(), call, &mut rattle::Scratch::default()).unwrap();
         let w = &mut windows[(i - 1) / 100];
         *w = w.max(((energy::<DoublePendulum>(&x, &p) - e0) / e0).abs());
     }

@@ -324,7 +324,7 @@ fn the_c_api_refuses_a_blob_with_values_no_setter_takes() {
                 let Some(Ahead::Dopri5(a)) = s.memory.ahead.as_mut() else {
                     panic!("DOPRI5 keeps its point ahead");
                 };
-                a.x[0] = 1e300;
+                a.point.x[0] = 1e300;
                 a.rcont.fill(1e300);
             }),
         ),

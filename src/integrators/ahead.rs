@@ -3,7 +3,10 @@
 //! serialized by the method that owns it, so the FMU never reads a method's internals.
 
 use super::blob::Reader;
-use super::problem::Problem;
+use super::dop853::Ahead as Dop853;
+use super::dopri5::Ahead as Dopri5;
+use super::explicit_rk::Point;
+use super::problem::{DenseCall, Problem};
 use super::{dop853, dopri5, radau5, sized, Failure, Memory, Method, Settings, Stats, Workspace};
 
 /// The running method's own state ahead of the communication time.
@@ -30,15 +33,16 @@ impl Ahead {
         match self {
             Ahead::Dopri5(a) => {
                 a.interpolate(t, out);
-                a.t0 <= t && t <= a.t
+                a.point.covers(t)
             }
             Ahead::Radau5(a) => {
                 a.interpolate(t, out);
                 t <= a.t
             }
             Ahead::Dop853(a) => {
-                let built = a.clone().point(problem, t, out, &mut Stats::default());
-                a.t0 <= t && t <= a.t && built.is_ok()
+                let (stats, work) = (&mut Stats::default(), &mut dop853::Scratch::default());
+                let built = a.clone().point_in(problem, t, out, stats, work);
+                a.point.covers(t) && built.is_ok()
             }
         }
     }
@@ -47,8 +51,9 @@ impl Ahead {
     /// f(t, x) (RADAU5 keeps none after landing on the stop time: not needed).
     pub fn end(&self) -> (f64, &[f64], Option<&[f64]>) {
         match self {
-            Ahead::Dopri5(a) => (a.t, &a.x, Some(&a.f)),
-            Ahead::Dop853(a) => (a.t, &a.x, Some(&a.f)),
+            Ahead::Dopri5(Dopri5 { point: p, .. }) | Ahead::Dop853(Dop853 { point: p, .. }) => {
+                (p.t, &p.x, Some(&p.f))
+            }
             Ahead::Radau5(a) => (a.t, &a.x, (!a.landed).then_some(&a.f[..])),
         }
     }
@@ -103,44 +108,28 @@ pub fn advance_dense(
     );
     let mut point = std::mem::take(&mut work.point);
     let out = sized(&mut point, state.1.len());
-    let call = &mut Call {
-        problem,
-        project,
-        t_out,
-        t_limit,
-        settings,
-        memory,
-        work,
-    };
-    let result = dense(call, state, out);
+    let run = (settings, &mut *memory);
+    let call = &mut DenseCall::new(problem, project, (t_out, t_limit), run, (out, &mut *work));
+    let result = dense(call, state);
     work.point = point;
     result
 }
 
-/// One call of [`advance_dense`]: what a method's steps need besides its own state.
-struct Call<'c, 'p> {
-    problem: &'c mut Problem<'p>,
-    project: &'c mut dyn FnMut(f64, &mut [f64]),
-    /// Steps until the last covers `t_out`, never past `t_limit`.
-    t_out: f64,
-    t_limit: f64,
-    settings: &'c Settings,
-    memory: &'c mut Memory,
-    work: &'c mut Workspace,
-}
+/// One call of [`advance_dense`], in the whole [`Workspace`]: each method takes its part.
+type Call<'c, 'p> = DenseCall<'c, 'p, Workspace>;
 
 /// The running method's point ahead if it resumes at `*t`, else a new one; stepped until
-/// its last step covers `call.t_out`.
-fn dense(call: &mut Call, (t, x): (&mut f64, &mut [f64]), out: &mut [f64]) -> Result<(), Failure> {
+/// its last step covers `call.t_out`, x(`t_out`) read into `call.out`.
+fn dense(call: &mut Call, (t, x): (&mut f64, &mut [f64])) -> Result<(), Failure> {
     let method = call.settings.method;
     let kept = call.memory.ahead.take();
     let mut ahead = match kept.filter(|a| a.method() == method && a.resumes(*t)) {
         Some(a) => a,
         None => Ahead::start(call, *t, x)?,
     };
-    match ahead.advance(call, out) {
+    match ahead.advance(call) {
         Ok(()) => {
-            x.copy_from_slice(out);
+            x.copy_from_slice(call.out);
             *t = call.t_out;
             call.memory.ahead = Some(ahead);
             Ok(())
@@ -162,8 +151,8 @@ impl Ahead {
     fn start(c: &mut Call, t: f64, x: &[f64]) -> Result<Ahead, Failure> {
         let stats = &mut c.memory.stats;
         Ok(match c.settings.method {
-            Method::Dopri5 => Ahead::Dopri5(dopri5::Ahead::start(c.problem.rhs, t, x, stats)?),
-            Method::Dop853 => Ahead::Dop853(dop853::Ahead::start(c.problem, t, x, stats)?),
+            Method::Dopri5 => Ahead::Dopri5(Dopri5::new(Point::start(c.problem.rhs, t, x, stats)?)),
+            Method::Dop853 => Ahead::Dop853(Dop853::new(Point::start(c.problem.rhs, t, x, stats)?)),
             _ => {
                 let (h, t_limit) = (c.memory.h, c.t_limit);
                 let a = radau5::Ahead::start(c.problem, t, x, h, t_limit, c.settings, stats);
@@ -177,8 +166,9 @@ impl Ahead {
     /// collocation polynomial the last step, and before any step the point itself).
     fn span(&self) -> (f64, f64, &[f64]) {
         match self {
-            Ahead::Dopri5(a) => (a.t0, a.t, &a.x),
-            Ahead::Dop853(a) => (a.t0, a.t, &a.x),
+            Ahead::Dopri5(Dopri5 { point: p, .. }) | Ahead::Dop853(Dop853 { point: p, .. }) => {
+                (p.t0, p.t, &p.x)
+            }
             Ahead::Radau5(a) => (f64::NEG_INFINITY, a.t, &a.x),
         }
     }
@@ -189,23 +179,12 @@ impl Ahead {
         t0 <= t && t <= t1
     }
 
-    /// Steps until its last step covers `c.t_out`, and x(`t_out`) into `out`.
-    fn advance(&mut self, c: &mut Call, out: &mut [f64]) -> Result<(), Failure> {
-        let (ends, settings, memory) = ((c.t_out, c.t_limit), c.settings, &mut *c.memory);
-        let work = &mut *c.work;
+    /// Steps until its last step covers `c.t_out`, and x(`t_out`) into `c.out`.
+    fn advance(&mut self, c: &mut Call) -> Result<(), Failure> {
         match self {
-            Ahead::Dopri5(a) => {
-                let (rhs, work) = (&mut *c.problem.rhs, &mut work.dopri5);
-                dopri5::advance_dense_in(rhs, c.project, a, ends, settings, memory, out, work)
-            }
-            Ahead::Dop853(a) => {
-                let work = &mut work.dop853;
-                dop853::advance_dense_in(c.problem, c.project, a, ends, settings, memory, out, work)
-            }
-            Ahead::Radau5(a) => {
-                let work = &mut work.radau5;
-                radau5::advance_dense_in(c.problem, c.project, a, ends, settings, memory, out, work)
-            }
+            Ahead::Dopri5(a) => dopri5::advance_dense_in(a, c.with(|w| &mut w.dopri5)),
+            Ahead::Dop853(a) => dop853::advance_dense_in(a, c.with(|w| &mut w.dop853)),
+            Ahead::Radau5(a) => radau5::advance_dense_in(a, c.with(|w| &mut w.radau5)),
         }
     }
 }

@@ -8,7 +8,7 @@
 //! combined error estimator), and Hairer's reference code `dop853.f` (subroutines DP86CO and
 //! HINIT, version of 2004), whose coefficient values (30 digits) and default constants are
 //! reproduced below. The controller is the one of [`super::dopri5`] with dop853.f's defaults.
-//! Dense output (the FMU's dense mode, [`advance_dense`]): dop853.f's order-7 continuous
+//! Dense output (the FMU's dense mode, [`advance_dense_in`]): dop853.f's order-7 continuous
 //! extension CONTD8 with its three extra stages.
 
 // The coefficients are copied digit for digit from Hairer's Fortran source, so that they can
@@ -17,9 +17,9 @@
 
 use super::blob::{put_f64s, Reader};
 use super::buffers::sized;
-use super::explicit_rk::{self, land, stage, step_past, Pair, PiGains, Stages};
-use super::problem::{start, Problem};
-use super::{Failure, Memory, Settings, Stats};
+use super::explicit_rk::{self, hermite_blocks, stage, step_past, Pair, PiGains, Point, Stages};
+use super::problem::{DenseCall, Problem};
+use super::{Failure, Settings, Stats};
 
 // Nodes c_i (dop853.f; c12 = 1; c14..c16 of the dense output are below).
 const C2: f64 = 0.526001519587677318785587544488e-01;
@@ -110,33 +110,30 @@ const A129: f64 = -8.87285693353062954433549289258e0;
 const A1210: f64 = 1.23605671757943030647266201528e1;
 const A1211: f64 = 6.43392746015763530355970484046e-1;
 
-/// Lund-stabilization exponent of the PI controller: dop853.f's default is 0 (a pure
-/// I-controller); kept as a named constant so the controller reads like DOPRI5's.
-const BETA: f64 = 0.0;
-/// Exponent on the current error: 1/8 for the order-8 step (dop853.f: `EXPO1 = 1/8 - BETA*0.2`).
-const EXPO1: f64 = 1.0 / 8.0 - BETA * 0.2;
-/// Aim at 90 % of the step the error model allows (dop853.f SAFE).
-const SAFETY: f64 = 0.9;
-/// Shrink a step at most 3× at once (dop853.f FAC1 = 0.333: a high-order error model
-/// extrapolates worse than DOPRI5's, hence tighter bounds than its 0.2).
-const FAC_MIN: f64 = 0.333;
-/// Grow a step at most 6× at once (dop853.f FAC2).
-const FAC_MAX: f64 = 6.0;
-/// The controller constants above, for [`PiController`].
-const GAINS: PiGains = PiGains {
-    beta: BETA,
-    expo1: EXPO1,
-    safety: SAFETY,
-    fac_min: FAC_MIN,
-    fac_max: FAC_MAX,
-};
-/// DOP853 in the loop it shares with DOPRI5.
+/// DOP853 in the loop it shares with DOPRI5 (landing mode: [`super::advance`]), with
+/// `settings.rtol`, `settings.atol` (one per state) and `settings.step` as the maximum step.
+/// Needs only f.
+///
+/// Counts: f once at the start of every accepted step (fresh at the start of a call, FSAL
+/// reuse is not carried across calls), 11 times per attempted step, once more for [`hinit`]
+/// if `memory.h == 0`: on success `rhs_evals = [memory.h == 0] + 12·steps + 11·rejected`.
 pub(super) struct Dop853;
 
 impl Pair for Dop853 {
     const NAME: &'static str = "DOP853";
     const ORDER: i32 = ORDER;
-    const GAINS: PiGains = GAINS;
+    /// The controller of DOPRI5 with dop853.f's defaults.
+    const GAINS: PiGains = PiGains {
+        // dop853.f's default β is 0 (a pure I-controller).
+        beta: 0.0,
+        // 1/8 for the order-8 step (dop853.f: `EXPO1 = 1/8 - BETA*0.2`).
+        expo1: 1.0 / 8.0 - 0.0 * 0.2,
+        // Shrink a step at most 3× at once (dop853.f FAC1 = 0.333: a high-order error model
+        // extrapolates worse than DOPRI5's, hence tighter bounds than its 0.2).
+        fac_min: 0.333,
+        // Grow a step at most 6× at once (dop853.f FAC2).
+        fac_max: 6.0,
+    };
     const STAGES: &'static [(f64, &'static [(f64, usize)])] = &[
         (C2, &[(A21, 0)]),
         (C3, &[(A31, 0), (A32, 1)]),
@@ -343,51 +340,6 @@ const D: [[f64; 12]; 4] = [
     ],
 ];
 
-/// Advance with DOP853 from `*t` to exactly `t_end`, with `settings.rtol`, `settings.atol`
-/// (one per state) and `settings.step` as the maximum step (`settings.method` is not consulted:
-/// it names the methods of [`super::advance`]). Conventions of [`super::advance`]: `*t == t_end`
-/// bit for bit on success; on failure the last accepted state, and `memory.h` reset to 0.
-/// Needs only `problem.rhs`.
-///
-/// Counts: f once at the start of every accepted step (fresh at the start of a call, FSAL
-/// reuse is not carried across calls), 11 times per attempted step, once more for [`hinit`]
-/// if `memory.h == 0`: on success `rhs_evals = [memory.h == 0] + 12·steps + 11·rejected`.
-pub fn advance(
-    problem: &mut Problem,
-    t: &mut f64,
-    x: &mut [f64],
-    t_end: f64,
-    settings: &Settings,
-    memory: &mut Memory,
-) -> Result<(), Failure> {
-    advance_in(
-        problem,
-        t,
-        x,
-        t_end,
-        settings,
-        memory,
-        &mut Scratch::default(),
-    )
-}
-
-/// [`advance`] in the scratch of `work`: no allocation once it has held this size.
-pub fn advance_in(
-    problem: &mut Problem,
-    t: &mut f64,
-    x: &mut [f64],
-    t_end: f64,
-    settings: &Settings,
-    memory: &mut Memory,
-    work: &mut Scratch,
-) -> Result<(), Failure> {
-    if !start("DOP853", *t, x, t_end)? {
-        return Ok(());
-    }
-    let rhs = &mut *problem.rhs;
-    land::<Dop853>(rhs, (t, x), t_end, settings, memory, &mut work.rk)
-}
-
 /// Dense-output mode, as [`super::dopri5::Ahead`]: the integrator's own point at the end of
 /// its last accepted step, ahead of the communication time, and what the continuous
 /// extension of order 7 of that step (dop853.f CONTD8) is built from. The extension needs
@@ -397,17 +349,9 @@ pub fn advance_in(
 /// unchanged.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Ahead {
-    /// End of the last accepted step: the integrator's own time.
-    pub t: f64,
-    /// State at `t`.
-    pub x: Vec<f64>,
-    /// f(t, x): the first stage of the next step.
-    pub f: Vec<f64>,
-    /// Start of the last accepted step (= `t` before the first step).
-    pub t0: f64,
-    /// The controller's previous error, carried as DOPRI5 does (no effect while dop853.f's
-    /// BETA is 0).
-    pub err_prev: f64,
+    /// The end of the last accepted step, its start and the controller's memory (carried as
+    /// DOPRI5 does; no effect while dop853.f's BETA is 0).
+    pub point: Point,
     /// The last accepted step, 11 blocks of n (see [`StepBlock`]): x(t0), the step's own
     /// end y (before any projection), and the stages k1, k6 … k12 and f(t, y); empty before
     /// the first step.
@@ -429,37 +373,21 @@ enum StepBlock {
 }
 
 impl Ahead {
-    /// The integrator's point at `(t, x)` before any step; evaluates f once.
-    pub fn start(
-        problem: &mut Problem,
-        t: f64,
-        x: &[f64],
-        stats: &mut Stats,
-    ) -> Result<Ahead, Failure> {
-        let n = x.len();
-        let mut f = vec![0.0; n];
-        if !x.iter().all(|v| v.is_finite()) || !problem.eval(t, x, &mut f, stats) {
-            return Err(Failure::NonFinite { t });
-        }
-        Ok(Ahead {
-            t,
-            x: x.to_vec(),
-            f,
-            t0: t,
-            err_prev: 0.0,
-            step: Vec::new(),
-            cont: Vec::new(),
-        })
+    /// The integrator at `point` ([`Point::start`]) before any step.
+    pub fn new(point: Point) -> Ahead {
+        let (step, cont) = (Vec::new(), Vec::new());
+        Ahead { point, step, cont }
     }
 
     /// Forgets the last step: the point goes back to its start (t0, x(t0), f there).
     fn back_to_step_start(&mut self) {
-        let n = self.x.len();
+        let p = &mut self.point;
+        let n = p.x.len();
         if !self.step.is_empty() {
             let block = |b: StepBlock| &self.step[b as usize * n..(b as usize + 1) * n];
-            self.x.copy_from_slice(block(StepBlock::X0));
-            self.f.copy_from_slice(block(StepBlock::K1));
-            self.t = self.t0;
+            p.x.copy_from_slice(block(StepBlock::X0));
+            p.f.copy_from_slice(block(StepBlock::K1));
+            p.t = p.t0;
             self.step.clear();
             self.cont.clear();
         }
@@ -467,17 +395,8 @@ impl Ahead {
 
     /// x(`t`) for `t` in [`t0`, `t`] of the last step: the step's end itself, else the
     /// continuous extension (CONTD8), built first if it is not yet (3 evaluations of f).
-    pub fn point(
-        &mut self,
-        problem: &mut Problem,
-        t: f64,
-        out: &mut [f64],
-        stats: &mut Stats,
-    ) -> Result<(), Failure> {
-        self.point_in(problem, t, out, stats, &mut Scratch::default())
-    }
-
-    /// [`Ahead::point`] in the scratch of `work`: no allocation once it and the extension
+    ///
+    /// In the scratch of `work`: no allocation once it and the extension
     /// have held this size.
     pub fn point_in(
         &mut self,
@@ -487,17 +406,18 @@ impl Ahead {
         stats: &mut Stats,
         work: &mut Scratch,
     ) -> Result<(), Failure> {
-        if t == self.t || self.step.is_empty() {
-            out.copy_from_slice(&self.x);
+        let p = &self.point;
+        if t == p.t || self.step.is_empty() {
+            out.copy_from_slice(&p.x);
             return Ok(());
         }
         if self.cont.is_empty() {
-            let (t0, hs) = (self.t0, self.t - self.t0);
+            let (t0, hs) = (p.t0, p.t - p.t0);
             let stages = &mut work.extension;
             extension(problem, t0, hs, &self.step, stats, stages, &mut self.cont)?;
         }
-        let n = self.x.len();
-        let s = (t - self.t0) / (self.t - self.t0);
+        let n = p.x.len();
+        let s = (t - p.t0) / (p.t - p.t0);
         let s1 = 1.0 - s;
         let c = |j: usize, i: usize| self.cont[j * n + i];
         for (i, o) in out.iter_mut().enumerate() {
@@ -513,8 +433,7 @@ impl Ahead {
     /// step's record and its extension, each after a flag (empty before the first step /
     /// until built).
     pub(crate) fn write(&self, b: &mut Vec<u8>) {
-        let fields = [self.t, self.t0, self.err_prev];
-        put_f64s(b, fields.iter().chain(&self.x).chain(&self.f));
+        self.point.write(b);
         for block in [&self.step, &self.cont] {
             b.push(!block.is_empty() as u8);
             put_f64s(b, block.iter());
@@ -523,8 +442,7 @@ impl Ahead {
 
     /// Reads what [`Ahead::write`] wrote for `n` states, and checks it.
     pub(crate) fn read(r: &mut Reader, n: usize) -> Result<Ahead, String> {
-        let (t, t0, err_prev) = (r.f64()?, r.f64()?, r.f64()?);
-        let (x, f) = (r.f64s(n)?, r.f64s(n)?);
+        let point = Point::read(r, n)?;
         let step = if r.flag()? {
             r.f64s(11 * n)?
         } else {
@@ -535,91 +453,49 @@ impl Ahead {
         } else {
             Vec::new()
         };
-        let finite = [t, t0, err_prev]
-            .iter()
-            .chain(&x)
-            .chain(&f)
-            .chain(&step)
-            .chain(&cont)
-            .all(|v| v.is_finite());
-        let consistent =
-            t0 <= t && (step.is_empty() == (t0 == t)) && (cont.is_empty() || !step.is_empty());
-        if !finite || !consistent {
+        let finite = step.iter().chain(&cont).all(|v| v.is_finite());
+        let (t0, t) = (point.t0, point.t);
+        let consistent = (step.is_empty() == (t0 == t)) && (cont.is_empty() || !step.is_empty());
+        if !point.is_sound() || !finite || !consistent {
             return Err("FMU state holds an invalid DOP853 integrator point".into());
         }
-        Ok(Ahead {
-            t,
-            x,
-            f,
-            t0,
-            err_prev,
-            step,
-            cont,
-        })
+        Ok(Ahead { point, step, cont })
     }
 }
 
-/// Dense mode (see [`Ahead`]): steps `ahead` until its last step covers `t_out`, then
-/// writes x(`t_out`) into `out`. Steps are cut only to land on `t_limit`, which the
-/// integrator never passes; `t_out` must lie in [`ahead.t0`, `t_limit`]. `project` is
-/// applied after every accepted step (f is evaluated again where it changed the state).
+/// Dense mode (see [`Ahead`]) for one [`DenseCall`]: steps `ahead` until its last step
+/// covers `t_out`, then writes x(`t_out`) into `out`. Steps are cut only to land on
+/// `t_limit`, which the integrator never passes; `t_out` must lie in [`ahead.t0`,
+/// `t_limit`]. `project` is applied after every accepted step (f is evaluated again where
+/// it changed the state).
 ///
 /// Counts: per accepted step 11 stages and f at its end (the next step's first stage); 11
 /// per rejected step; one more for [`hinit`] if `memory.h == 0`; one per step the
 /// projection changed; 3 for the extension of each step a point falls inside (not on its
 /// end). So the work is bounded by the grid-free `15·steps` and shrinks to landing
 /// mode's `12·steps` for points that are step ends. On failure `ahead` holds the last
-/// accepted step and `memory.h` is reset.
-#[allow(clippy::too_many_arguments)]
-pub fn advance_dense(
-    problem: &mut Problem,
-    project: &mut dyn FnMut(f64, &mut [f64]),
-    ahead: &mut Ahead,
-    t_out: f64,
-    t_limit: f64,
-    settings: &Settings,
-    memory: &mut Memory,
-    out: &mut [f64],
-) -> Result<(), Failure> {
-    let mut work = Scratch::default();
-    let ends = (t_out, t_limit);
-    advance_dense_in(
-        problem, project, ahead, ends, settings, memory, out, &mut work,
-    )
-}
-
-/// [`advance_dense`] to `(t_out, t_limit)` in the scratch of `work`: no allocation once it
-/// has held this size.
-#[allow(clippy::too_many_arguments)]
-pub fn advance_dense_in(
-    problem: &mut Problem,
-    project: &mut dyn FnMut(f64, &mut [f64]),
-    ahead: &mut Ahead,
-    (t_out, t_limit): (f64, f64),
-    settings: &Settings,
-    memory: &mut Memory,
-    out: &mut [f64],
-    work: &mut Scratch,
-) -> Result<(), Failure> {
-    let Ahead {
+/// accepted step and `memory.h` is reset. No allocation once the call's scratch has held
+/// this size.
+pub fn advance_dense_in(ahead: &mut Ahead, c: DenseCall<Scratch>) -> Result<(), Failure> {
+    let (t_out, ends) = (c.t_out, (c.t_out, c.t_limit));
+    let Point {
         t,
         x,
         f,
         t0,
         err_prev,
-        step,
-        cont,
-    } = ahead;
-    let (rhs, point, ends) = (&mut *problem.rhs, (t, &mut x[..], f), (t_out, t_limit));
+    } = &mut ahead.point;
+    let (rhs, point) = (&mut *c.problem.rhs, (t, &mut x[..], f));
+    let (settings, memory, work) = (c.settings, c.memory, c.work);
     let rk = &mut work.rk;
-    let past = step_past::<Dop853>(rhs, project, point, *err_prev, ends, settings, memory, rk)?;
+    let past = step_past::<Dop853>(rhs, c.project, point, *err_prev, ends, settings, memory, rk)?;
     if let Some(last) = past {
         *t0 = last.t0;
-        std::mem::swap(step, &mut rk.record);
+        std::mem::swap(&mut ahead.step, &mut rk.record);
         *err_prev = last.err_prev;
-        cont.clear();
+        ahead.cont.clear();
     }
-    let result = ahead.point_in(problem, t_out, out, &mut memory.stats, work);
+    let result = ahead.point_in(c.problem, t_out, c.out, &mut memory.stats, work);
     if result.is_err() {
         // The step ends past `t_out` but its extension failed: the last good point not
         // past `t_out` is the step's start.
@@ -695,12 +571,7 @@ fn extension(
     let stages: [&[f64]; 12] = [k1, k6, k7, k8, k9, k10, k11, k12, f1, k14, k15, k16];
     let cont = sized(cont, 8 * n);
     for i in 0..n {
-        let ydiff = y[i] - x[i];
-        let bspl = hs * k1[i] - ydiff;
-        cont[i] = x[i];
-        cont[n + i] = ydiff;
-        cont[2 * n + i] = bspl;
-        cont[3 * n + i] = ydiff - hs * f1[i] - bspl;
+        hermite_blocks(cont, (n, i), (x, y), hs, (k1, f1));
         for (j, d) in D.iter().enumerate() {
             let sum = d.iter().zip(&stages).fold(0.0, |s, (dj, k)| s + dj * k[i]);
             cont[(4 + j) * n + i] = hs * sum;
@@ -714,24 +585,34 @@ fn extension(
 /// continuous extension (its argument, k14, k15, k16).
 #[derive(Default)]
 pub struct Scratch {
-    rk: explicit_rk::Scratch,
+    pub(super) rk: explicit_rk::Scratch,
     extension: [Vec<f64>; 4],
 }
 
 #[cfg(test)]
 mod tests {
+    use super::super::test_support::{adaptive, broken_decay, decay, dense_call};
     use super::super::test_support::{oscillator, oscillator_error};
-    use super::super::{Method, Stats};
+    use super::super::{self as integ, advance_with, Memory, Method, Stats};
     use super::*;
 
     fn settings(tol: f64, n: usize, step: f64) -> Settings {
-        Settings {
-            method: Method::Dopri5,
-            rtol: tol,
-            atol: vec![tol; n],
-            step,
-            max_steps: crate::integrators::MAX_STEPS,
-        }
+        adaptive(Method::Dop853, tol, n, step)
+    }
+
+    /// Dense mode up to `t_out` (limit 10 s, no projection) in fresh scratch.
+    fn dense_to(
+        p: &mut Problem,
+        ahead: &mut Ahead,
+        t_out: f64,
+        (s, memory): (&Settings, &mut Memory),
+        out: &mut [f64],
+    ) -> Result<(), Failure> {
+        let work = &mut Scratch::default();
+        advance_dense_in(
+            ahead,
+            dense_call(p, (t_out, 10.0), (s, memory), (out, work)),
+        )
     }
 
     #[test]
@@ -769,19 +650,12 @@ mod tests {
     }
 
     fn decay_run(tol: f64, step: f64, t_end: f64) -> (f64, Stats) {
-        let mut rhs = |_: f64, y: &[f64], d: &mut [f64]| d[0] = -y[0];
+        let mut rhs = decay;
         let mut p = Problem::new(&mut rhs);
         let mut memory = Memory::default();
         let (mut t, mut x) = (0.0, [1.0]);
-        advance(
-            &mut p,
-            &mut t,
-            &mut x,
-            t_end,
-            &settings(tol, 1, step),
-            &mut memory,
-        )
-        .unwrap();
+        let s = settings(tol, 1, step);
+        advance_with(&mut p, &mut t, &mut x, t_end, &s, &mut memory).unwrap();
         assert_eq!(t.to_bits(), t_end.to_bits());
         let s = memory.stats;
         assert_eq!(s.rhs_evals, 1 + 12 * s.steps + 11 * s.rejected);
@@ -808,12 +682,12 @@ mod tests {
             let mut memory = Memory::default();
             let (mut t, mut x) = (0.0, [1.0, 0.0]);
             let s = settings(tol, 2, f64::INFINITY);
-            advance(&mut p, &mut t, &mut x, 10.0, &s, &mut memory).unwrap();
+            advance_with(&mut p, &mut t, &mut x, 10.0, &s, &mut memory).unwrap();
             let e = oscillator_error(10.0, &x);
             let mut m5 = Memory::default();
             let (mut t5, mut x5) = (0.0, [1.0, 0.0]);
-            super::super::dopri5::advance(&mut oscillator, &mut t5, &mut x5, 10.0, &s, &mut m5)
-                .unwrap();
+            let s5 = adaptive(Method::Dopri5, tol, 2, f64::INFINITY);
+            integ::advance(&mut oscillator, &mut t5, &mut x5, 10.0, &s5, &mut m5).unwrap();
             let e5 = oscillator_error(10.0, &x5);
             eprintln!(
                 "tol {tol:e}: DOP853 err {e:e}, {:?}; DOPRI5 err {e5:e}, {:?}",
@@ -827,25 +701,15 @@ mod tests {
     /// One dense step of `x' = −x` from x(0) = 1 capped at `step` (loose tolerance: the
     /// cap binds); the interpolant's error at `θ·step` and the work.
     fn one_dense_step(step: f64, theta: f64) -> (f64, Stats, Ahead) {
-        let mut rhs = |_: f64, y: &[f64], d: &mut [f64]| d[0] = -y[0];
+        let mut rhs = decay;
         let mut p = Problem::new(&mut rhs);
         let mut memory = Memory::default();
         let s = settings(1e3, 1, step);
-        let mut ahead = Ahead::start(&mut p, 0.0, &[1.0], &mut memory.stats).unwrap();
+        let mut ahead = Ahead::new(Point::start(p.rhs, 0.0, &[1.0], &mut memory.stats).unwrap());
         let mut out = [0.0];
         let t = theta * step;
-        advance_dense(
-            &mut p,
-            &mut |_, _| {},
-            &mut ahead,
-            t,
-            10.0,
-            &s,
-            &mut memory,
-            &mut out,
-        )
-        .unwrap();
-        assert_eq!((ahead.t0, ahead.t), (0.0, step));
+        dense_to(&mut p, &mut ahead, t, (&s, &mut memory), &mut out).unwrap();
+        assert_eq!((ahead.point.t0, ahead.point.t), (0.0, step));
         ((out[0] - (-t).exp()).abs(), memory.stats, ahead)
     }
 
@@ -868,16 +732,24 @@ mod tests {
         // Both ends of the step are the step's own values; the extension, built once,
         // costs nothing more.
         let (_, _, mut ahead) = one_dense_step(0.5, 0.5);
-        let mut rhs = |_: f64, y: &[f64], d: &mut [f64]| d[0] = -y[0];
+        let mut rhs = decay;
         let mut p = Problem::new(&mut rhs);
         let mut stats = Stats::default();
         let (mut start, mut end) = ([0.0], [0.0]);
-        ahead.point(&mut p, 0.0, &mut start, &mut stats).unwrap();
+        let work = &mut Scratch::default();
         ahead
-            .point(&mut p, 0.5 - 1e-16, &mut end, &mut stats)
+            .point_in(&mut p, 0.0, &mut start, &mut stats, work)
+            .unwrap();
+        let t_end = 0.5 - 1e-16;
+        ahead
+            .point_in(&mut p, t_end, &mut end, &mut stats, work)
             .unwrap();
         assert_eq!(start, [1.0]);
-        assert!((end[0] - ahead.x[0]).abs() < 1e-15, "{end:?} {:?}", ahead.x);
+        assert!(
+            (end[0] - ahead.point.x[0]).abs() < 1e-15,
+            "{end:?} {:?}",
+            ahead.point.x
+        );
         assert_eq!(stats.rhs_evals, 0);
     }
 
@@ -900,28 +772,19 @@ mod tests {
         let mut p = Problem::new(&mut rhs);
         let mut memory = Memory::default();
         let s = settings(1e-10, 2, f64::INFINITY);
-        let mut ahead = Ahead::start(&mut p, 0.0, &[1.0, 0.0], &mut memory.stats).unwrap();
+        let mut ahead =
+            Ahead::new(Point::start(p.rhs, 0.0, &[1.0, 0.0], &mut memory.stats).unwrap());
         let (mut dense, mut ends) = (0.0f64, 0.0f64);
         let mut out = [0.0; 2];
         // Steps a point fell strictly inside: each built its extension once.
         let mut extended = std::collections::BTreeSet::new();
         for i in 1..=1000 {
             let t = i as f64 / 100.0;
-            advance_dense(
-                &mut p,
-                &mut |_, _| {},
-                &mut ahead,
-                t,
-                10.0,
-                &s,
-                &mut memory,
-                &mut out,
-            )
-            .unwrap();
+            dense_to(&mut p, &mut ahead, t, (&s, &mut memory), &mut out).unwrap();
             dense = dense.max(oscillator_error(t, &out));
-            ends = ends.max(oscillator_error(ahead.t, &ahead.x));
-            if t < ahead.t {
-                extended.insert(ahead.t0.to_bits());
+            ends = ends.max(oscillator_error(ahead.point.t, &ahead.point.x));
+            if t < ahead.point.t {
+                extended.insert(ahead.point.t0.to_bits());
             }
         }
         let st = memory.stats;
@@ -949,21 +812,16 @@ mod tests {
         let mut p = Problem::new(&mut rhs);
         let mut memory = Memory::default();
         let s = settings(1e3, 1, 0.5);
-        let mut ahead = Ahead::start(&mut p, 0.0, &[1.0], &mut memory.stats).unwrap();
+        let mut ahead = Ahead::new(Point::start(p.rhs, 0.0, &[1.0], &mut memory.stats).unwrap());
         let mut out = [0.0];
-        let r = advance_dense(
-            &mut p,
-            &mut |_, _| {},
-            &mut ahead,
-            0.25,
-            10.0,
-            &s,
-            &mut memory,
-            &mut out,
-        );
+        let r = dense_to(&mut p, &mut ahead, 0.25, (&s, &mut memory), &mut out);
         assert_eq!(r, Err(Failure::NonFinite { t: 0.0 }));
         assert_eq!(
-            (ahead.t, ahead.x.as_slice(), ahead.f.as_slice()),
+            (
+                ahead.point.t,
+                ahead.point.x.as_slice(),
+                ahead.point.f.as_slice()
+            ),
             (0.0, &[1.0][..], &[-1.0][..])
         );
         assert!(ahead.step.is_empty() && ahead.cont.is_empty());
@@ -976,21 +834,13 @@ mod tests {
 
     #[test]
     fn dop853_nan_rhs_stops_at_last_good_state() {
-        let mut rhs = |t: f64, y: &[f64], d: &mut [f64]| {
-            d[0] = if t > 0.5 { f64::NAN } else { -y[0] };
-        };
+        let mut rhs = broken_decay;
         let mut p = Problem::new(&mut rhs);
         let mut memory = Memory::default();
         let (mut t, mut x) = (0.0, [1.0]);
-        let r = advance(
-            &mut p,
-            &mut t,
-            &mut x,
-            1.0,
-            &settings(1e-8, 1, 10.0),
-            &mut memory,
-        );
-        assert_eq!(r, Err(Failure::NonFinite { t }));
+        let s = settings(1e-8, 1, 10.0);
+        let r = advance_with(&mut p, &mut t, &mut x, 1.0, &s, &mut memory);
+        assert_eq!(r, Err(Failure::NonFinite { t }.into()));
         assert!(t <= 0.5 && (x[0] - (-t).exp()).abs() < 1e-7, "t = {t}");
         assert_eq!(memory.h, 0.0);
     }

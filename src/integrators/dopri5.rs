@@ -9,7 +9,8 @@
 
 use super::blob::{put_f64s, Reader};
 use super::buffers::sized;
-use super::explicit_rk::{self, eval, land, step_past, Pair, PiGains, Stages};
+use super::explicit_rk::{self, eval, hermite_blocks, step_past, Pair, PiGains, Point, Stages};
+use super::problem::DenseCall;
 use super::{Failure, Memory, Settings, Stats};
 
 // Butcher tableau (Table II.5.2 / dopri5.f). c_i are the nodes, a_ij the stage weights.
@@ -49,35 +50,31 @@ const E5: f64 = -17253.0 / 339200.0;
 const E6: f64 = 22.0 / 525.0;
 const E7: f64 = -1.0 / 40.0;
 
-/// Lund-stabilization exponent of the PI controller: weighs in the previous error so the
-/// step sequence does not oscillate between accept and reject (dopri5.f default 0.04).
-const BETA: f64 = 0.04;
-/// Exponent on the current error: 1/5 for the order-4 estimate, minus 0.75·β so the PI
-/// controller stays stable (dopri5.f: `EXPO1 = 0.2 - BETA*0.75`).
-const EXPO1: f64 = 0.2 - BETA * 0.75;
-/// Aim at 90 % of the step the error model allows, so the next step is usually accepted.
-const SAFETY: f64 = 0.9;
-/// Shrink a step at most 5× at once (dopri5.f FAC1): the error model is unreliable far
-/// from the current step.
-const FAC_MIN: f64 = 0.2;
-/// Grow a step at most 10× at once (dopri5.f FAC2), for the same reason.
-const FAC_MAX: f64 = 10.0;
-/// The controller constants above, for [`PiController`].
-const GAINS: PiGains = PiGains {
-    beta: BETA,
-    expo1: EXPO1,
-    safety: SAFETY,
-    fac_min: FAC_MIN,
-    fac_max: FAC_MAX,
-};
-
-/// DOPRI5 in the loop it shares with DOP853.
+/// DOPRI5 in the loop it shares with DOP853 (landing mode: [`super::advance`]).
+///
+/// Counts: each call evaluates f once for its first stage (fresh, because inputs may have
+/// changed since the last call), once more for [`hinit`] if `memory.h == 0`, and 6 times per
+/// attempted step. On success therefore
+/// `rhs_evals = 1 + [memory.h == 0] + 6·(steps + rejected)` for the call.
 pub(super) struct Dopri5;
 
 impl Pair for Dopri5 {
     const NAME: &'static str = "DOPRI5";
     const ORDER: i32 = 5;
-    const GAINS: PiGains = GAINS;
+    /// Hairer's PI controller with dopri5.f's defaults.
+    const GAINS: PiGains = PiGains {
+        // Lund stabilization: weighs in the previous error so the step sequence does not
+        // oscillate between accept and reject (dopri5.f BETA = 0.04).
+        beta: 0.04,
+        // 1/5 for the order-4 estimate, minus 0.75·β so the PI controller stays stable
+        // (dopri5.f: `EXPO1 = 0.2 - BETA*0.75`).
+        expo1: 0.2 - 0.04 * 0.75,
+        // Shrink a step at most 5× at once (dopri5.f FAC1): the error model is unreliable
+        // far from the current step.
+        fac_min: 0.2,
+        // Grow a step at most 10× at once (dopri5.f FAC2), for the same reason.
+        fac_max: 10.0,
+    };
     const STAGES: &'static [(f64, &'static [(f64, usize)])] = &[
         (C2, &[(A21, 0)]),
         (C3, &[(A31, 0), (A32, 1)]),
@@ -121,36 +118,6 @@ impl Pair for Dopri5 {
     }
 }
 
-/// Advance with DOPRI5 from `*t` to `t_end` (> `*t`, `x` finite; see [`super::advance`]).
-///
-/// Counts: each call evaluates f once for its first stage (fresh, because inputs may have
-/// changed since the last call), once more for [`hinit`] if `memory.h == 0`, and 6 times per
-/// attempted step. On success therefore
-/// `rhs_evals = 1 + [memory.h == 0] + 6·(steps + rejected)` for the call.
-pub fn advance(
-    rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
-    t: &mut f64,
-    x: &mut [f64],
-    t_end: f64,
-    settings: &Settings,
-    memory: &mut Memory,
-) -> Result<(), Failure> {
-    advance_in(rhs, t, x, t_end, settings, memory, &mut Scratch::default())
-}
-
-/// [`advance`] in the scratch of `work`: no allocation once it has held this size.
-pub fn advance_in(
-    rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
-    t: &mut f64,
-    x: &mut [f64],
-    t_end: f64,
-    settings: &Settings,
-    memory: &mut Memory,
-    work: &mut Scratch,
-) -> Result<(), Failure> {
-    land::<Dopri5>(rhs, (t, x), t_end, settings, memory, work)
-}
-
 /// Dense-output mode: integration that runs ahead of the communication points.
 ///
 /// The integrator keeps its own point `(t, x, f(t, x))` at the end of its last accepted
@@ -161,55 +128,31 @@ pub fn advance_in(
 /// f is unchanged (same inputs and parameters): the FMU drops it when an input changes.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Ahead {
-    /// End of the last accepted step: the integrator's own time.
-    pub t: f64,
-    /// State at `t`.
-    pub x: Vec<f64>,
-    /// f(t, x): the first stage of the next step (FSAL).
-    pub f: Vec<f64>,
-    /// Start of the last accepted step (= `t` before the first step).
-    pub t0: f64,
+    /// The end of the last accepted step, its start and the controller's memory.
+    pub point: Point,
     /// Continuous extension of the last step, 5 blocks of n (dopri5.f RCONT).
     pub rcont: Vec<f64>,
-    /// The PI controller's previous error (0 before the first step), carried so the step
-    /// sequence is the same however many calls it is cut into.
-    pub err_prev: f64,
 }
 
 impl Ahead {
-    /// The integrator's point at `(t, x)` before any step; evaluates f once.
-    pub fn start(
-        rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
-        t: f64,
-        x: &[f64],
-        stats: &mut Stats,
-    ) -> Result<Ahead, Failure> {
-        let n = x.len();
-        let mut f = vec![0.0; n];
-        if !x.iter().all(|v| v.is_finite()) || !eval(rhs, t, x, &mut f, stats) {
-            return Err(Failure::NonFinite { t });
-        }
+    /// The integrator at `point` ([`Point::start`]) before any step.
+    pub fn new(point: Point) -> Ahead {
+        let n = point.x.len();
         let mut rcont = vec![0.0; 5 * n];
-        rcont[..n].copy_from_slice(x);
-        Ok(Ahead {
-            t,
-            x: x.to_vec(),
-            f,
-            t0: t,
-            rcont,
-            err_prev: 0.0,
-        })
+        rcont[..n].copy_from_slice(&point.x);
+        Ahead { point, rcont }
     }
 
     /// x(`t`) for `t` in [`t0`, `t`] of the last step: the continuous extension (CONTD5).
     pub fn interpolate(&self, t: f64, out: &mut [f64]) {
-        let n = self.x.len();
-        if t == self.t {
-            out.copy_from_slice(&self.x);
+        let p = &self.point;
+        let n = p.x.len();
+        if t == p.t {
+            out.copy_from_slice(&p.x);
             return;
         }
-        let h = self.t - self.t0;
-        let theta = if h > 0.0 { (t - self.t0) / h } else { 0.0 };
+        let h = p.t - p.t0;
+        let theta = if h > 0.0 { (t - p.t0) / h } else { 0.0 };
         let theta1 = 1.0 - theta;
         let r = |j: usize, i: usize| self.rcont[j * n + i];
         for (i, o) in out.iter_mut().enumerate() {
@@ -220,40 +163,20 @@ impl Ahead {
 }
 
 impl Ahead {
-    /// Its block of the FMU state (see [`super::Memory::write`]).
+    /// Its block of the FMU state (see [`super::Memory::write`]): the point, then the
+    /// continuous extension.
     pub(crate) fn write(&self, b: &mut Vec<u8>) {
-        let fields = [self.t, self.t0, self.err_prev];
-        put_f64s(
-            b,
-            fields
-                .iter()
-                .chain(&self.x)
-                .chain(&self.f)
-                .chain(&self.rcont),
-        );
+        self.point.write(b);
+        put_f64s(b, &self.rcont);
     }
 
     /// Reads what [`Ahead::write`] wrote for `n` states, and checks it.
     pub(crate) fn read(r: &mut Reader, n: usize) -> Result<Ahead, String> {
-        let (t, t0, err_prev) = (r.f64()?, r.f64()?, r.f64()?);
-        let (x, f, rcont) = (r.f64s(n)?, r.f64s(n)?, r.f64s(5 * n)?);
-        let finite = [t, t0, err_prev]
-            .iter()
-            .chain(&x)
-            .chain(&f)
-            .chain(&rcont)
-            .all(|v| v.is_finite());
-        if !finite || t0 > t {
+        let (point, rcont) = (Point::read(r, n)?, r.f64s(5 * n)?);
+        if !point.is_sound() || !rcont.iter().all(|v| v.is_finite()) {
             return Err("FMU state holds an invalid integrator point".into());
         }
-        Ok(Ahead {
-            t,
-            x,
-            f,
-            t0,
-            rcont,
-            err_prev,
-        })
+        Ok(Ahead { point, rcont })
     }
 }
 
@@ -340,10 +263,10 @@ const D5: f64 = 701980252875.0 / 199316789632.0;
 const D6: f64 = -1453857185.0 / 822651844.0;
 const D7: f64 = 69997945.0 / 29380423.0;
 
-/// Dense mode (see [`Ahead`]): steps `ahead` until its last step covers `t_out`, then
-/// writes x(`t_out`) into `out`. Steps are cut only to land on `t_limit` (the experiment's
-/// stop time, or +∞), which the integrator never passes. `t_out` must lie in
-/// [`ahead.t0`, `t_limit`].
+/// Dense mode (see [`Ahead`]) for one [`DenseCall`]: steps `ahead` until its last step
+/// covers `t_out`, then writes x(`t_out`) into `out`. Steps are cut only to land on
+/// `t_limit` (the experiment's stop time, or +∞), which the integrator never passes. `t_out`
+/// must lie in [`ahead.t0`, `t_limit`].
 ///
 /// `project` maps a state back onto the system's constraints (or leaves it alone); it is
 /// applied after every accepted step, so the steps do not depend on the communication
@@ -352,56 +275,32 @@ const D7: f64 = 69997945.0 / 29380423.0;
 /// Counts: 6 evaluations of f per attempted step, one more for [`hinit`] if
 /// `memory.h == 0`, one per step the projection changed, none for a `t_out` already
 /// covered. On failure `ahead` holds the last accepted step and `memory.h` is reset.
-#[allow(clippy::too_many_arguments)]
-pub fn advance_dense(
-    rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
-    project: &mut dyn FnMut(f64, &mut [f64]),
-    ahead: &mut Ahead,
-    t_out: f64,
-    t_limit: f64,
-    settings: &Settings,
-    memory: &mut Memory,
-    out: &mut [f64],
-) -> Result<(), Failure> {
-    let mut work = Scratch::default();
-    let ends = (t_out, t_limit);
-    advance_dense_in(rhs, project, ahead, ends, settings, memory, out, &mut work)
-}
-
-/// [`advance_dense`] to `(t_out, t_limit)` in the scratch of `work`: no allocation once it
-/// has held this size.
-#[allow(clippy::too_many_arguments)]
-pub fn advance_dense_in(
-    rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
-    project: &mut dyn FnMut(f64, &mut [f64]),
-    ahead: &mut Ahead,
-    (t_out, t_limit): (f64, f64),
-    settings: &Settings,
-    memory: &mut Memory,
-    out: &mut [f64],
-    work: &mut Scratch,
-) -> Result<(), Failure> {
+/// No allocation once the call's scratch has held this size.
+pub fn advance_dense_in(ahead: &mut Ahead, c: DenseCall<Scratch>) -> Result<(), Failure> {
+    let (t_out, t_limit) = (c.t_out, c.t_limit);
     assert!(
-        t_out >= ahead.t0 && t_out <= t_limit,
+        t_out >= ahead.point.t0 && t_out <= t_limit,
         "dopri5::advance_dense: t_out = {t_out} outside [{}, {t_limit}]",
-        ahead.t0
+        ahead.point.t0
     );
-    let Ahead {
+    let Point {
         t,
         x,
         f,
         t0,
-        rcont,
         err_prev,
-    } = ahead;
-    let (point, ends) = ((t, &mut x[..], f), (t_out, t_limit));
-    let past = step_past::<Dopri5>(rhs, project, point, *err_prev, ends, settings, memory, work)?;
+    } = &mut ahead.point;
+    let (rhs, point, ends) = (&mut *c.problem.rhs, (t, &mut x[..], f), (t_out, t_limit));
+    let (settings, memory, work) = (c.settings, c.memory, c.work);
+    let past = step_past::<Dopri5>(
+        rhs, c.project, point, *err_prev, ends, settings, memory, work,
+    )?;
     if let Some(last) = past {
         *t0 = last.t0;
         *err_prev = last.err_prev;
-        std::mem::swap(rcont, &mut work.record);
+        std::mem::swap(&mut ahead.rcont, &mut work.record);
     }
-    ahead.interpolate(t_out, out);
+    ahead.interpolate(t_out, c.out);
     Ok(())
 }
 
@@ -526,12 +425,7 @@ fn continuous_extension(x: &[f64], y: &[f64], h: f64, k: [&[f64]; 6], r: &mut [f
     let n = x.len();
     let [k1, k3, k4, k5, k6, k7] = k;
     for i in 0..n {
-        let ydiff = y[i] - x[i];
-        let bspl = h * k1[i] - ydiff;
-        r[i] = x[i];
-        r[n + i] = ydiff;
-        r[2 * n + i] = bspl;
-        r[3 * n + i] = ydiff - h * k7[i] - bspl;
+        hermite_blocks(r, (n, i), (x, y), h, (k1, k7));
         r[4 * n + i] =
             h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7[i]);
     }
@@ -539,21 +433,33 @@ fn continuous_extension(x: &[f64], y: &[f64], h: f64, k: [&[f64]; 6], r: &mut [f
 
 #[cfg(test)]
 mod tests {
-    use super::super::test_support::{oscillator, oscillator_error};
+    use super::super::problem::Problem;
+    use super::super::test_support::{
+        adaptive, broken_decay, decay, dense_call, one, oscillator, oscillator_error, square,
+    };
     use super::super::{self as integ, Method, MAX_STEPS};
     use super::*;
 
     fn settings(tol: f64, n: usize, step: f64) -> Settings {
-        Settings {
-            method: Method::Dopri5,
-            rtol: tol,
-            atol: vec![tol; n],
-            step,
-            max_steps: MAX_STEPS,
-        }
+        adaptive(Method::Dopri5, tol, n, step)
     }
 
-    /// Evaluations one successful call must have made, per the formula in [`advance`].
+    /// Dense mode on the oscillator up to `t_out` (no projection) in fresh scratch.
+    fn dense_to(
+        ahead: &mut Ahead,
+        ends: (f64, f64),
+        (s, memory): (&Settings, &mut Memory),
+        out: &mut [f64],
+    ) -> Result<(), Failure> {
+        let mut rhs = oscillator;
+        let p = &mut Problem::new(&mut rhs);
+        advance_dense_in(
+            ahead,
+            dense_call(p, ends, (s, memory), (out, &mut Scratch::default())),
+        )
+    }
+
+    /// Evaluations one successful call must have made, per the formula in [`advance_in`].
     fn expected_evals(calls: u64, hinits: u64, s: Stats) -> u64 {
         calls + hinits + 6 * (s.steps + s.rejected)
     }
@@ -790,14 +696,7 @@ mod tests {
             let s = settings(tol, 1, 10.0);
             let mut memory = Memory::default();
             let (mut t, mut x) = (0.0, [1.0]);
-            let r = integ::advance(
-                &mut |_, y, d| d[0] = y[0] * y[0],
-                &mut t,
-                &mut x,
-                2.0,
-                &s,
-                &mut memory,
-            );
+            let r = integ::advance(&mut square, &mut t, &mut x, 2.0, &s, &mut memory);
             match r {
                 Err(Failure::StepTooSmall { t: tf, .. }) | Err(Failure::NonFinite { t: tf }) => {
                     assert_eq!(tf, t)
@@ -823,14 +722,7 @@ mod tests {
         assert_eq!(s.max_steps, MAX_STEPS);
         let mut memory = Memory::default();
         let (mut t, mut x) = (0.0, [0.0]);
-        let r = integ::advance(
-            &mut |_, _, d| d[0] = 1.0,
-            &mut t,
-            &mut x,
-            1.0,
-            &s,
-            &mut memory,
-        );
+        let r = integ::advance(&mut one, &mut t, &mut x, 1.0, &s, &mut memory);
         assert_eq!(
             r,
             Err(Failure::TooManySteps {
@@ -847,14 +739,7 @@ mod tests {
             ..s
         };
         let (mut t, mut x) = (0.0, [0.0]);
-        let r = integ::advance(
-            &mut |_, _, d| d[0] = 1.0,
-            &mut t,
-            &mut x,
-            1.0,
-            &s,
-            &mut memory,
-        );
+        let r = integ::advance(&mut one, &mut t, &mut x, 1.0, &s, &mut memory);
         assert_eq!(r, Err(Failure::TooManySteps { t, steps: 1000 }));
         assert!((t - 1e-4).abs() < 1e-9, "t = {t}");
     }
@@ -864,14 +749,7 @@ mod tests {
         let s = settings(1e-8, 1, 10.0);
         let mut memory = Memory::default();
         let (mut t, mut x) = (0.0, [1.0]);
-        let r = integ::advance(
-            &mut |t, y, d| d[0] = if t > 0.5 { f64::NAN } else { -y[0] },
-            &mut t,
-            &mut x,
-            1.0,
-            &s,
-            &mut memory,
-        );
+        let r = integ::advance(&mut broken_decay, &mut t, &mut x, 1.0, &s, &mut memory);
         assert_eq!(r, Err(Failure::NonFinite { t }));
         assert!(t <= 0.5 && t > 0.3, "t = {t}");
         assert!((x[0] - (-t).exp()).abs() < 1e-7);
@@ -887,15 +765,7 @@ mod tests {
             let s = settings(tol, 1, 10.0);
             let mut memory = Memory::default();
             let (mut t, mut x) = (0.0, [1.0]);
-            integ::advance(
-                &mut |_, y, d| d[0] = -y[0],
-                &mut t,
-                &mut x,
-                1.0,
-                &s,
-                &mut memory,
-            )
-            .unwrap();
+            integ::advance(&mut decay, &mut t, &mut x, 1.0, &s, &mut memory).unwrap();
             let err = (x[0] - (-1f64).exp()).abs();
             // Measured err/tol: 0.012, 0.031, 0.063, 0.094, 0.107, 0.131, 0.135, 0.143
             // with 4, 5, 6, 9, 12, 18, 26, 40 steps for tol = 1e-4 … 1e-11.
@@ -920,15 +790,7 @@ mod tests {
             let s = settings(1e3, 1, h);
             let mut memory = Memory::default();
             let (mut t, mut x) = (0.0, [1.0]);
-            integ::advance(
-                &mut |_, y, d| d[0] = -y[0],
-                &mut t,
-                &mut x,
-                2.0,
-                &s,
-                &mut memory,
-            )
-            .unwrap();
+            integ::advance(&mut decay, &mut t, &mut x, 2.0, &s, &mut memory).unwrap();
             assert_eq!(memory.stats.steps as f64, (2.0 / h).round());
             (x[0] - (-2f64).exp()).abs()
         };
@@ -944,22 +806,13 @@ mod tests {
     fn dense_run(tol: f64, dt: f64) -> (f64, Stats, Ahead) {
         let mut memory = Memory::default();
         let s = settings(tol, 2, f64::INFINITY);
-        let mut ahead = Ahead::start(&mut oscillator, 0.0, &[1.0, 0.0], &mut memory.stats).unwrap();
+        let mut ahead =
+            Ahead::new(Point::start(&mut oscillator, 0.0, &[1.0, 0.0], &mut memory.stats).unwrap());
         let (mut worst, mut out) = (0.0f64, [0.0; 2]);
         let steps = (10.0 / dt).round() as usize;
         for i in 1..=steps {
             let t_out = i as f64 * dt;
-            advance_dense(
-                &mut oscillator,
-                &mut |_, _| {},
-                &mut ahead,
-                t_out,
-                10.0,
-                &s,
-                &mut memory,
-                &mut out,
-            )
-            .unwrap();
+            dense_to(&mut ahead, (t_out, 10.0), (&s, &mut memory), &mut out).unwrap();
             worst = worst.max(oscillator_error(t_out, &out));
         }
         (worst, memory.stats, ahead)
@@ -973,7 +826,7 @@ mod tests {
         let (e_fine, s_fine, a_fine) = dense_run(1e-8, 1e-4);
         assert_eq!(s_coarse, s_fine);
         assert_eq!(a_coarse, a_fine);
-        assert_eq!(a_fine.t, 10.0, "lands on the limit");
+        assert_eq!(a_fine.point.t, 10.0, "lands on the limit");
         // 1 start + 1 hinit + 6 per attempt.
         assert_eq!(s_fine.rhs_evals, 2 + 6 * (s_fine.steps + s_fine.rejected));
         // Interpolated values are as accurate as the steps: order-4 extension of an
@@ -994,27 +847,18 @@ mod tests {
         let mut memory = Memory::default();
         let s = settings(1e-6, 2, f64::INFINITY);
         let x0 = [1.0, 0.0];
-        let mut ahead = Ahead::start(&mut oscillator, 0.0, &x0, &mut memory.stats).unwrap();
+        let mut ahead =
+            Ahead::new(Point::start(&mut oscillator, 0.0, &x0, &mut memory.stats).unwrap());
         let mut out = [0.0; 2];
-        advance_dense(
-            &mut oscillator,
-            &mut |_, _| {},
-            &mut ahead,
-            1e-9,
-            1.0,
-            &s,
-            &mut memory,
-            &mut out,
-        )
-        .unwrap();
+        dense_to(&mut ahead, (1e-9, 1.0), (&s, &mut memory), &mut out).unwrap();
         assert_eq!(memory.stats.steps, 1);
         let mut at = [0.0; 2];
-        ahead.interpolate(ahead.t0, &mut at);
+        ahead.interpolate(ahead.point.t0, &mut at);
         assert_eq!(at, x0);
         // θ = 1 reproduces the step's end value up to rounding of the polynomial.
-        let h = ahead.t - ahead.t0;
-        ahead.interpolate(ahead.t0 + h * (1.0 - 1e-16), &mut at);
-        for (a, x) in at.iter().zip(&ahead.x) {
+        let h = ahead.point.t - ahead.point.t0;
+        ahead.interpolate(ahead.point.t0 + h * (1.0 - 1e-16), &mut at);
+        for (a, x) in at.iter().zip(&ahead.point.x) {
             assert!((a - x).abs() <= 1e-14 * (1.0 + x.abs()));
         }
     }

@@ -11,7 +11,7 @@
 
 use super::buffers::zeroed;
 use super::expm::Expm;
-use super::problem::{fixed_steps, Problem};
+use super::problem::{fixed_steps, FixedCall, Problem};
 use super::{Failure, Stats};
 use nalgebra::{DMatrix, DMatrixView, DMatrixViewMut, DVector};
 
@@ -30,38 +30,12 @@ pub fn propagator(a: &DMatrix<f64>, b: &DVector<f64>, h: f64) -> (DMatrix<f64>, 
     )
 }
 
-/// Advance `ẋ = A x + b` exactly from `*t` to `t_end` in steps of `h` (the last one shortened;
-/// `h` not positive and finite: one step), `x ← Φ x + γ` with `(Φ, γ) = propagator(A, b, h)`.
-///
-/// `A` is `problem.jacobian` at the start `(t, x)` and `b = f(t, x) − A x` (one evaluation
-/// of f, counted): the caller promises that f is affine and time invariant. For any other f
-/// this is the exponential integrator of the linearization at the start, not exact.
-/// One exponential for the full steps and one more for a shortened last step; the step size
-/// only affects rounding (more steps, more rounding), never truncation.
-pub fn advance(
-    problem: &mut Problem,
-    t: &mut f64,
-    x: &mut [f64],
-    t_end: f64,
-    h: f64,
-    stats: &mut Stats,
-) -> Result<(), Failure> {
-    advance_in(
-        problem,
-        t,
-        x,
-        t_end,
-        h,
-        stats,
-        (&mut Vec::new(), &mut Scratch::default()),
-    )
-}
-
-/// ExactLinear's part of a [`Workspace`]: the Jacobian (row-major, then A column-major),
-/// f and A·x at the start, b, and the exponential of the augmented matrix for the step
-/// `h` it was last computed for in this call.
+/// ExactLinear's part of a [`Workspace`](super::Workspace): the new state, the Jacobian
+/// (row-major, then A column-major), f and A·x at the start, b, and the exponential of the
+/// augmented matrix for the step `h` it was last computed for in this call.
 #[derive(Default)]
 pub struct Scratch {
+    y: Vec<f64>,
     jac: Vec<f64>,
     a: Vec<f64>,
     f0: Vec<f64>,
@@ -72,25 +46,31 @@ pub struct Scratch {
     expm: Expm,
 }
 
-/// [`advance`] in the scratch of `work`: no allocation once it has held this size (the
-/// exponential is nalgebra's, step for step, in kept buffers).
-pub fn advance_in(
-    problem: &mut Problem,
-    t: &mut f64,
-    x: &mut [f64],
-    t_end: f64,
-    h: f64,
-    stats: &mut Stats,
-    work: (&mut Vec<f64>, &mut Scratch),
-) -> Result<(), Failure> {
-    let n = x.len();
-    let (y, w) = work;
-    if t_end == *t || !x.iter().all(|v| v.is_finite()) {
+/// Advance `ẋ = A x + b` exactly from `*t` to `t_end` in steps of `h` (the last one shortened;
+/// `h` not positive and finite: one step), `x ← Φ x + γ` with `(Φ, γ) = propagator(A, b, h)`.
+///
+/// `A` is `problem.jacobian` at the start `(t, x)` and `b = f(t, x) − A x` (one evaluation
+/// of f, counted): the caller promises that f is affine and time invariant. For any other f
+/// this is the exponential integrator of the linearization at the start, not exact.
+/// One exponential for the full steps and one more for a shortened last step; the step size
+/// only affects rounding (more steps, more rounding), never truncation.
+///
+/// In the scratch of `w`: no allocation once it has held this size (the exponential is
+/// nalgebra's, step for step, in kept buffers).
+pub fn advance_in(problem: &mut Problem, call: FixedCall, w: &mut Scratch) -> Result<(), Failure> {
+    if call.t_end == *call.t || !call.x.iter().all(|v| v.is_finite()) {
         // Let the common loop report the no-op or the non-finite start, before any work.
-        return fixed_steps("exact linear", t, x, t_end, h, stats, y, |_, _, _, _, _| {
-            Ok::<(), Failure>(())
-        });
+        let nothing = |_: &mut Stats, _, _, _: &[f64], _: &mut [f64]| Ok::<(), Failure>(());
+        return fixed_steps("exact linear", call, &mut w.y, nothing);
     }
+    let FixedCall {
+        t,
+        x,
+        t_end,
+        h,
+        stats,
+    } = call;
+    let n = x.len();
     let jac = zeroed(&mut w.jac, n * n);
     problem.eval_jacobian("exact linear propagator", (*t, x), jac, stats);
     // A, column-major as nalgebra's `DMatrix::from_row_slice(n, n, jac)`.
@@ -122,12 +102,14 @@ pub fn advance_in(
     let mut cached: Option<f64> = None;
     fixed_steps(
         "exact linear",
-        t,
-        x,
-        t_end,
-        h,
-        stats,
-        y,
+        FixedCall {
+            t,
+            x,
+            t_end,
+            h,
+            stats,
+        },
+        &mut w.y,
         |_, ta, tb, x, y| {
             let hs = tb - ta;
             if cached.is_none_or(|hc| hc.to_bits() != hs.to_bits()) {
@@ -205,7 +187,8 @@ fn input_polynomial(
 #[cfg(test)]
 mod tests {
     use super::super::problem::test_support::oscillator_jacobian;
-    use super::super::test_support::{oscillator, oscillator_exact, OMEGA};
+    use super::super::test_support::{fixed, oscillator, oscillator_exact, OMEGA};
+    use super::super::Method;
     use super::*;
 
     #[test]
@@ -249,7 +232,8 @@ mod tests {
             p.jacobian = Some(&mut jac);
             let (mut t, mut x) = (0.0, [1.0, 0.0]);
             let mut stats = Stats::default();
-            advance(&mut p, &mut t, &mut x, 10.0, h, &mut stats).unwrap();
+            let exact = Method::ExactLinear;
+            fixed(exact, &mut p, (&mut t, &mut x), (10.0, h), &mut stats).unwrap();
             assert_eq!(t, 10.0);
             let e = oscillator_exact(10.0);
             let err = (x[0] - e[0]).abs().max((x[1] - e[1]).abs() / OMEGA);

@@ -3,6 +3,7 @@
 //! Nørsett, G. Wanner, *Solving Ordinary Differential Equations I*, II.4 p. 169; HINIT of
 //! dopri5.f / dop853.f), the PI controller, and the landing and step-floor rules.
 
+use super::blob::{put_f64s, Reader};
 use super::buffers::sized;
 use super::{Failure, Memory, Settings, Stats};
 
@@ -52,15 +53,6 @@ impl Goal {
             Goal::Land(_) => landing,
             Goal::Pass { t_out, .. } => t_new >= t_out,
         }
-    }
-}
-
-/// The largest step `settings.step` allows: itself if positive and finite, else none (∞).
-pub(super) fn max_step(settings: &Settings) -> f64 {
-    if settings.step > 0.0 && settings.step.is_finite() {
-        settings.step
-    } else {
-        f64::INFINITY
     }
 }
 
@@ -167,14 +159,16 @@ pub(super) fn check_attempt(
     Ok(())
 }
 
+/// Both codes aim at 90 % of the step the error model allows, so that the next step is
+/// usually accepted (dopri5.f and dop853.f SAFE).
+const SAFETY: f64 = 0.9;
+
 /// The constants of Hairer's PI controller for one method (dopri5.f / dop853.f defaults).
 pub(super) struct PiGains {
     /// Lund-stabilisation exponent on the previous error.
     pub beta: f64,
     /// Exponent on the current error.
     pub expo1: f64,
-    /// Fraction of the step the error model allows that is aimed at.
-    pub safety: f64,
     /// Smallest factor a step may shrink by at once.
     pub fac_min: f64,
     /// Largest factor a step may grow by at once.
@@ -217,7 +211,7 @@ impl PiController {
     pub(super) fn accepted(&mut self, err: f64, hs: f64, h_max: f64) -> f64 {
         let g = &self.gains;
         let fac = err.powf(g.expo1) / self.err_prev.powf(g.beta);
-        let mut h_new = hs / (fac / g.safety).clamp(1.0 / g.fac_max, 1.0 / g.fac_min);
+        let mut h_new = hs / (fac / SAFETY).clamp(1.0 / g.fac_max, 1.0 / g.fac_min);
         h_new = h_new.min(h_max);
         if self.after_reject {
             h_new = h_new.min(hs);
@@ -232,7 +226,7 @@ impl PiController {
     pub(super) fn rejected(&mut self, err: f64, hs: f64) -> f64 {
         self.after_reject = true;
         let g = &self.gains;
-        hs / (err.powf(g.expo1) / g.safety).min(1.0 / g.fac_min)
+        hs / (err.powf(g.expo1) / SAFETY).min(1.0 / g.fac_min)
     }
 }
 
@@ -362,6 +356,98 @@ fn stage_row(out: &mut [f64], x: &[f64], h: f64, row: &[(f64, usize)], k: &[&[f6
     }
 }
 
+/// Component `i` of the four blocks (of `n` each) that both codes' continuous extensions
+/// begin with (dopri5.f RCONT, dop853.f CONT), for the step x → y of size `h` with k1 = f(x)
+/// and f1 = f(y): x, y − x, h·k1 − (y − x), and (y − x) − h·f1 − (h·k1 − (y − x)).
+#[inline]
+pub(super) fn hermite_blocks(
+    cont: &mut [f64],
+    (n, i): (usize, usize),
+    (x, y): (&[f64], &[f64]),
+    h: f64,
+    (k1, f1): (&[f64], &[f64]),
+) {
+    let ydiff = y[i] - x[i];
+    let bspl = h * k1[i] - ydiff;
+    cont[i] = x[i];
+    cont[n + i] = ydiff;
+    cont[2 * n + i] = bspl;
+    cont[3 * n + i] = ydiff - h * f1[i] - bspl;
+}
+
+/// The point ahead of a pair in dense mode, DOPRI5's and DOP853's alike: the end of its
+/// last accepted step, where that step started, and the controller's error memory (each
+/// method's [`Ahead`](super::dopri5::Ahead) adds what its continuous extension is built from).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Point {
+    /// End of the last accepted step: the integrator's own time.
+    pub t: f64,
+    /// State at `t`.
+    pub x: Vec<f64>,
+    /// f(t, x): the first stage of the next step (FSAL).
+    pub f: Vec<f64>,
+    /// Start of the last accepted step (= `t` before the first step).
+    pub t0: f64,
+    /// The PI controller's previous error (0 before the first step), carried so the step
+    /// sequence is the same however many calls it is cut into.
+    pub err_prev: f64,
+}
+
+impl Point {
+    /// The point at `(t, x)` before any step; evaluates f once.
+    pub fn start(
+        rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
+        t: f64,
+        x: &[f64],
+        stats: &mut Stats,
+    ) -> Result<Point, Failure> {
+        let mut f = vec![0.0; x.len()];
+        if !x.iter().all(|v| v.is_finite()) || !eval(rhs, t, x, &mut f, stats) {
+            return Err(Failure::NonFinite { t });
+        }
+        let (x, t0, err_prev) = (x.to_vec(), t, 0.0);
+        Ok(Point {
+            t,
+            x,
+            f,
+            t0,
+            err_prev,
+        })
+    }
+
+    /// Whether `t` lies in its last step.
+    pub fn covers(&self, t: f64) -> bool {
+        self.t0 <= t && t <= self.t
+    }
+
+    /// Its part of the FMU state: the times and the error memory, then x and f.
+    pub(super) fn write(&self, b: &mut Vec<u8>) {
+        let fields = [self.t, self.t0, self.err_prev];
+        put_f64s(b, fields.iter().chain(&self.x).chain(&self.f));
+    }
+
+    /// Reads what [`Point::write`] wrote for `n` states; the method checks it
+    /// ([`Point::is_sound`]) with what it read after it.
+    pub(super) fn read(r: &mut Reader, n: usize) -> Result<Point, String> {
+        let (t, t0, err_prev) = (r.f64()?, r.f64()?, r.f64()?);
+        let (x, f) = (r.f64s(n)?, r.f64s(n)?);
+        Ok(Point {
+            t,
+            x,
+            f,
+            t0,
+            err_prev,
+        })
+    }
+
+    /// Everything finite, and the last step not ending before it started.
+    pub(super) fn is_sound(&self) -> bool {
+        let fields = [self.t, self.t0, self.err_prev];
+        let finite = fields.iter().chain(&self.x).chain(&self.f);
+        finite.into_iter().all(|v| v.is_finite()) && self.t0 <= self.t
+    }
+}
+
 /// The scratch of a pair: f at the start of a landing call, the stages, and the record of
 /// the last step of a dense call (swapped into the method's point ahead).
 #[derive(Default)]
@@ -456,7 +542,7 @@ fn run<P: Pair>(
         "{} needs one absolute tolerance per state",
         P::NAME
     );
-    let h_max = max_step(settings);
+    let h_max = settings.max_step();
     let stats = &mut memory.stats;
     w.size(P::STAGES.len(), n);
     let carried = memory.h > 0.0 && memory.h.is_finite();

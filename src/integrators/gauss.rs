@@ -18,8 +18,9 @@
 //! equals `x₀ + h Σ bᵢ f(Yᵢ)` at convergence without the s extra evaluations.
 
 use super::buffers::{copied, sized};
-use super::problem::{fixed_steps, ImplicitFailure, Problem, NEWTON_MAX_ITER, NEWTON_TOL};
-use super::{Failure, Stats};
+use super::problem::{fixed_steps, FixedCall, ImplicitFailure, Problem};
+use super::problem::{NewtonWatch, Verdict, NEWTON_MAX_ITER, NEWTON_TOL};
+use super::{Failure, Method};
 
 /// √3 and √15 to the last bit (`f64::sqrt` is not `const`).
 const SQRT3: f64 = 1.732_050_807_568_877_2;
@@ -71,95 +72,6 @@ const GAUSS6: Tableau = Tableau {
 /// residual cannot be computed more accurately, so the iterate is accepted. Above it, an
 /// increment that does not shrink means divergence.
 pub const NEWTON_STALL: f64 = 1e-12;
-
-/// Implicit midpoint rule `x₁ = x₀ + h f(t₀ + h/2, (x₀ + x₁)/2)`, fixed step `h` (last step
-/// shortened; not positive and finite: one step). Needs `problem.jacobian`.
-/// f evaluations: one per Newton iteration.
-pub fn implicit_midpoint(
-    problem: &mut Problem,
-    t: &mut f64,
-    x: &mut [f64],
-    t_end: f64,
-    h: f64,
-    stats: &mut Stats,
-) -> Result<(), ImplicitFailure> {
-    collocation(
-        &MIDPOINT,
-        problem,
-        t,
-        x,
-        t_end,
-        h,
-        stats,
-        (&mut Scratch::default(), &mut Vec::new()),
-    )
-}
-
-/// Gauss–Legendre, 2 stages, order 4, fixed step `h`. Needs `problem.jacobian`.
-/// f evaluations: two per Newton iteration.
-pub fn gauss4(
-    problem: &mut Problem,
-    t: &mut f64,
-    x: &mut [f64],
-    t_end: f64,
-    h: f64,
-    stats: &mut Stats,
-) -> Result<(), ImplicitFailure> {
-    collocation(
-        &GAUSS4,
-        problem,
-        t,
-        x,
-        t_end,
-        h,
-        stats,
-        (&mut Scratch::default(), &mut Vec::new()),
-    )
-}
-
-/// Gauss–Legendre, 3 stages, order 6, fixed step `h`. Needs `problem.jacobian`.
-/// f evaluations: three per Newton iteration.
-pub fn gauss6(
-    problem: &mut Problem,
-    t: &mut f64,
-    x: &mut [f64],
-    t_end: f64,
-    h: f64,
-    stats: &mut Stats,
-) -> Result<(), ImplicitFailure> {
-    collocation(
-        &GAUSS6,
-        problem,
-        t,
-        x,
-        t_end,
-        h,
-        stats,
-        (&mut Scratch::default(), &mut Vec::new()),
-    )
-}
-
-/// [`implicit_midpoint`], [`gauss4`] or [`gauss6`] (by `method`) in the scratch of `work`:
-/// no allocation once it has held this size.
-#[allow(clippy::too_many_arguments)]
-pub fn collocation_in(
-    method: super::Method,
-    problem: &mut Problem,
-    t: &mut f64,
-    x: &mut [f64],
-    t_end: f64,
-    h: f64,
-    stats: &mut Stats,
-    work: (&mut Scratch, &mut Vec<f64>),
-) -> Result<(), ImplicitFailure> {
-    let tab = match method {
-        super::Method::ImplicitMidpoint => &MIDPOINT,
-        super::Method::Gauss4 => &GAUSS4,
-        super::Method::Gauss6 => &GAUSS6,
-        other => panic!("{} is not a Gauss collocation method", other.name()),
-    };
-    collocation(tab, problem, t, x, t_end, h, stats, work)
-}
 
 /// LU factorization with partial pivoting of a row-major m×m matrix (Doolittle, rows swapped
 /// as in LAPACK's getrf). Hand-written rather than nalgebra's because these systems are tiny
@@ -248,9 +160,11 @@ struct NewtonMatrix {
     regular: bool,
 }
 
-/// Gauss's part of a [`Workspace`].
+/// Gauss's part of a [`Workspace`](super::Workspace).
 #[derive(Default)]
 pub struct Scratch {
+    /// The new state.
+    y: Vec<f64>,
     /// The weights `d` and the LU that solves for them.
     d: Vec<f64>,
     d_lu: Lu,
@@ -262,20 +176,24 @@ pub struct Scratch {
     r: Vec<f64>,
 }
 
-#[allow(clippy::too_many_arguments)]
-fn collocation(
-    tab: &Tableau,
+/// The implicit midpoint rule `x₁ = x₀ + h f(t₀ + h/2, (x₀ + x₁)/2)` (one f evaluation per
+/// Newton iteration), Gauss4 (2 stages, order 4: two) or Gauss6 (3 stages, order 6: three),
+/// by `method`, for one [`FixedCall`], in the scratch of `w`: no allocation once it has held
+/// this size. Needs `problem.jacobian`.
+pub fn collocation_in(
+    method: Method,
     problem: &mut Problem,
-    t: &mut f64,
-    x: &mut [f64],
-    t_end: f64,
-    h: f64,
-    stats: &mut Stats,
-    work: (&mut Scratch, &mut Vec<f64>),
+    call: FixedCall,
+    w: &mut Scratch,
 ) -> Result<(), ImplicitFailure> {
-    let n = x.len();
+    let tab = match method {
+        Method::ImplicitMidpoint => &MIDPOINT,
+        Method::Gauss4 => &GAUSS4,
+        Method::Gauss6 => &GAUSS6,
+        other => panic!("{} is not a Gauss collocation method", other.name()),
+    };
+    let n = call.x.len();
     let s = tab.b.len();
-    let (w, y) = work;
     // dᵀ = bᵀ A⁻¹: solve Aᵀ d = b (s ≤ 3; A is invertible for Gauss methods).
     w.d_lu.a.clear();
     w.d_lu
@@ -291,7 +209,7 @@ fn collocation(
     let fz = sized(&mut w.fz, s * n);
     let ys = sized(&mut w.ys, n);
     let r = sized(&mut w.r, s * n);
-    fixed_steps(tab.name, t, x, t_end, h, stats, y, |stats, ta, tb, x, y| {
+    fixed_steps(tab.name, call, &mut w.y, |stats, ta, tb, x, y| {
         let hs = tb - ta;
         problem.eval_jacobian(tab.name, (ta, x), jac, stats);
         if newton.key != Some(tab.name) || newton.h.to_bits() != hs.to_bits() || newton.jac != *jac
@@ -324,7 +242,7 @@ fn collocation(
         let lu = &newton.lu;
         let x_norm = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         z.fill(0.0);
-        let mut previous = f64::INFINITY;
+        let mut watch = NewtonWatch::new();
         let mut converged = false;
         for iteration in 1..=NEWTON_MAX_ITER {
             for j in 0..s {
@@ -356,22 +274,20 @@ fn collocation(
                 return Err(Failure::NonFinite { t: ta }.into());
             }
             let scale = x_norm.max(z_norm);
-            if step <= NEWTON_TOL * scale {
-                converged = true;
-                break;
-            }
-            if step >= previous {
-                if step <= NEWTON_STALL * scale {
+            match watch.judge(step, (NEWTON_TOL * scale, NEWTON_STALL * scale)) {
+                Verdict::Converged => {
                     converged = true;
                     break;
                 }
-                return Err(ImplicitFailure::NewtonFailed {
-                    t: ta,
-                    h: hs,
-                    iterations: iteration,
-                });
+                Verdict::Diverged => {
+                    return Err(ImplicitFailure::NewtonFailed {
+                        t: ta,
+                        h: hs,
+                        iterations: iteration,
+                    })
+                }
+                Verdict::Iterate => {}
             }
-            previous = step;
         }
         if !converged {
             return Err(ImplicitFailure::NewtonFailed {
@@ -394,11 +310,9 @@ fn collocation(
 #[cfg(test)]
 mod tests {
     use super::super::problem::test_support::oscillator_jacobian;
-    use super::super::test_support::{oscillator, oscillator_error};
+    use super::super::test_support::{fixed, oscillator, oscillator_error};
+    use super::super::Stats;
     use super::*;
-
-    type Fixed =
-        fn(&mut Problem, &mut f64, &mut [f64], f64, f64, &mut Stats) -> Result<(), ImplicitFailure>;
 
     #[test]
     fn lu_solves_with_pivoting() {
@@ -432,14 +346,14 @@ mod tests {
         }
     }
 
-    fn oscillator_run(method: Fixed, h: f64, t_end: f64) -> (f64, Stats) {
+    fn oscillator_run(method: Method, h: f64, t_end: f64) -> (f64, Stats) {
         let mut rhs = oscillator;
         let mut jac = oscillator_jacobian;
         let mut p = Problem::new(&mut rhs);
         p.jacobian = Some(&mut jac);
         let (mut t, mut x) = (0.0, [1.0, 0.0]);
         let mut stats = Stats::default();
-        method(&mut p, &mut t, &mut x, t_end, h, &mut stats).unwrap();
+        fixed(method, &mut p, (&mut t, &mut x), (t_end, h), &mut stats).unwrap();
         assert_eq!(t, t_end);
         (oscillator_error(t_end, &x), stats)
     }
@@ -447,10 +361,10 @@ mod tests {
     #[test]
     fn convergence_orders_2_4_6() {
         // (method, h, predicted ratio 2^order, tolerance on the ratio)
-        let cases: [(Fixed, f64, f64, f64); 3] = [
-            (implicit_midpoint, 1e-3, 4.0, 0.01),
-            (gauss4, 1e-2, 16.0, 0.1),
-            (gauss6, 2e-2, 64.0, 1.0),
+        let cases = [
+            (Method::ImplicitMidpoint, 1e-3, 4.0, 0.01),
+            (Method::Gauss4, 1e-2, 16.0, 0.1),
+            (Method::Gauss6, 2e-2, 64.0, 1.0),
         ];
         for (method, h, predicted, tol) in cases {
             let (e1, _) = oscillator_run(method, h, 1.0);
@@ -474,7 +388,8 @@ mod tests {
         p.jacobian = Some(&mut jac);
         let (mut t, mut x) = (0.0, [1.0]);
         let mut stats = Stats::default();
-        let r = implicit_midpoint(&mut p, &mut t, &mut x, 2.0, 1.0, &mut stats);
+        let midpoint = Method::ImplicitMidpoint;
+        let r = fixed(midpoint, &mut p, (&mut t, &mut x), (2.0, 1.0), &mut stats);
         assert_eq!(
             r,
             Err(ImplicitFailure::NewtonFailed {
@@ -487,7 +402,7 @@ mod tests {
         // h = 0.9 from y = 1: the midpoint equation z = h (1 + z/2)² has no real root for
         // h > 0.5·... (discriminant 1 − 2h < 0 for h > 1/2): Newton cannot converge.
         let (mut t, mut x) = (0.0, [1.0]);
-        let r = implicit_midpoint(&mut p, &mut t, &mut x, 2.0, 0.9, &mut stats);
+        let r = fixed(midpoint, &mut p, (&mut t, &mut x), (2.0, 0.9), &mut stats);
         assert!(
             matches!(r, Err(ImplicitFailure::NewtonFailed { t: 0.0, h, iterations }) if h == 0.9 && iterations > 0),
             "{r:?}"
@@ -519,9 +434,6 @@ mod tests {
     }
 
     fn drift_comparison(steps: usize) {
-        use super::super::euler::symplectic_euler;
-        use super::super::verlet::velocity_verlet;
-        use super::super::{self as integ, Memory, Method, Settings, MAX_STEPS};
         let window = 100_000;
         let h = 0.01;
         let mut stats = Stats::default();
@@ -530,72 +442,41 @@ mod tests {
         let mut p = Problem::new(&mut rhs);
         p.jacobian = Some(&mut jac);
         p.second_order = Some(1);
+        let mut windows = |method| {
+            let started = std::time::Instant::now();
+            let (f, l, e_end) = energy_windows(
+                &mut |t, x, te| {
+                    let state = (t, &mut x[..]);
+                    fixed(method, &mut p, state, (te, h), &mut stats).unwrap()
+                },
+                steps,
+                window,
+            );
+            eprintln!(
+                "{}: max |ΔE/E| first {f:e}, last {l:e} ({:?})",
+                method.name(),
+                started.elapsed()
+            );
+            (f, l, e_end)
+        };
 
-        let started = std::time::Instant::now();
-        let (f, l, _) = energy_windows(
-            &mut |t, x, te| symplectic_euler(&mut p, t, x, te, h, &mut stats).unwrap(),
-            steps,
-            window,
-        );
-        eprintln!(
-            "symplectic Euler: max |ΔE/E| first {f:e}, last {l:e} ({:?})",
-            started.elapsed()
-        );
         // Bounded, O(hω) = 0.1: the modified energy ω²x² + v² − hω²xv is conserved exactly.
+        let (f, l, _) = windows(Method::SymplecticEuler);
         assert!(l < 0.06 && l < 1.01 * f, "first {f:e}, last {l:e}");
-
-        let started = std::time::Instant::now();
-        let (f, l, _) = energy_windows(
-            &mut |t, x, te| velocity_verlet(&mut p, t, x, te, h, &mut stats).unwrap(),
-            steps,
-            window,
-        );
-        eprintln!(
-            "Störmer–Verlet: max |ΔE/E| first {f:e}, last {l:e} ({:?})",
-            started.elapsed()
-        );
         // Bounded, (hω)²/4 = 2.5e-3 (modified energy ω²x²(1 − (hω)²/4) + v²).
+        let (f, l, _) = windows(Method::Verlet);
         assert!(l < 3e-3 && l < 1.01 * f, "first {f:e}, last {l:e}");
-
-        let started = std::time::Instant::now();
-        let (f, l, _) = energy_windows(
-            &mut |t, x, te| gauss4(&mut p, t, x, te, h, &mut stats).unwrap(),
-            steps,
-            window,
-        );
-        eprintln!(
-            "Gauss4: max |ΔE/E| first {f:e}, last {l:e} ({:?})",
-            started.elapsed()
-        );
         // Energy is a quadratic invariant: conserved up to rounding, which random-walks
         // (≈ ε·√steps), no systematic drift.
+        let (f, l, _) = windows(Method::Gauss4);
         assert!(l < 1e-11, "first {f:e}, last {l:e}");
 
-        let settings = Settings {
-            method: Method::Rk4,
-            rtol: 0.0,
-            atol: vec![],
-            step: h,
-            max_steps: MAX_STEPS,
-        };
-        let mut memory = Memory::default();
-        let started = std::time::Instant::now();
-        let (f, l, e_end) = energy_windows(
-            &mut |t, x, te| {
-                integ::advance(&mut oscillator, t, x, te, &settings, &mut memory).unwrap()
-            },
-            steps,
-            window,
-        );
+        let (f, l, e_end) = windows(Method::Rk4);
         // Energy decays by |R(ihω)|² = 1 − (hω)⁶/72 + (hω)⁸/576 per step: a linear drift of
         // 1.39e-8 per step.
         let y: f64 = 0.1;
         let predicted = (1.0 + y.powi(6) * (y * y - 8.0) / 576.0).powi(steps as i32);
-        eprintln!(
-            "RK4: max |ΔE/E| first {f:e}, last {l:e}, final energy {e_end} (predicted \
-             {predicted}) ({:?})",
-            started.elapsed()
-        );
+        eprintln!("RK4: final energy {e_end} (predicted {predicted})");
         assert!((e_end / predicted - 1.0).abs() < 1e-9);
         let growth = l / f;
         let expected = (1.0 - predicted)
@@ -664,43 +545,25 @@ mod tests {
         let h0 = momentum2(&w0);
         let mut p = Problem::new(&mut rhs);
         p.jacobian = Some(&mut jac);
-        let (mut t, mut w) = (0.0, w0);
-        let mut stats = Stats::default();
-        let mut worst: f64 = 0.0;
-        for i in 0..steps {
-            implicit_midpoint(&mut p, &mut t, &mut w, (i + 1) as f64 * h, h, &mut stats).unwrap();
-            worst = worst.max((momentum2(&w) / h0 - 1.0).abs());
-        }
+        let mut run = |method| {
+            let (mut t, mut w) = (0.0, w0);
+            let mut stats = Stats::default();
+            let mut worst: f64 = 0.0;
+            for i in 0..steps {
+                let state = (&mut t, &mut w[..]);
+                fixed(method, &mut p, state, ((i + 1) as f64 * h, h), &mut stats).unwrap();
+                worst = worst.max((momentum2(&w) / h0 - 1.0).abs());
+            }
+            (worst, stats)
+        };
+        let (worst, stats) = run(Method::ImplicitMidpoint);
+        let (worst_rk4, _) = run(Method::Rk4);
         eprintln!(
             "midpoint: max relative |H|² error {worst:e}; {stats:?}, {jacobians} Jacobians, \
              {:.2} Newton iterations per step",
             stats.rhs_evals as f64 / stats.steps as f64
         );
         assert!(worst < 1e-14 * 10.0, "midpoint |H|² error {worst:e}");
-
-        use super::super::{self as integ, Memory, Method, Settings, MAX_STEPS};
-        let settings = Settings {
-            method: Method::Rk4,
-            rtol: 0.0,
-            atol: vec![],
-            step: h,
-            max_steps: MAX_STEPS,
-        };
-        let mut memory = Memory::default();
-        let (mut t, mut w) = (0.0, w0);
-        let mut worst_rk4: f64 = 0.0;
-        for i in 0..steps {
-            integ::advance(
-                &mut rhs,
-                &mut t,
-                &mut w,
-                (i + 1) as f64 * h,
-                &settings,
-                &mut memory,
-            )
-            .unwrap();
-            worst_rk4 = worst_rk4.max((momentum2(&w) / h0 - 1.0).abs());
-        }
         eprintln!("RK4: max relative |H|² error {worst_rk4:e}");
         assert!(
             worst_rk4 > 1e4 * worst,

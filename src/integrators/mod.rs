@@ -7,8 +7,9 @@
 //! lives in [`Memory`], which is part of the serialized FMU state, so a restored state
 //! continues bit for bit as the original would have. What only saves allocations (buffers
 //! of the right sizes) lives in a [`Workspace`], which is not: the caller keeps one so that
-//! a call in steady state allocates nothing. [`advance`] and [`advance_with`] (and each
-//! method's function without `_in`) are the same in a fresh workspace.
+//! a call in steady state allocates nothing. [`advance`] and [`advance_with`] are the same
+//! in a fresh workspace. Below them every fixed-step method takes one
+//! [`FixedCall`](problem::FixedCall) and every dense mode one [`DenseCall`](problem::DenseCall).
 
 // The `rhs` parameter spells out `&mut dyn FnMut(f64, &[f64], &mut [f64])` on purpose: it is
 // the interface other modules call, and an alias would hide what it takes.
@@ -21,6 +22,7 @@ pub mod dop853;
 pub mod dopri5;
 pub mod euler;
 pub mod exact_linear;
+pub mod explicit_fixed;
 mod explicit_rk;
 mod expm;
 mod finite;
@@ -35,7 +37,11 @@ mod workspace;
 
 pub use ahead::{advance_dense, Ahead};
 pub(crate) use buffers::{copied, sized, zeroed};
+use dop853::Dop853;
+use dopri5::Dopri5;
+use explicit_rk::land;
 pub use finite::{all_finite, finite};
+use problem::FixedCall;
 pub use problem::ImplicitFailure;
 use std::fmt;
 pub use workspace::Workspace;
@@ -193,8 +199,8 @@ impl Method {
     }
 }
 
-/// Advances with any [`Method`] (RK4 and DOPRI5 through [`advance`], the others through
-/// [`Problem`](problem::Problem)): the one entry point the FMU uses. Same landing and
+/// Advances with any [`Method`] (RK4, DOPRI5 and DOP853 as [`advance`] does, the others
+/// through [`Problem`](problem::Problem)): the one entry point the FMU uses. Same landing and
 /// failure conventions; a fixed-step method that would need more than
 /// [`Settings::max_steps`] steps is refused before any work
 /// ([`Failure::TooManyPlanned`]), an adaptive one gives up after that many attempts
@@ -229,88 +235,75 @@ pub fn advance_in(
     memory: &mut Memory,
     work: &mut Workspace,
 ) -> Result<(), ImplicitFailure> {
-    let h = settings.step;
-    if !settings.method.is_adaptive() {
+    let method = settings.method;
+    if !method.is_adaptive() {
         check_plan(settings, *t, t_end)?;
     }
-    let stats = &mut memory.stats;
-    match settings.method {
-        Method::Rk4 | Method::Dopri5 => {
-            // (RK4's plan was checked above.)
-            Ok(advance_rhs(
-                problem.rhs,
-                t,
-                x,
+    match method {
+        // (RK4's plan was checked above.)
+        Method::Rk4 | Method::Dopri5 | Method::Dop853 => Ok(advance_rhs(
+            problem.rhs,
+            (t, x),
+            t_end,
+            (settings, memory),
+            work,
+            false,
+        )?),
+        Method::Radau5 => {
+            let work = &mut work.radau5;
+            Ok(radau5::advance_in(
+                problem,
+                (t, x),
                 t_end,
-                settings,
-                memory,
+                (settings, memory),
                 work,
-                false,
             )?)
         }
-        Method::ExplicitEuler => Ok(euler::explicit_euler_in(
-            problem,
-            t,
-            x,
-            t_end,
-            h,
-            stats,
-            &mut work.fixed,
-        )?),
-        Method::SymplecticEuler => Ok(euler::symplectic_euler_in(
-            problem,
-            t,
-            x,
-            t_end,
-            h,
-            stats,
-            &mut work.fixed,
-        )?),
-        Method::Verlet => Ok(verlet::velocity_verlet_in(
-            problem,
-            t,
-            x,
-            t_end,
-            h,
-            stats,
-            &mut work.fixed,
-        )?),
+        _ => {
+            let (h, stats) = (settings.step, &mut memory.stats);
+            advance_fixed(
+                method,
+                problem,
+                FixedCall {
+                    t,
+                    x,
+                    t_end,
+                    h,
+                    stats,
+                },
+                work,
+            )
+        }
+    }
+}
+
+/// A fixed-step method other than RK4 for one call (its plan checked), in its part of `work`.
+fn advance_fixed(
+    method: Method,
+    problem: &mut problem::Problem,
+    call: FixedCall,
+    work: &mut Workspace,
+) -> Result<(), ImplicitFailure> {
+    match method {
+        Method::ExplicitEuler | Method::SymplecticEuler | Method::Verlet => Ok(
+            explicit_fixed::advance_in(method, problem, call, &mut work.fixed)?,
+        ),
         Method::ImplicitMidpoint | Method::Gauss4 | Method::Gauss6 => {
-            let scratch = (&mut work.gauss, &mut work.fixed[0]);
-            gauss::collocation_in(settings.method, problem, t, x, t_end, h, stats, scratch)
+            gauss::collocation_in(method, problem, call, &mut work.gauss)
         }
-        Method::Dop853 => Ok(dop853::advance_in(
+        Method::ExactLinear => Ok(exact_linear::advance_in(
             problem,
-            t,
-            x,
-            t_end,
-            settings,
-            memory,
-            &mut work.dop853,
+            call,
+            &mut work.exact_linear,
         )?),
-        Method::Radau5 => Ok(radau5::advance_in(
-            problem,
-            t,
-            x,
-            t_end,
-            settings,
-            memory,
-            &mut work.radau5,
-        )?),
-        Method::ExactLinear => {
-            let scratch = (&mut work.fixed[0], &mut work.exact_linear);
-            Ok(exact_linear::advance_in(
-                problem, t, x, t_end, h, stats, scratch,
-            )?)
-        }
         Method::Rattle => {
             let mech = problem
                 .mechanics
                 .as_deref_mut()
                 .expect("RATTLE needs Problem::mechanics");
-            let scratch = (&mut work.fixed[0], &mut work.rattle);
-            rattle::advance_in(mech, t, x, t_end, h, stats, scratch)
+            rattle::advance_in(mech, call, &mut work.rattle)
         }
+        adaptive => unreachable!("{} is adaptive", adaptive.name()),
     }
 }
 
@@ -389,6 +382,17 @@ pub struct Settings {
     /// `fmi2DoStep` can take (the FMU's `solver_max_steps`); [`MAX_STEPS`] for Rust callers
     /// that have no such bound to honour.
     pub max_steps: u64,
+}
+
+impl Settings {
+    /// The largest step of an adaptive method: `step` if positive and finite, else none (∞).
+    pub fn max_step(&self) -> f64 {
+        if self.step > 0.0 && self.step.is_finite() {
+            self.step
+        } else {
+            f64::INFINITY
+        }
+    }
 }
 
 /// Counters: noise-free measures of work. Part of the FMU state.
@@ -602,19 +606,16 @@ pub fn advance(
     memory: &mut Memory,
 ) -> Result<(), Failure> {
     let work = &mut Workspace::default();
-    advance_rhs(rhs, t, x, t_end, settings, memory, work, true)
+    advance_rhs(rhs, (t, x), t_end, (settings, memory), work, true)
 }
 
-/// [`advance`] in the scratch of `work`; RK4's plan is checked if `check_plan` (else the
-/// caller did).
-#[allow(clippy::too_many_arguments)]
+/// [`advance`] in the scratch of `work`; RK4's plan is checked if `plan` (else the caller
+/// did).
 fn advance_rhs(
     rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
-    t: &mut f64,
-    x: &mut [f64],
+    (t, x): (&mut f64, &mut [f64]),
     t_end: f64,
-    settings: &Settings,
-    memory: &mut Memory,
+    (settings, memory): (&Settings, &mut Memory),
     work: &mut Workspace,
     plan: bool,
 ) -> Result<(), Failure> {
@@ -638,9 +639,14 @@ fn advance_rhs(
             let stages = &mut work.rk4;
             rk4::advance_in(rhs, t, x, t_end, settings.step, &mut memory.stats, stages)
         }
-        Method::Dopri5 => dopri5::advance_in(rhs, t, x, t_end, settings, memory, &mut work.dopri5),
+        Method::Dopri5 => land::<Dopri5>(rhs, (t, x), t_end, settings, memory, &mut work.dopri5),
+        Method::Dop853 => {
+            let work = &mut work.dop853.rk;
+            land::<Dop853>(rhs, (t, x), t_end, settings, memory, work)
+        }
         other => panic!(
-            "integrators::advance runs RK4 and DOPRI5; {} needs advance_with and a Problem",
+            "integrators::advance runs RK4, DOPRI5 and DOP853; {} needs advance_with and a \
+             Problem",
             other.name()
         ),
     }
@@ -648,6 +654,88 @@ fn advance_rhs(
 
 #[cfg(test)]
 pub(crate) mod test_support {
+    use super::problem::{DenseCall, Problem};
+    use super::{ImplicitFailure, Memory, Method, Settings, Stats, Workspace, MAX_STEPS};
+
+    /// The settings of a fixed-step `method` with step `step` (no tolerances).
+    pub fn settings(method: Method, step: f64) -> Settings {
+        Settings {
+            method,
+            rtol: 0.0,
+            atol: vec![],
+            step,
+            max_steps: MAX_STEPS,
+        }
+    }
+
+    /// The settings of an adaptive `method` with `rtol = tol` and `atol = tol` for each of
+    /// `n` states, its steps at most `step`.
+    pub fn adaptive(method: Method, tol: f64, n: usize, step: f64) -> Settings {
+        Settings {
+            method,
+            rtol: tol,
+            atol: vec![tol; n],
+            step,
+            max_steps: MAX_STEPS,
+        }
+    }
+
+    /// `x' = 1`.
+    pub fn one(_: f64, _: &[f64], d: &mut [f64]) {
+        d[0] = 1.0;
+    }
+
+    /// `x' = −x`.
+    pub fn decay(_: f64, y: &[f64], d: &mut [f64]) {
+        d[0] = -y[0];
+    }
+
+    /// `x' = x²`, which blows up at t = 1 from x(0) = 1.
+    pub fn square(_: f64, y: &[f64], d: &mut [f64]) {
+        d[0] = y[0] * y[0];
+    }
+
+    /// `x' = −x` that breaks down after t = 0.5 (NaN): where a method must stop.
+    pub fn broken_decay(t: f64, y: &[f64], d: &mut [f64]) {
+        d[0] = if t > 0.5 { f64::NAN } else { -y[0] };
+    }
+
+    /// A dense-mode call with no projection, for the tests of each method's dense output.
+    pub fn dense_call<'c, 'p, W>(
+        problem: &'c mut Problem<'p>,
+        ends: (f64, f64),
+        run: (&'c Settings, &'c mut Memory),
+        buffers: (&'c mut [f64], &'c mut W),
+    ) -> DenseCall<'c, 'p, W> {
+        // (A closure that captures nothing: boxing and leaking it allocates nothing.)
+        let project = Box::leak(Box::new(|_: f64, _: &mut [f64]| {}));
+        DenseCall::new(problem, project, ends, run, buffers)
+    }
+
+    /// A fixed-step `method` from `*t` to `t_end` in steps of `h`, as the FMU runs it
+    /// ([`super::advance_in`]) but in a fresh workspace, with no step limit, counting into
+    /// `stats`: how the tests call one method.
+    pub fn fixed(
+        method: Method,
+        problem: &mut Problem,
+        (t, x): (&mut f64, &mut [f64]),
+        (t_end, h): (f64, f64),
+        stats: &mut Stats,
+    ) -> Result<(), ImplicitFailure> {
+        let settings = Settings {
+            max_steps: u64::MAX,
+            ..settings(method, h)
+        };
+        let mut memory = Memory {
+            stats: *stats,
+            ..Memory::default()
+        };
+        let work = &mut Workspace::default();
+        let result = super::advance_in(problem, t, x, t_end, &settings, &mut memory, work);
+        *stats = memory.stats;
+        result
+    }
+
     /// Harmonic oscillator x'' = -ω² x as the first-order system (x, v).
     pub const OMEGA: f64 = 10.0;
 
@@ -671,6 +759,7 @@ pub(crate) mod test_support {
 
 #[cfg(test)]
 mod tests {
+    use super::test_support::one;
     use super::*;
 
     #[test]
@@ -741,14 +830,7 @@ mod tests {
             };
             let mut memory = Memory::default();
             let (mut t, mut x) = (0.0, [f64::NAN]);
-            let r = advance(
-                &mut |_, _, d| d[0] = 1.0,
-                &mut t,
-                &mut x,
-                1.0,
-                &settings,
-                &mut memory,
-            );
+            let r = advance(&mut one, &mut t, &mut x, 1.0, &settings, &mut memory);
             assert_eq!(r, Err(Failure::NonFinite { t: 0.0 }));
             assert_eq!(memory.stats, Stats::default());
         }
@@ -766,15 +848,7 @@ mod tests {
             };
             let mut memory = Memory::default();
             let (mut t, mut x) = (1.0, [2.0]);
-            advance(
-                &mut |_, _, d| d[0] = 1.0,
-                &mut t,
-                &mut x,
-                1.0,
-                &settings,
-                &mut memory,
-            )
-            .unwrap();
+            advance(&mut one, &mut t, &mut x, 1.0, &settings, &mut memory).unwrap();
             assert_eq!((t, x[0]), (1.0, 2.0));
             assert_eq!(memory, Memory::default());
         }

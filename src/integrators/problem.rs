@@ -12,7 +12,7 @@
 
 use super::buffers::sized;
 use super::finite::{all_finite, finite};
-use super::{Failure, Stats};
+use super::{Failure, Memory, Settings, Stats};
 use std::fmt;
 
 /// Newton has converged when an increment is within a few ulps of the state (max norm, relative
@@ -24,6 +24,45 @@ pub const NEWTON_TOL: f64 = 4.0 * f64::EPSILON;
 /// 50 iterations reach rounding from O(1) for θ up to about 0.5. Beyond that the step is too
 /// large for this fixed-step method, and it fails rather than return an unconverged state.
 pub const NEWTON_MAX_ITER: u32 = 50;
+
+/// What one increment says about a simplified Newton iteration (see [`NewtonWatch`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Verdict {
+    Converged,
+    Diverged,
+    Iterate,
+}
+
+/// The convergence test the fixed-step implicit methods share (Gauss, RATTLE): an increment
+/// within `tol` has converged; one that did not shrink is rounding noise below `stall`
+/// (accepted as converged) and divergence above; any other, iterate again.
+pub(crate) struct NewtonWatch {
+    previous: f64,
+}
+
+impl NewtonWatch {
+    pub(crate) fn new() -> Self {
+        NewtonWatch {
+            previous: f64::INFINITY,
+        }
+    }
+
+    /// The verdict on an increment of size `step`, measured as `tol` and `stall` are.
+    pub(crate) fn judge(&mut self, step: f64, (tol, stall): (f64, f64)) -> Verdict {
+        if step <= tol {
+            return Verdict::Converged;
+        }
+        if step >= self.previous {
+            return if step <= stall {
+                Verdict::Converged
+            } else {
+                Verdict::Diverged
+            };
+        }
+        self.previous = step;
+        Verdict::Iterate
+    }
+}
 
 /// What RATTLE needs to know about a mechanical system: `L = T − V + (work of Q)` with T
 /// quadratic in q̇ (`∂T/∂q̇ = M(q) q̇ + b(q)`), and `m` holonomic constraints `g(q) = 0`.
@@ -207,22 +246,86 @@ pub(crate) fn step_count(span: f64, step: f64) -> f64 {
     }
 }
 
-/// The fixed-step loop: step `i` runs from `t0 + i·step` to `t0 + (i+1)·step` (the last one
-/// to `t_end`), times computed from the start so rounding does not drift. `one_step(stats, ta,
+/// One call of a fixed-step method: the state `(*t, x)` to advance to exactly `t_end` in
+/// steps of `h` (the last one shortened; `h` not positive and finite: one step), counting into
+/// `stats`. Every fixed-step method takes one and hands it on to [`fixed_steps`].
+pub struct FixedCall<'c> {
+    pub t: &'c mut f64,
+    pub x: &'c mut [f64],
+    pub t_end: f64,
+    pub h: f64,
+    pub stats: &'c mut Stats,
+}
+
+/// One call of an adaptive method's dense mode (see [`super::advance_dense`]): step its point
+/// ahead until its last step covers `t_out` (never past `t_limit`, `project` after every
+/// accepted step), then write x(`t_out`) into `out`; in `work`, the method's own scratch.
+pub struct DenseCall<'c, 'p, W> {
+    pub problem: &'c mut Problem<'p>,
+    pub project: &'c mut dyn FnMut(f64, &mut [f64]),
+    pub t_out: f64,
+    pub t_limit: f64,
+    pub settings: &'c Settings,
+    pub memory: &'c mut Memory,
+    pub out: &'c mut [f64],
+    pub work: &'c mut W,
+}
+
+impl<'c, 'p, W> DenseCall<'c, 'p, W> {
+    /// The call to `t_out`, never past `t_limit`, with `settings`, carrying `memory`, into
+    /// `out`, in the scratch `work`.
+    pub fn new(
+        problem: &'c mut Problem<'p>,
+        project: &'c mut dyn FnMut(f64, &mut [f64]),
+        (t_out, t_limit): (f64, f64),
+        (settings, memory): (&'c Settings, &'c mut Memory),
+        (out, work): (&'c mut [f64], &'c mut W),
+    ) -> Self {
+        DenseCall {
+            problem,
+            project,
+            t_out,
+            t_limit,
+            settings,
+            memory,
+            out,
+            work,
+        }
+    }
+
+    /// The same call in the part of `work` that `part` picks: each method has its own.
+    pub fn with<V>(&mut self, part: impl FnOnce(&mut W) -> &mut V) -> DenseCall<'_, 'p, V> {
+        DenseCall {
+            problem: &mut *self.problem,
+            project: &mut *self.project,
+            t_out: self.t_out,
+            t_limit: self.t_limit,
+            settings: self.settings,
+            memory: &mut *self.memory,
+            out: &mut *self.out,
+            work: part(&mut *self.work),
+        }
+    }
+}
+
+/// The fixed-step loop: step `i` runs from `t0 + i·h` to `t0 + (i+1)·h` (the last one to
+/// `t_end`), times computed from the start so rounding does not drift. `one_step(stats, ta,
 /// tb, x, y)` writes the state at `tb` into `y` (the scratch `y`, of which it takes
 /// `x.len()`: `one_step` writes every component); a non-finite `y` stops the loop with
 /// `NonFinite` at the last good state, as does an error of `one_step`.
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn fixed_steps<E: From<Failure>>(
     method: &str,
-    t: &mut f64,
-    x: &mut [f64],
-    t_end: f64,
-    step: f64,
-    stats: &mut Stats,
+    call: FixedCall,
     y: &mut Vec<f64>,
     mut one_step: impl FnMut(&mut Stats, f64, f64, &[f64], &mut [f64]) -> Result<(), E>,
 ) -> Result<(), E> {
+    let FixedCall {
+        t,
+        x,
+        t_end,
+        h: step,
+        stats,
+    } = call;
     if !start(method, *t, x, t_end)? {
         return Ok(());
     }

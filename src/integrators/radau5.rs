@@ -18,7 +18,7 @@
 //! - tolerances transformed as in radau5.f: `rtol' = 0.1·rtol^(2/3)`, `atol' = rtol'·atol/rtol`,
 //!   so that the global error comes out roughly proportional to `rtol`.
 //!
-//! - dense output (CONTR5): in the FMU's dense mode ([`advance_dense`]) the loop state is kept
+//! - dense output (CONTR5): in the FMU's dense mode ([`advance_dense_in`]) the loop state is kept
 //!   between calls and communication points are read from the collocation polynomial.
 //!
 //! Not ported: mass matrices, banded Jacobians, DAE index handling.
@@ -30,7 +30,7 @@
 use super::blob::{put_f64s, Reader};
 use super::buffers::{copied, sized, zeroed};
 use super::lu::Lu;
-use super::problem::{start, Problem};
+use super::problem::{start, DenseCall, Problem};
 use super::{Failure, Memory, Settings, Stats};
 use nalgebra::Complex;
 
@@ -167,15 +167,6 @@ fn rms(vs: &[&[f64]], scal: &[f64]) -> f64 {
     (sum / (vs.len() * scal.len()).max(1) as f64).sqrt()
 }
 
-/// The largest step: `settings.step` when positive and finite.
-fn step_bound(settings: &Settings) -> f64 {
-    if settings.step > 0.0 && settings.step.is_finite() {
-        settings.step
-    } else {
-        f64::INFINITY
-    }
-}
-
 /// Advance with RADAU5 from `*t` to exactly `t_end`, with `settings.rtol` and `settings.atol`
 /// (one per state; transformed as described in the module documentation) and `settings.step`
 /// as the maximum step (`settings.method` is not consulted). Needs `problem.jacobian`.
@@ -191,34 +182,14 @@ fn step_bound(settings: &Settings) -> f64 {
 /// as the convergence rate predicts) and retried. It becomes `StepTooSmall` when the step
 /// underflows, and so does a Newton matrix found singular five times (radau5.f IDID = −4),
 /// since it too is answered by halving the step.
-pub fn advance(
-    problem: &mut Problem,
-    t: &mut f64,
-    x: &mut [f64],
-    t_end: f64,
-    settings: &Settings,
-    memory: &mut Memory,
-) -> Result<(), Failure> {
-    advance_in(
-        problem,
-        t,
-        x,
-        t_end,
-        settings,
-        memory,
-        &mut Scratch::default(),
-    )
-}
-
-/// [`advance`] in the scratch of `work` (which also holds the loop state of the call): no
+///
+/// In the scratch of `work` (which also holds the loop state of the call): no
 /// allocation once it has held this size.
 pub fn advance_in(
     problem: &mut Problem,
-    t: &mut f64,
-    x: &mut [f64],
+    (t, x): (&mut f64, &mut [f64]),
     t_end: f64,
-    settings: &Settings,
-    memory: &mut Memory,
+    (settings, memory): (&Settings, &mut Memory),
     work: &mut Scratch,
 ) -> Result<(), Failure> {
     if !start("RADAU5", *t, x, t_end)? {
@@ -338,7 +309,7 @@ impl Ahead {
         if !self.x.iter().all(|v| v.is_finite()) || !problem.eval(t, &self.x, f, stats) {
             return Err(Failure::NonFinite { t });
         }
-        let hmaxn = step_bound(settings).min(t_limit - t);
+        let hmaxn = settings.max_step().min(t_limit - t);
         let carried = h_carried > 0.0 && h_carried.is_finite();
         let mut h = if carried { h_carried } else { H_START }.min(hmaxn);
         let mut last = false;
@@ -451,45 +422,18 @@ impl Ahead {
     }
 }
 
-/// Dense mode (see [`Ahead`]): steps `ahead` until its last step covers `t_out`, then writes
-/// x(`t_out`) into `out`. Steps are cut only to land on `t_limit` (the experiment's stop
+/// Dense mode (see [`Ahead`]) for one [`DenseCall`]: steps `ahead` until its last step covers
+/// `t_out`, then writes x(`t_out`) into `out`. Steps are cut only to land on `t_limit` (the experiment's stop
 /// time, or +∞), which the integrator never passes; `t_out` must not exceed it.
 ///
 /// `project` maps a state back onto the system's constraints; it is applied after every
 /// accepted step, before f is evaluated there (so it costs no evaluation). On success
 /// `memory.h` holds the proposal a fresh start would take (after an input change); on
 /// failure `ahead` holds the last accepted step and `memory.h` is reset.
-#[allow(clippy::too_many_arguments)]
-pub fn advance_dense(
-    problem: &mut Problem,
-    project: &mut dyn FnMut(f64, &mut [f64]),
-    ahead: &mut Ahead,
-    t_out: f64,
-    t_limit: f64,
-    settings: &Settings,
-    memory: &mut Memory,
-    out: &mut [f64],
-) -> Result<(), Failure> {
-    let mut work = Scratch::default();
-    let ends = (t_out, t_limit);
-    advance_dense_in(
-        problem, project, ahead, ends, settings, memory, out, &mut work,
-    )
-}
-
-/// [`advance_dense`] to `(t_out, t_limit)` in the scratch of `work`: no allocation once it
-/// has held this size.
-#[allow(clippy::too_many_arguments)]
-pub fn advance_dense_in(
-    problem: &mut Problem,
-    project: &mut dyn FnMut(f64, &mut [f64]),
-    ahead: &mut Ahead,
-    (t_out, t_limit): (f64, f64),
-    settings: &Settings,
-    memory: &mut Memory,
-    out: &mut [f64],
-    work: &mut Scratch,
-) -> Result<(), Failure> {
+/// No allocation once the call's scratch has held this size.
+pub fn advance_dense_in(ahead: &mut Ahead, c: DenseCall<Scratch>) -> Result<(), Failure> {
+    let (t_out, t_limit, settings) = (c.t_out, c.t_limit, c.settings);
+    let (problem, memory) = (c.problem, c.memory);
     if t_out > ahead.t && ahead.landed {
         // Landed on an earlier limit: go on as a new integration from there. (On failure
         // the caller drops `ahead`, as it used to be replaced only on success.)
@@ -502,14 +446,14 @@ pub fn advance_dense_in(
         ahead,
         t_limit,
         goal,
-        Some(project),
+        Some(c.project),
         settings,
         &mut memory.stats,
-        &mut *work,
+        c.work,
     ) {
         Ok(()) => {
             memory.h = ahead.hopt;
-            ahead.interpolate(t_out, out);
+            ahead.interpolate(t_out, c.out);
             Ok(())
         }
         Err(e) => {
@@ -986,19 +930,19 @@ fn run(
 #[cfg(test)]
 mod tests {
     use super::super::problem::test_support::oscillator_jacobian;
+    use super::super::test_support::{adaptive, broken_decay, dense_call};
     use super::super::test_support::{oscillator, oscillator_error};
-    use super::super::Method;
+    use super::super::{advance_with, Method};
     use super::*;
     use nalgebra::{DMatrix, DVector};
 
     fn settings(tol: f64, n: usize) -> Settings {
-        Settings {
-            method: Method::Dopri5,
-            rtol: tol,
-            atol: vec![tol; n],
-            step: f64::INFINITY,
-            max_steps: crate::integrators::MAX_STEPS,
-        }
+        adaptive(Method::Radau5, tol, n, f64::INFINITY)
+    }
+
+    /// The Jacobian of [`broken_decay`] (where it is finite).
+    fn decay_jacobian(_: f64, _: &[f64], j: &mut [f64]) {
+        j[0] = -1.0;
     }
 
     #[test]
@@ -1033,7 +977,7 @@ mod tests {
         p.jacobian = Some(&mut jac);
         let mut memory = Memory::default();
         let (mut t, mut x) = (0.0, [1.0, 0.0]);
-        advance(&mut p, &mut t, &mut x, 1.0, &settings(tol, 2), &mut memory).unwrap();
+        advance_with(&mut p, &mut t, &mut x, 1.0, &settings(tol, 2), &mut memory).unwrap();
         assert_eq!(t.to_bits(), 1f64.to_bits());
         (oscillator_error(1.0, &x), memory.stats)
     }
@@ -1062,16 +1006,13 @@ mod tests {
 
     #[test]
     fn radau5_nan_rhs_stops_at_last_good_state() {
-        let mut rhs = |t: f64, y: &[f64], d: &mut [f64]| {
-            d[0] = if t > 0.5 { f64::NAN } else { -y[0] };
-        };
-        let mut jac = |_: f64, _: &[f64], j: &mut [f64]| j[0] = -1.0;
+        let (mut rhs, mut jac) = (broken_decay, decay_jacobian);
         let mut p = Problem::new(&mut rhs);
         p.jacobian = Some(&mut jac);
         let mut memory = Memory::default();
         let (mut t, mut x) = (0.0, [1.0]);
-        let r = advance(&mut p, &mut t, &mut x, 1.0, &settings(1e-8, 1), &mut memory);
-        assert_eq!(r, Err(Failure::NonFinite { t }));
+        let r = advance_with(&mut p, &mut t, &mut x, 1.0, &settings(1e-8, 1), &mut memory);
+        assert_eq!(r, Err(Failure::NonFinite { t }.into()));
         assert!(t <= 0.5 && (x[0] - (-t).exp()).abs() < 1e-7, "t = {t}");
         assert_eq!(memory.h, 0.0);
     }
@@ -1085,19 +1026,10 @@ mod tests {
         let mut jac = oscillator_jacobian;
         let mut p = Problem::new(&mut rhs);
         p.jacobian = Some(&mut jac);
-        let mut out = [0.0; 2];
         let s = settings(1e-8, 2);
-        advance_dense(
-            &mut p,
-            &mut |_, _| {},
-            ahead,
-            t_out,
-            t_limit,
-            &s,
-            memory,
-            &mut out,
-        )
-        .unwrap();
+        let (mut out, work) = ([0.0; 2], &mut Scratch::default());
+        let call = dense_call(&mut p, (t_out, t_limit), (&s, memory), (&mut out, work));
+        advance_dense_in(ahead, call).unwrap();
         out
     }
 
@@ -1138,25 +1070,15 @@ mod tests {
 
     #[test]
     fn dense_failure_keeps_the_last_accepted_step() {
-        let mut rhs = |t: f64, y: &[f64], d: &mut [f64]| {
-            d[0] = if t > 0.5 { f64::NAN } else { -y[0] };
-        };
-        let mut jac = |_: f64, _: &[f64], j: &mut [f64]| j[0] = -1.0;
+        let (mut rhs, mut jac) = (broken_decay, decay_jacobian);
         let mut p = Problem::new(&mut rhs);
         p.jacobian = Some(&mut jac);
         let (s, mut memory) = (settings(1e-8, 1), Memory::default());
         let mut ahead = Ahead::start(&mut p, 0.0, &[1.0], 0.0, 1.0, &s, &mut memory.stats).unwrap();
         let mut out = [0.0];
-        let r = advance_dense(
-            &mut p,
-            &mut |_, _| {},
-            &mut ahead,
-            1.0,
-            1.0,
-            &s,
-            &mut memory,
-            &mut out,
-        );
+        let (ends, work) = ((1.0, 1.0), &mut Scratch::default());
+        let call = dense_call(&mut p, ends, (&s, &mut memory), (&mut out, work));
+        let r = advance_dense_in(&mut ahead, call);
         assert_eq!(r, Err(Failure::NonFinite { t: ahead.t }));
         assert!(ahead.t <= 0.5 && (ahead.x[0] - (-ahead.t).exp()).abs() < 1e-7);
         assert_eq!(memory.h, 0.0);
@@ -1225,22 +1147,9 @@ mod tests {
         assert!(e < 1e-10, "{e:e}");
     }
 
-    fn chain_dopri5(x0: [f64; 4], tol: f64) -> (f64, Stats) {
-        let mut memory = Memory::default();
-        let (mut t, mut x) = (0.0, x0);
-        super::super::dopri5::advance(
-            &mut chain_rhs,
-            &mut t,
-            &mut x,
-            CHAIN_END,
-            &settings(tol, 4),
-            &mut memory,
-        )
-        .unwrap();
-        (chain_error_from(&x0, &x), memory.stats)
-    }
-
-    fn chain_radau5(x0: [f64; 4], tol: f64) -> (f64, Stats, u64) {
+    /// `method` on the chain from `x0` to [`CHAIN_END`] at tolerance `tol`: the error, the
+    /// counters and the Jacobians evaluated.
+    fn chain(method: Method, x0: [f64; 4], tol: f64) -> (f64, Stats, u64) {
         let mut rhs = chain_rhs;
         let mut jacobians = 0;
         let mut jac = |_: f64, _: &[f64], j: &mut [f64]| {
@@ -1251,15 +1160,8 @@ mod tests {
         p.jacobian = Some(&mut jac);
         let mut memory = Memory::default();
         let (mut t, mut x) = (0.0, x0);
-        advance(
-            &mut p,
-            &mut t,
-            &mut x,
-            CHAIN_END,
-            &settings(tol, 4),
-            &mut memory,
-        )
-        .unwrap();
+        let s = adaptive(method, tol, 4, f64::INFINITY);
+        advance_with(&mut p, &mut t, &mut x, CHAIN_END, &s, &mut memory).unwrap();
         (chain_error_from(&x0, &x), memory.stats, jacobians)
     }
 
@@ -1286,9 +1188,9 @@ mod tests {
     #[test]
     fn radau5_beats_dopri5_on_the_stiff_chain() {
         // Released with the stiff spring stretched.
-        let (e6, s6) = chain_dopri5(CHAIN_X0, 1e-6);
-        let (e3, s3) = chain_dopri5(CHAIN_X0, 1e-3);
-        let (er, sr, jr) = chain_radau5(CHAIN_X0, 1e-5);
+        let (e6, s6, _) = chain(Method::Dopri5, CHAIN_X0, 1e-6);
+        let (e3, s3, _) = chain(Method::Dopri5, CHAIN_X0, 1e-3);
+        let (er, sr, jr) = chain(Method::Radau5, CHAIN_X0, 1e-5);
         eprintln!("stretched: DOPRI5 1e-6 {e6:e} {s6:?}; 1e-3 {e3:e} {s3:?}; RADAU5 1e-5 {er:e} {sr:?} {jr} J");
         assert!(
             s3.rhs_evals * 3 > s6.rhs_evals,
@@ -1301,10 +1203,10 @@ mod tests {
 
         // Stiff spring relaxed at the start.
         let x0 = [0.1, 0.1, 0.0, 0.0];
-        let (e6, s6) = chain_dopri5(x0, 1e-6);
-        let (e3, s3) = chain_dopri5(x0, 1e-3);
-        let (er5, sr5, jr5) = chain_radau5(x0, 1e-5);
-        let (er3, sr3, jr3) = chain_radau5(x0, 1e-3);
+        let (e6, s6, _) = chain(Method::Dopri5, x0, 1e-6);
+        let (e3, s3, _) = chain(Method::Dopri5, x0, 1e-3);
+        let (er5, sr5, jr5) = chain(Method::Radau5, x0, 1e-5);
+        let (er3, sr3, jr3) = chain(Method::Radau5, x0, 1e-3);
         eprintln!("relaxed: DOPRI5 1e-6 {e6:e} {s6:?}; 1e-3 {e3:e} {s3:?}");
         eprintln!("relaxed: RADAU5 1e-5 {er5:e} {sr5:?} {jr5} J; 1e-3 {er3:e} {sr3:?} {jr3} J");
         assert!(

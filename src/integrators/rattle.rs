@@ -31,7 +31,8 @@
 use super::buffers::{copied, sized, zeroed};
 use super::lu::Lu;
 use super::problem::Mechanics;
-use super::problem::{fixed_steps, ImplicitFailure, NEWTON_MAX_ITER, NEWTON_TOL};
+use super::problem::{fixed_steps, FixedCall, ImplicitFailure, NewtonWatch, Verdict};
+use super::problem::{NEWTON_MAX_ITER, NEWTON_TOL};
 use super::{Failure, Stats};
 use nalgebra::{DMatrixView, DMatrixViewMut, DVectorView};
 
@@ -129,6 +130,8 @@ impl AtQ {
 /// between q̇ and p), and the vectors and matrices of a step.
 #[derive(Default)]
 pub struct Scratch {
+    /// The new state of the fixed-step loop.
+    y: Vec<f64>,
     at: [AtQ; 2],
     /// q₀, p₀, v₀, F, the argument and result of the second half, and scratch, n each.
     vectors: [Vec<f64>; 8],
@@ -147,42 +150,26 @@ pub struct Scratch {
     mu: [Vec<f64>; 2],
 }
 
-/// RATTLE from `*t` to `t_end` with step `h` (the last step shortened; `h` not positive and
-/// finite: one step), on the state `x = (q, q̇)` of the FMU: converted to `p` at the start and
+/// RATTLE for one [`FixedCall`] (its step `h` not positive and finite: one step), on the
+/// state `x = (q, q̇)` of the FMU: converted to `p` at the start and
 /// back at the end of the call. `stats.rhs_evals` counts evaluations of `F`.
-pub fn advance(
+///
+/// In the scratch of `w`: the method allocates nothing once `w` has held these sizes (what
+/// `mech` does is its own).
+pub fn advance_in(
     mech: &mut dyn Mechanics,
-    t: &mut f64,
-    x: &mut [f64],
-    t_end: f64,
-    h: f64,
-    stats: &mut Stats,
+    call: FixedCall,
+    w: &mut Scratch,
 ) -> Result<(), ImplicitFailure> {
-    advance_in(
-        mech,
+    let FixedCall {
         t,
         x,
         t_end,
         h,
         stats,
-        (&mut Vec::new(), &mut Scratch::default()),
-    )
-}
-
-/// [`advance`] in the scratch of `work`: the method allocates nothing once `work` has held
-/// these sizes (what `mech` does is its own).
-pub fn advance_in(
-    mech: &mut dyn Mechanics,
-    t: &mut f64,
-    x: &mut [f64],
-    t_end: f64,
-    h: f64,
-    stats: &mut Stats,
-    work: (&mut Vec<f64>, &mut Scratch),
-) -> Result<(), ImplicitFailure> {
+    } = call;
     let (n, _) = mech.dims();
     assert_eq!(x.len(), 2 * n, "RATTLE: the state is (q, q̇)");
-    let (y, w) = work;
     let converted = sized(&mut w.vectors[7], n);
     if x.iter().all(|v| v.is_finite()) {
         let at = &mut w.at[0];
@@ -193,9 +180,20 @@ pub fn advance_in(
         x[n..].copy_from_slice(converted);
     }
     // The loop runs on (q, p); on failure the last good (q, p) is converted back.
-    let result = fixed_steps("RATTLE", t, x, t_end, h, stats, y, |stats, ta, tb, x, y| {
-        step(mech, stats, ta, tb, x, y, w)
-    });
+    let mut y = std::mem::take(&mut w.y);
+    let result = fixed_steps(
+        "RATTLE",
+        FixedCall {
+            t,
+            x: &mut *x,
+            t_end,
+            h,
+            stats,
+        },
+        &mut y,
+        |stats, ta, tb, x, y| step(mech, stats, ta, tb, x, y, w),
+    );
+    w.y = y;
     if x.iter().all(|v| v.is_finite()) {
         let (at, converted) = (&mut w.at[0], &mut w.vectors[7]);
         if at.set(mech, &x[..n]) {
@@ -327,6 +325,7 @@ fn step(
         schur,
         schur_lu,
         mu: [rhs, mu],
+        y: _,
     } = w;
     let (q0, p0) = (copied(q0, &x[..n]), copied(p0, &x[n..]));
     if !at[0].set(mech, q0) {
@@ -378,7 +377,7 @@ fn step(
     }
 
     let dz = sized(dz, size);
-    let mut previous = f64::INFINITY;
+    let mut watch = NewtonWatch::new();
     let mut converged = false;
     for iteration in 1..=NEWTON_MAX_ITER {
         dz.copy_from_slice(r);
@@ -392,18 +391,14 @@ fn step(
         if !step.is_finite() {
             return Err(fail(iteration));
         }
-        if step <= NEWTON_TOL {
-            converged = true;
-            break;
-        }
-        if step >= previous {
-            if step <= STALL {
+        match watch.judge(step, (NEWTON_TOL, STALL)) {
+            Verdict::Converged => {
                 converged = true;
                 break;
             }
-            return Err(fail(iteration));
+            Verdict::Diverged => return Err(fail(iteration)),
+            Verdict::Iterate => {}
         }
-        previous = step;
         let vs = [&mut *v0, &mut *v1, &mut *gtl];
         if !residual(mech, stats, (ta, hh), (q0, p0), at, cache, vs, z, r) {
             return Err(non_finite());
@@ -467,6 +462,26 @@ fn step(
 mod tests {
     use super::*;
 
+    /// RATTLE on `mech` from `(*t, x)` to `t_end` with step `h`, in fresh scratch and counters.
+    fn run(
+        mech: &mut dyn Mechanics,
+        (t, x): (&mut f64, &mut [f64]),
+        (t_end, h): (f64, f64),
+    ) -> Result<(), ImplicitFailure> {
+        let stats = &mut Stats::default();
+        advance_in(
+            mech,
+            FixedCall {
+                t,
+                x,
+                t_end,
+                h,
+                stats,
+            },
+            &mut Scratch::default(),
+        )
+    }
+
     /// A pendulum in Cartesian coordinates: mass `M` at (x, z), z down, on a rod of length
     /// `L` from the origin: `T = ½ M (ẋ² + ż²)`, `V = −M g z`, `g(q) = (x² + z² − L²)/2`.
     /// Constant mass matrix: RATTLE is Andersen's original method here.
@@ -529,14 +544,13 @@ mod tests {
         let mut x = cartesian_start(1.0, 0.0);
         let e0 = cartesian_energy(&x);
         let (mut t, h) = (0.0, 0.01);
-        let mut stats = Stats::default();
         let (mut worst_g, mut worst_gv) = (0.0f64, 0.0f64);
         let mut energy = Vec::new();
         for _ in 0..windows {
             let mut window = 0.0f64;
             for _ in 0..per_window / 100 {
                 let t_end = t + 1.0;
-                advance(&mut CartesianPendulum, &mut t, &mut x, t_end, h, &mut stats).unwrap();
+                run(&mut CartesianPendulum, (&mut t, &mut x), (t_end, h)).unwrap();
                 let g = 0.5 * (x[0] * x[0] + x[1] * x[1] - LEN * LEN);
                 let gv = x[0] * x[2] + x[1] * x[3];
                 worst_g = worst_g.max(g.abs());
@@ -584,28 +598,12 @@ mod tests {
         // order, the angle form's error at h/64 is 4096× below the compared ones).
         let reference = {
             let (mut t, mut x) = (0.0, [1.0, 0.0]);
-            advance(
-                &mut AnglePendulum,
-                &mut t,
-                &mut x,
-                2.0,
-                1e-4,
-                &mut Stats::default(),
-            )
-            .unwrap();
+            run(&mut AnglePendulum, (&mut t, &mut x), (2.0, 1e-4)).unwrap();
             x
         };
         let error = |h: f64| {
             let (mut t, mut x) = (0.0, cartesian_start(1.0, 0.0));
-            advance(
-                &mut CartesianPendulum,
-                &mut t,
-                &mut x,
-                2.0,
-                h,
-                &mut Stats::default(),
-            )
-            .unwrap();
+            run(&mut CartesianPendulum, (&mut t, &mut x), (2.0, h)).unwrap();
             let theta = x[0].atan2(x[1]);
             (theta - reference[0]).abs()
         };
@@ -624,27 +622,11 @@ mod tests {
         // returns to the start, to Newton's rounding.
         let x0 = cartesian_start(0.7, 1.3);
         let (mut t, mut x) = (0.0, x0);
-        advance(
-            &mut CartesianPendulum,
-            &mut t,
-            &mut x,
-            1.0,
-            0.05,
-            &mut Stats::default(),
-        )
-        .unwrap();
+        run(&mut CartesianPendulum, (&mut t, &mut x), (1.0, 0.05)).unwrap();
         x[2] = -x[2];
         x[3] = -x[3];
         let (mut t, mut back) = (0.0, x);
-        advance(
-            &mut CartesianPendulum,
-            &mut t,
-            &mut back,
-            1.0,
-            0.05,
-            &mut Stats::default(),
-        )
-        .unwrap();
+        run(&mut CartesianPendulum, (&mut t, &mut back), (1.0, 0.05)).unwrap();
         let worst = (0..4).fold(0.0f64, |a, i| {
             let target = if i < 2 { x0[i] } else { -x0[i] };
             a.max((back[i] - target).abs())
@@ -681,24 +663,8 @@ mod tests {
     fn a_failing_step_leaves_the_last_good_state_in_q_and_q_dot() {
         let (mut t, mut x) = (0.0, cartesian_start(1.0, 0.0));
         let mut good = x;
-        advance(
-            &mut CartesianPendulum,
-            &mut 0.0,
-            &mut good,
-            0.5,
-            0.1,
-            &mut Stats::default(),
-        )
-        .unwrap();
-        let err = advance(
-            &mut BrokenPendulum,
-            &mut t,
-            &mut x,
-            1.0,
-            0.1,
-            &mut Stats::default(),
-        )
-        .unwrap_err();
+        run(&mut CartesianPendulum, (&mut 0.0, &mut good), (0.5, 0.1)).unwrap();
+        let err = run(&mut BrokenPendulum, (&mut t, &mut x), (1.0, 0.1)).unwrap_err();
         assert!(err.to_string().contains("non-finite"), "{err}");
         assert_eq!(t, 0.5);
         // The same (q, q̇) as the run that stopped there by itself.
@@ -714,15 +680,7 @@ mod tests {
         // Jacobian frozen there, does not converge. The state stays at t = 0.
         let x0 = cartesian_start(3.0, 4.0);
         let (mut t, mut x) = (0.0, x0);
-        let err = advance(
-            &mut CartesianPendulum,
-            &mut t,
-            &mut x,
-            2.0,
-            2.0,
-            &mut Stats::default(),
-        )
-        .unwrap_err();
+        let err = run(&mut CartesianPendulum, (&mut t, &mut x), (2.0, 2.0)).unwrap_err();
         assert!(matches!(err, ImplicitFailure::NewtonFailed { .. }), "{err}");
         assert_eq!((t, x), (0.0, x0));
     }

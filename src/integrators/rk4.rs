@@ -160,8 +160,8 @@ fn one_step<F: Rhs + ?Sized>(
 
 #[cfg(test)]
 mod tests {
-    use super::super::test_support::{oscillator, oscillator_error};
-    use super::super::{self as integ, Memory, Method, Settings, MAX_STEPS};
+    use super::super::test_support::{one, oscillator, oscillator_error, settings, square, OMEGA};
+    use super::super::{self as integ, Memory, Method, MAX_STEPS};
     use super::*;
 
     /// A coupled nonlinear system of any size, time dependent.
@@ -180,13 +180,7 @@ mod tests {
         for dim in [1, 2, 3, 4, 6, 7, 8, 9] {
             for (t_end, step) in [(0.47, 0.01), (0.4, 0.1), (0.101, 1e-3), (0.35, 0.07)] {
                 let x0: Vec<f64> = (0..dim).map(|i| 0.2 + 0.1 * i as f64).collect();
-                let settings = Settings {
-                    method: Method::Rk4,
-                    rtol: 0.0,
-                    atol: vec![],
-                    step,
-                    max_steps: MAX_STEPS,
-                };
+                let settings = settings(Method::Rk4, step);
                 let (mut t, mut x, mut memory) = (0.1, x0.clone(), Memory::default());
                 integ::advance(&mut chain, &mut t, &mut x, t_end, &settings, &mut memory).unwrap();
                 let (mut tf, mut xf, mut stats) = (0.1, x0, Stats::default());
@@ -224,13 +218,7 @@ mod tests {
     }
 
     fn run_rk4(step: f64, t_end: f64) -> (f64, [f64; 2], Stats) {
-        let settings = Settings {
-            method: Method::Rk4,
-            rtol: 0.0,
-            atol: vec![],
-            step,
-            max_steps: MAX_STEPS,
-        };
+        let settings = settings(Method::Rk4, step);
         let mut memory = Memory::default();
         let (mut t, mut x) = (0.0, [1.0, 0.0]);
         integ::advance(
@@ -292,13 +280,7 @@ mod tests {
     #[test]
     fn rk4_times_do_not_drift() {
         // Record the times RK4 evaluates at; the step starts must be exactly t0 + i·h.
-        let settings = Settings {
-            method: Method::Rk4,
-            rtol: 0.0,
-            atol: vec![],
-            step: 0.1,
-            max_steps: MAX_STEPS,
-        };
+        let settings = settings(Method::Rk4, 0.1);
         let mut memory = Memory::default();
         let mut times = Vec::new();
         let (mut t, mut x) = (3.0, [0.0]);
@@ -315,49 +297,31 @@ mod tests {
         assert!((x[0] - 100.0).abs() < 1e-12);
     }
 
-    #[test]
-    fn rk4_blow_up_fails_with_finite_state() {
-        let settings = Settings {
-            method: Method::Rk4,
-            rtol: 0.0,
-            atol: vec![],
-            step: 1e-3,
-            max_steps: MAX_STEPS,
-        };
+    /// RK4 with `step` on the scalar `rhs` from x(0) = 1 to `t_end` in a fresh memory: the
+    /// result, where it stopped, and the memory.
+    fn run_scalar(
+        mut rhs: fn(f64, &[f64], &mut [f64]),
+        step: f64,
+        t_end: f64,
+    ) -> (Result<(), Failure>, f64, f64, Memory) {
+        let settings = settings(Method::Rk4, step);
         let mut memory = Memory::default();
         let (mut t, mut x) = (0.0, [1.0]);
-        let r = integ::advance(
-            &mut |_, y, d| d[0] = y[0] * y[0],
-            &mut t,
-            &mut x,
-            2.0,
-            &settings,
-            &mut memory,
-        );
+        let r = integ::advance(&mut rhs, &mut t, &mut x, t_end, &settings, &mut memory);
+        (r, t, x[0], memory)
+    }
+
+    #[test]
+    fn rk4_blow_up_fails_with_finite_state() {
+        let (r, t, x, _) = run_scalar(square, 1e-3, 2.0);
         // RK4 cannot see the singularity at t = 1; it overflows a few steps past it.
         assert_eq!(r, Err(Failure::NonFinite { t }));
-        assert!(x[0].is_finite() && t < 2.0);
+        assert!(x.is_finite() && t < 2.0);
     }
 
     #[test]
     fn rk4_refuses_absurd_step_counts_up_front() {
-        let settings = Settings {
-            method: Method::Rk4,
-            rtol: 0.0,
-            atol: vec![],
-            step: 1e-9,
-            max_steps: MAX_STEPS,
-        };
-        let mut memory = Memory::default();
-        let (mut t, mut x) = (0.0, [1.0]);
-        let r = integ::advance(
-            &mut |_, _, d| d[0] = 1.0,
-            &mut t,
-            &mut x,
-            1.0,
-            &settings,
-            &mut memory,
-        );
+        let (r, _, _, memory) = run_scalar(one, 1e-9, 1.0);
         assert_eq!(
             r,
             Err(Failure::TooManyPlanned {
@@ -369,19 +333,33 @@ mod tests {
         );
         assert_eq!(memory.stats.rhs_evals, 0);
         // Up to the limit it plans and steps.
-        let settings = Settings {
-            step: 1.0 / MAX_STEPS as f64,
-            ..settings
-        };
-        integ::advance(
-            &mut |_, _, d| d[0] = 1.0,
-            &mut t,
-            &mut x,
-            1.0,
-            &settings,
-            &mut memory,
-        )
-        .unwrap();
+        let (r, _, _, memory) = run_scalar(one, 1.0 / MAX_STEPS as f64, 1.0);
+        r.unwrap();
         assert_eq!(memory.stats.steps, MAX_STEPS);
+    }
+
+    /// RK4 on the oscillator: in the scaled coordinates (x, v/ω) the system is normal, so
+    /// every step multiplies the energy by exactly |R(ihω)|², with
+    /// R(z) = 1 + z + z²/2 + z³/6 + z⁴/24: |R(iy)|² = 1 + y⁶(y² − 8)/576. Stable up to
+    /// y = 2√2 = 2.8284.
+    fn rk4_energy_ratio(y: f64, steps: usize) -> (f64, f64) {
+        let h = y / OMEGA;
+        let (_, x, stats) = run_rk4(h, steps as f64 * h);
+        assert_eq!(stats.steps, steps as u64);
+        let measured = x[0] * x[0] + x[1] * x[1] / (OMEGA * OMEGA);
+        let predicted = (1.0 + y.powi(6) * (y * y - 8.0) / 576.0).powi(steps as i32);
+        (measured, predicted)
+    }
+
+    #[test]
+    fn rk4_is_stable_just_below_two_root_two_and_grows_just_above() {
+        // hω = 2.82: |R|² = 0.95844 per step (strongly damped), 10⁴ steps: 4.4e-185 of the start.
+        let (e, p) = rk4_energy_ratio(2.82, 10_000);
+        eprintln!("RK4 hω = 2.82, 10⁴ steps: energy ratio {e:e}, predicted {p:e}");
+        assert!(e < 1.0 && (e / p - 1.0).abs() < 1e-9, "{e:e} vs {p:e}");
+        // hω = 2.84: |R|² = 1.05976 per step; 10⁴ steps: 1.2e252 times the start.
+        let (e, p) = rk4_energy_ratio(2.84, 10_000);
+        eprintln!("RK4 hω = 2.84, 10⁴ steps: energy ratio {e:e}, predicted {p:e}");
+        assert!(e > 1e10 && (e / p - 1.0).abs() < 1e-9, "{e:e} vs {p:e}");
     }
 }

@@ -18,7 +18,7 @@ use super::{dop853, dopri5, exact_linear, gauss, radau5, rattle};
 /// Scratch for every method; each uses its own part, sized on first use.
 #[derive(Default)]
 pub struct Workspace {
-    /// The fixed-step loop's new state and the one-stage methods' f (Euler, Verlet).
+    /// The new state and f of the explicit fixed-step methods (Euler, Verlet).
     pub(super) fixed: [Vec<f64>; 2],
     /// RK4's stages k1 … k4 and its new state.
     pub(super) rk4: [Vec<f64>; 5],
