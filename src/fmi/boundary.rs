@@ -166,7 +166,8 @@ pub(crate) unsafe fn slice_mut<'a, T>(
     Ok(std::slice::from_raw_parts_mut(ptr, n))
 }
 
-pub(crate) fn ok(r: Result<(), String>) -> Result<Status, String> {
+/// OK from a call that answers nothing else.
+pub fn ok(r: Result<(), String>) -> Result<Status, String> {
     r.map(|()| Status::Ok)
 }
 
@@ -279,6 +280,18 @@ unsafe fn state_ref<'a>(
     Ok(b)
 }
 
+/// The snapshot in FMU state `state`, any live one of this model (only read).
+///
+/// # Safety
+/// As [`state_ref`].
+unsafe fn read<'a, M: System>(
+    c: Component,
+    core: &Instance<M>,
+    state: FmuState,
+) -> Result<&'a Snapshot, String> {
+    Ok(&state_ref(c, &core.info.guid, state, Use::Read)?.snapshot)
+}
+
 /// `*state` made or overwritten (if it is one of `c`'s) to hold `snapshot`.
 ///
 /// # Safety
@@ -329,8 +342,8 @@ pub unsafe fn restore<M: System>(
     core: &mut Instance<M>,
     state: FmuState,
 ) -> Result<Status, String> {
-    let b = state_ref(c, &core.info.guid, state, Use::Read)?;
-    ok(core.restore(&b.snapshot))
+    let snapshot = read(c, core, state)?;
+    ok(core.restore(snapshot))
 }
 
 /// fmi2SetFMUstate.
@@ -370,19 +383,6 @@ pub unsafe fn free_fmu_state<I: Guarded>(
     })
 }
 
-/// The bytes of FMU state `state` (any live one of this model).
-///
-/// # Safety
-/// `state` is NULL or one of ours.
-unsafe fn blob_of<M: System>(
-    c: Component,
-    core: &Instance<M>,
-    state: FmuState,
-) -> Result<Vec<u8>, String> {
-    let b = state_ref(c, &core.info.guid, state, Use::Read)?;
-    Ok(core.serialize(&b.snapshot))
-}
-
 /// fmi2SerializedFMUstateSize, fmi3SerializedFMUStateSize.
 ///
 /// # Safety
@@ -394,7 +394,8 @@ pub unsafe fn serialized_fmu_state_size<I: Guarded>(
     size: *mut usize,
 ) -> Status {
     guard::<I>(c, function, gate, |inst| {
-        let blob = blob_of(c, inst.core(), state)?;
+        let core = inst.core();
+        let blob = core.serialize(read(c, core, state)?);
         if size.is_null() {
             return Err("size is NULL".to_string());
         }
@@ -414,7 +415,8 @@ pub unsafe fn serialize_fmu_state<I: Guarded>(
     (bytes, size): (*mut u8, usize),
 ) -> Status {
     guard::<I>(c, function, gate, |inst| {
-        let blob = blob_of(c, inst.core(), state)?;
+        let core = inst.core();
+        let blob = core.serialize(read(c, core, state)?);
         if size != blob.len() {
             return Err(format!(
                 "size {size} differs from the serialized size {}",

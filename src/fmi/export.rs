@@ -99,6 +99,64 @@ macro_rules! __fmu_state_symbols {
     };
 }
 
+/// Model Exchange's continuous-time symbols of one version, over the shared bodies in
+/// [`continuous_time`](crate::fmi::continuous_time) for the version's instance `Inst`:
+/// its component and Boolean types, then one row per call, `name = gate;` (with the word
+/// for its array where the versions differ: `name("x[]") = gate;`), in a fixed order.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __continuous_time_symbols {
+    (
+        $c:ty, $bool:ty;
+        $set_time:ident = $set_time_gate:expr;
+        $set_states:ident($set_word:literal) = $set_states_gate:expr;
+        $get_states:ident($get_word:literal) = $get_states_gate:expr;
+        $derivatives:ident = $derivatives_gate:expr;
+        $indicators:ident = $indicators_gate:expr;
+        $nominals:ident($nominals_word:literal) = $nominals_gate:expr;
+        $completed:ident = $completed_gate:expr;
+    ) => {
+        $crate::__fmi_c_symbols! {
+            [] fn $set_time(c: $c, time: f64) -> Status
+                = $crate::fmi::continuous_time::set_time::<Inst>(
+                    c, (stringify!($set_time), $set_time_gate), time,
+                );
+            [unsafe] fn $set_states(c: $c, x: *const f64, nx: usize) -> Status
+                = $crate::fmi::continuous_time::set_continuous_states::<Inst>(
+                    c, (stringify!($set_states), $set_states_gate), (x, nx, $set_word),
+                );
+            [unsafe] fn $get_states(c: $c, x: *mut f64, nx: usize) -> Status
+                = $crate::fmi::continuous_time::fill::<Inst>(
+                    c, (stringify!($get_states), $get_states_gate), (x, nx, $get_word),
+                    |core, x| $crate::fmi::boundary::ok(core.get_continuous_states(x)),
+                );
+            [unsafe] fn $derivatives(c: $c, dx: *mut f64, nx: usize) -> Status
+                = $crate::fmi::continuous_time::fill::<Inst>(
+                    c, (stringify!($derivatives), $derivatives_gate), (dx, nx, "derivatives[]"),
+                    |core, dx| core.get_derivatives(dx),
+                );
+            [unsafe] fn $indicators(c: $c, z: *mut f64, ni: usize) -> Status
+                = $crate::fmi::continuous_time::fill::<Inst>(
+                    c, (stringify!($indicators), $indicators_gate), (z, ni, "eventIndicators[]"),
+                    |core, z| core.get_event_indicators(z),
+                );
+            [unsafe] fn $nominals(c: $c, nominals: *mut f64, nx: usize) -> Status
+                = $crate::fmi::continuous_time::fill::<Inst>(
+                    c, (stringify!($nominals), $nominals_gate), (nominals, nx, $nominals_word),
+                    |core, nominals| $crate::fmi::boundary::ok(core.get_nominals(nominals)),
+                );
+            [unsafe] fn $completed(
+                c: $c, _no_set_fmu_state_prior: $bool, enter_event_mode: *mut $bool,
+                terminate_simulation: *mut $bool,
+            ) -> Status
+                = $crate::fmi::continuous_time::completed_integrator_step::<Inst, $bool>(
+                    c, (stringify!($completed), $completed_gate), enter_event_mode,
+                    terminate_simulation,
+                );
+        }
+    };
+}
+
 /// Defines the complete FMI 2.0 and FMI 3.0 C APIs, Co-Simulation and Model Exchange, for one
 /// [`System`](crate::model::System).
 ///
@@ -256,32 +314,22 @@ macro_rules! export_fmu {
                     = fmi2::new_discrete_states::<E>(c, info);
                 [] fn fmi2EnterContinuousTimeMode(c: Component) -> Status
                     = fmi2::enter_continuous_time_mode::<E>(c);
-                [unsafe] fn fmi2CompletedIntegratorStep(
-                    c: Component, no_prior: c_int, enter_event_mode: *mut c_int,
-                    terminate_simulation: *mut c_int,
-                ) -> Status
-                    = fmi2::completed_integrator_step::<E>(
-                        c, no_prior, enter_event_mode, terminate_simulation,
-                    );
-                [] fn fmi2SetTime(c: Component, time: f64) -> Status
-                    = fmi2::set_time::<E>(c, time);
-                [unsafe] fn fmi2SetContinuousStates(c: Component, x: *const f64, nx: usize) -> Status
-                    = fmi2::set_continuous_states::<E>(c, x, nx);
-                [unsafe] fn fmi2GetDerivatives(c: Component, dx: *mut f64, nx: usize) -> Status
-                    = fmi2::get_derivatives::<E>(c, dx, nx);
-                [unsafe] fn fmi2GetEventIndicators(c: Component, z: *mut f64, ni: usize) -> Status
-                    = fmi2::get_event_indicators::<E>(c, z, ni);
-                [unsafe] fn fmi2GetContinuousStates(c: Component, x: *mut f64, nx: usize) -> Status
-                    = fmi2::get_continuous_states::<E>(c, x, nx);
-                [unsafe] fn fmi2GetNominalsOfContinuousStates(
-                    c: Component, nominals: *mut f64, nx: usize,
-                ) -> Status
-                    = fmi2::get_nominals_of_continuous_states::<E>(c, nominals, nx);
                 // Co-Simulation.
                 [unsafe] fn fmi2GetStringStatus(
                     c: Component, kind: c_int, v: *mut *const c_char,
                 ) -> Status
                     = fmi2::get_string_status::<E>(c, kind, v);
+            }
+
+            $crate::__continuous_time_symbols! {
+                Component, c_int;
+                fmi2SetTime = fmi2::SET_TIME;
+                fmi2SetContinuousStates("x[]") = fmi2::SET_CONTINUOUS_STATES;
+                fmi2GetContinuousStates("x[]") = fmi2::GET_CONTINUOUS_STATES;
+                fmi2GetDerivatives = fmi2::GET_DERIVATIVES;
+                fmi2GetEventIndicators = fmi2::GET_EVENT_INDICATORS;
+                fmi2GetNominalsOfContinuousStates("x_nominal[]") = fmi2::GET_NOMINALS;
+                fmi2CompletedIntegratorStep = fmi2::COMPLETED_INTEGRATOR_STEP;
             }
 
             $crate::__fmu_state_symbols! {
@@ -423,28 +471,6 @@ macro_rules! export_fmu {
                     );
                 [] fn fmi3EnterContinuousTimeMode(c: Instance) -> Status
                     = fmi3::enter_continuous_time_mode::<E>(c);
-                [unsafe] fn fmi3CompletedIntegratorStep(
-                    c: Instance, no_prior: Bool3, enter_event_mode: *mut Bool3, terminate: *mut Bool3,
-                ) -> Status
-                    = fmi3::completed_integrator_step::<E>(
-                        c, no_prior, enter_event_mode, terminate,
-                    );
-                [] fn fmi3SetTime(c: Instance, time: f64) -> Status
-                    = fmi3::set_time::<E>(c, time);
-                [unsafe] fn fmi3SetContinuousStates(c: Instance, x: *const f64, nx: usize) -> Status
-                    = fmi3::set_continuous_states::<E>(c, x, nx);
-                [unsafe] fn fmi3GetContinuousStateDerivatives(
-                    c: Instance, dx: *mut f64, nx: usize,
-                ) -> Status
-                    = fmi3::get_continuous_state_derivatives::<E>(c, dx, nx);
-                [unsafe] fn fmi3GetEventIndicators(c: Instance, z: *mut f64, ni: usize) -> Status
-                    = fmi3::get_event_indicators::<E>(c, z, ni);
-                [unsafe] fn fmi3GetContinuousStates(c: Instance, x: *mut f64, nx: usize) -> Status
-                    = fmi3::get_continuous_states::<E>(c, x, nx);
-                [unsafe] fn fmi3GetNominalsOfContinuousStates(
-                    c: Instance, nominals: *mut f64, nx: usize,
-                ) -> Status
-                    = fmi3::get_nominals_of_continuous_states::<E>(c, nominals, nx);
                 [unsafe] fn fmi3GetNumberOfEventIndicators(c: Instance, n: *mut usize) -> Status
                     = fmi3::get_number_of_event_indicators::<E>(c, n);
                 [unsafe] fn fmi3GetNumberOfContinuousStates(c: Instance, n: *mut usize) -> Status
@@ -465,6 +491,17 @@ macro_rules! export_fmu {
                         c, current, h, no_prior, event_handling_needed, terminate, early_return,
                         last_successful_time,
                     );
+            }
+
+            $crate::__continuous_time_symbols! {
+                Instance, Bool3;
+                fmi3SetTime = fmi3::SET_TIME;
+                fmi3SetContinuousStates("continuousStates[]") = fmi3::SET_CONTINUOUS_STATES;
+                fmi3GetContinuousStates("continuousStates[]") = fmi3::EVALUATE;
+                fmi3GetContinuousStateDerivatives = fmi3::EVALUATE;
+                fmi3GetEventIndicators = fmi3::EVALUATE;
+                fmi3GetNominalsOfContinuousStates("nominals[]") = fmi3::EVALUATE;
+                fmi3CompletedIntegratorStep = fmi3::COMPLETED_INTEGRATOR_STEP;
             }
 
             $crate::__fmu_state_symbols! {

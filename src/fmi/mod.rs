@@ -22,6 +22,7 @@
 //! 4. The [`System`](crate::model::System) computes `ẋ` and the outputs.
 
 pub mod boundary;
+pub mod continuous_time;
 mod core;
 mod export;
 pub mod fmi2;

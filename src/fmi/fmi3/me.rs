@@ -3,7 +3,7 @@
 
 use super as table;
 use super::{call3, put, Bool3, Inst3};
-use crate::fmi::boundary::{ok, slice, slice_mut, Component};
+use crate::fmi::boundary::{ok, Component};
 use crate::fmi::Interface;
 use crate::fmi::{Export, Status};
 
@@ -55,89 +55,6 @@ pub fn enter_continuous_time_mode<E: Export>(c: Component) -> Status {
     const F: &str = "fmi3EnterContinuousTimeMode";
     call3::<E>(c, F, table::ENTER_CONTINUOUS_TIME_MODE, |f| {
         ok(f.core.enter_continuous_time_mode())
-    })
-}
-
-/// # Safety
-/// `enter_event_mode` and `terminate_simulation` point to writable fmi3Booleans.
-pub unsafe fn completed_integrator_step<E: Export>(
-    c: Component,
-    _no_set_prior: Bool3,
-    enter_event_mode: *mut Bool3,
-    terminate_simulation: *mut Bool3,
-) -> Status {
-    const F: &str = "fmi3CompletedIntegratorStep";
-    call3::<E>(c, F, table::COMPLETED_INTEGRATOR_STEP, |f| {
-        if enter_event_mode.is_null() || terminate_simulation.is_null() {
-            return Err("enterEventMode or terminateSimulation is NULL".to_string());
-        }
-        let (enter, terminate) = f.core.completed_integrator_step()?;
-        put(enter_event_mode, enter);
-        put(terminate_simulation, terminate);
-        Ok(Status::Ok)
-    })
-}
-
-pub fn set_time<E: Export>(c: Component, time: f64) -> Status {
-    const F: &str = "fmi3SetTime";
-    call3::<E>(c, F, table::SET_TIME, |f| ok(f.core.set_time(time)))
-}
-
-/// # Safety
-/// `x` points to `nx` values when `nx > 0`.
-pub unsafe fn set_continuous_states<E: Export>(c: Component, x: *const f64, nx: usize) -> Status {
-    const F: &str = "fmi3SetContinuousStates";
-    call3::<E>(c, F, table::SET_CONTINUOUS_STATES, |f| {
-        let x = slice(x, nx, "continuousStates[]")?;
-        ok(f.core.set_continuous_states(x))
-    })
-}
-
-/// # Safety
-/// `x` points to `nx` writable values when `nx > 0`.
-pub unsafe fn get_continuous_states<E: Export>(c: Component, x: *mut f64, nx: usize) -> Status {
-    const F: &str = "fmi3GetContinuousStates";
-    call3::<E>(c, F, table::EVALUATE, |f| {
-        let x = slice_mut(x, nx, "continuousStates[]")?;
-        ok(f.core.get_continuous_states(x))
-    })
-}
-
-/// # Safety
-/// As [`get_continuous_states`].
-pub unsafe fn get_continuous_state_derivatives<E: Export>(
-    c: Component,
-    dx: *mut f64,
-    nx: usize,
-) -> Status {
-    const F: &str = "fmi3GetContinuousStateDerivatives";
-    call3::<E>(c, F, table::EVALUATE, |f| {
-        let dx = slice_mut(dx, nx, "derivatives[]")?;
-        f.core.get_derivatives(dx)
-    })
-}
-
-/// # Safety
-/// `z` points to `ni` writable values when `ni > 0`.
-pub unsafe fn get_event_indicators<E: Export>(c: Component, z: *mut f64, ni: usize) -> Status {
-    const F: &str = "fmi3GetEventIndicators";
-    call3::<E>(c, F, table::EVALUATE, |f| {
-        let z = slice_mut(z, ni, "eventIndicators[]")?;
-        f.core.get_event_indicators(z)
-    })
-}
-
-/// # Safety
-/// As [`get_continuous_states`].
-pub unsafe fn get_nominals_of_continuous_states<E: Export>(
-    c: Component,
-    nominals: *mut f64,
-    nx: usize,
-) -> Status {
-    const F: &str = "fmi3GetNominalsOfContinuousStates";
-    call3::<E>(c, F, table::EVALUATE, |f| {
-        let nominals = slice_mut(nominals, nx, "nominals[]")?;
-        ok(f.core.get_nominals(nominals))
     })
 }
 
