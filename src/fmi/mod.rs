@@ -9,7 +9,8 @@
 //!    the one guard ([`boundary::guard`]): NULL instance, its version's table checked once
 //!    ([`gate`]: one check and one wording of a refusal for both), panics caught, every
 //!    error one line "function: message". [`boundary`] also holds the NULL-checked slices
-//!    and the FMU states. The only `unsafe`, `extern "C"` and `catch_unwind` of the FMU side
+//!    and the bodies both versions share (the FMU states, free instance, debug logging);
+//!    [`continuous_time`] Model Exchange's continuous-time calls, one body each for both. The only `unsafe`, `extern "C"` and `catch_unwind` of the FMU side
 //!    (the packager's side of `mbfmu_describe`, dlopen, is in `package::library`).
 //! 3. [`Instance`] is the core (`core/`), which belongs to no FMI version: its [`Mode`]s,
 //!    `core/mod.rs` (variables get/set and their checks, initialisation, directional
