@@ -3,8 +3,7 @@
 //! every C entry point before any work ([`check`]), with one wording of a refusal for
 //! both versions.
 
-use super::core::mode::States;
-use super::Interface;
+use super::core::mode::{Interface, States};
 
 /// The states of one FMI version's table (`fmi2::State2`, `fmi3::State3`, declared with
 /// `states!`): bits, so a [`Gate`] holds a set of them in a `u32`.

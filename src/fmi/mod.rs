@@ -31,6 +31,7 @@ pub mod fmi3;
 pub mod gate;
 
 pub use self::core::cs::{StepOutcome, DOSTEP_WORK};
+pub use self::core::info::{ModelInfo, Status};
 pub use self::core::inputs::MAX_INPUT_DERIVATIVE_ORDER;
 pub use self::core::logger::{CallbackFunctions, CallbackLogger, LogMessage3, Logger, Words};
 pub use self::core::me::{EventInfo, NO_EVENT_INDICATOR};
@@ -39,44 +40,7 @@ pub use self::core::snapshot::{Snapshot, SNAPSHOT_MAGIC, SNAPSHOT_VERSION};
 pub use self::core::Instance;
 pub use gate::Gate;
 
-use crate::model::{Layout, System};
-
-/// fmi2Status.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-pub enum Status {
-    Ok = 0,
-    Warning = 1,
-    Discard = 2,
-    Error = 3,
-    Fatal = 4,
-    Pending = 5,
-}
-
-/// What the FMU knows of its model, computed once per process.
-#[derive(Debug)]
-pub struct ModelInfo {
-    pub name: &'static str,
-    pub layout: Layout,
-    pub guid: String,
-    /// DefaultExperiment tolerance: used when fmi2SetupExperiment defines none.
-    pub default_tolerance: f64,
-    /// What Model Exchange declares: event indicators, projection, `reinit` states.
-    pub probe: crate::model::Probe,
-}
-
-impl ModelInfo {
-    pub fn of<M: System>() -> ModelInfo {
-        let layout = Layout::of::<M>();
-        ModelInfo {
-            name: M::NAME,
-            probe: crate::model::Probe::of::<M>(&layout),
-            layout,
-            guid: crate::xml::guid::<M>(),
-            default_tolerance: M::default_experiment().1,
-        }
-    }
-}
+use crate::model::System;
 
 /// One exported model: the glue the export macro generates for a cdylib.
 pub trait Export: 'static {

@@ -2,11 +2,11 @@
 //! the general path with dense output and event location), input and output derivatives,
 //! and the status queries, on the shared [`Instance`] core.
 
+use super::info::Status;
 use super::inputs::{self, Inputs, MAX_INPUT_DERIVATIVE_ORDER};
 use super::mode::Mode;
 use super::snapshot::Snapshot;
 use super::{crossed, Instance, Res};
-use crate::fmi::Status;
 use crate::integrators::problem::Problem;
 use crate::integrators::{
     self, all_finite, copied, finite, problem::Mechanics, sized, Memory, Method, Settings,
@@ -73,7 +73,7 @@ pub enum StepOutcome {
     Discarded(String),
 }
 
-/// `settings` (of a [`Work`](super::core::Work)) for the values in `d`: method, tolerances (`atol` = tolerance
+/// `settings` (of a [`Work`](super::Work)) for the values in `d`: method, tolerances (`atol` = tolerance
 /// × the state's nominal), the step (`adaptive_max_step` for the adaptive methods) and the
 /// step limit.
 fn prepared<'a>(

@@ -1,6 +1,6 @@
 //! The logger callback of the environment, and which categories are switched on.
 
-use crate::fmi::Status;
+use super::info::Status;
 use crate::xml::LOG_CATEGORIES;
 use std::cell::Cell;
 use std::ffi::{c_char, c_int, c_void, CString};

@@ -16,9 +16,9 @@
 //! (valuesOfContinuousStatesChanged); at any event it projects what is off by more than
 //! rounding.
 
+use super::info::Status;
 use super::mode::Mode;
 use super::{crossed, Instance, Res};
-use crate::fmi::Status;
 use crate::integrators::all_finite;
 use crate::model::{System, VarKind};
 

@@ -10,18 +10,19 @@
 //! A rejected call has no effect: every argument is checked before anything changes.
 
 pub mod cs;
+pub mod info;
 pub mod inputs;
 pub mod logger;
 pub mod me;
 pub mod mode;
 pub mod snapshot;
 
-use super::{ModelInfo, Status};
 use crate::integrators::problem::Problem;
 use crate::integrators::{self, finite, zeroed, Memory, Method, Settings, Workspace};
 use crate::model::consistent;
 use crate::model::jacobian::{Direction, Duals};
 use crate::model::{Slot, System, Var, VarKind};
+use info::{ModelInfo, Status};
 use logger::Logger;
 use mode::{Interface, Mode};
 use snapshot::Snapshot;
