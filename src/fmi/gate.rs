@@ -8,9 +8,6 @@ use super::core::mode::{Interface, States};
 /// The states of one FMI version's table (`fmi2::State2`, `fmi3::State3`, declared with
 /// `states!`): bits, so a [`Gate`] holds a set of them in a `u32`.
 pub trait Table: States {
-    /// The states an instance of each interface can be in.
-    const CS: u32;
-    const ME: u32;
     /// How the importer chose the interface, for a refusal ("fmuType 1 in
     /// fmi2Instantiate").
     fn made_by(own: Interface) -> String;
@@ -76,14 +73,14 @@ macro_rules! gates {
         $crate::fmi::gate::Gate::only(
             $crate::fmi::Interface::CoSimulation,
             $states,
-            <$table as $crate::fmi::gate::Table>::ME,
+            <$table as $crate::fmi::core::mode::States>::ME,
         )
     };
     (@ $table:ident, me, $states:expr) => {
         $crate::fmi::gate::Gate::only(
             $crate::fmi::Interface::ModelExchange,
             $states,
-            <$table as $crate::fmi::gate::Table>::CS,
+            <$table as $crate::fmi::core::mode::States>::CS,
         )
     };
 }

@@ -3,17 +3,30 @@
 //! Each front-end reads them as its own version's states (`fmi2::State2::of`,
 //! `fmi3::State3::of`) and checks its own table; the core checks none.
 
-/// What a set of states declared with [`states!`] has: its states as bits of a `u32`.
+/// What a set of states declared with [`states!`] has: its states as bits of a `u32`, and
+/// which of them an instance of each interface can be in.
 pub trait States: Copy + std::fmt::Debug + 'static {
     /// Every state, in declaration order.
     const ALL: &'static [Self];
+    /// The states of a Co-Simulation instance, and of a Model Exchange one.
+    const CS: u32;
+    const ME: u32;
     fn code(self) -> u32;
 }
 
 /// Declares a set of states: the enum and its [`States`], each state the bit of its place
-/// (the first 1 << 0). The core's modes below, and each FMI version's table states.
+/// (the first 1 << 0), and of both interfaces unless marked `[cs]` or `[me]`. The core's
+/// modes below, and each FMI version's table states.
 macro_rules! states {
-    ($(#[$m:meta])* pub enum $name:ident { $($(#[$vm:meta])* $v:ident,)* }) => {
+    (@in cs) => { true };
+    (@in me) => { true };
+    (@in cs cs) => { true };
+    (@in me me) => { true };
+    (@in cs me) => { false };
+    (@in me cs) => { false };
+    ($(#[$m:meta])* pub enum $name:ident {
+        $($(#[$vm:meta])* $v:ident $([$only:ident])?,)*
+    }) => {
         $(#[$m])*
         #[derive(Clone, Copy, Debug, PartialEq, Eq)]
         pub enum $name {
@@ -22,6 +35,10 @@ macro_rules! states {
 
         impl $crate::fmi::core::mode::States for $name {
             const ALL: &'static [$name] = &[$($name::$v),*];
+            const CS: u32 = 0 $(| ($crate::fmi::core::mode::states!(@in cs $($only)?) as u32)
+                << $name::$v as u32)*;
+            const ME: u32 = 0 $(| ($crate::fmi::core::mode::states!(@in me $($only)?) as u32)
+                << $name::$v as u32)*;
             #[inline]
             fn code(self) -> u32 {
                 1 << self as u32
@@ -48,18 +65,18 @@ states! {
         /// Between entering and leaving initialisation.
         Initializing,
         /// Co-Simulation, initialised: steps may be taken.
-        Stepping,
+        Stepping [cs],
         /// Co-Simulation after a step that ended early (Discard): the state is where the
         /// last successful time says.
-        StepDiscarded,
+        StepDiscarded [cs],
         /// After terminate: values may be read.
         Terminated,
         /// After a panic was caught: nothing can be trusted; only reading, reset and free.
         Error,
         /// Model Exchange's event iteration.
-        Event,
+        Event [me],
         /// Model Exchange between events: the importer integrates.
-        ContinuousTime,
+        ContinuousTime [me],
     }
 }
 
@@ -97,10 +114,11 @@ impl Interface {
 
     /// Whether an instance of this interface can be in `mode`.
     pub fn has(self, mode: Mode) -> bool {
-        match self {
-            Interface::CoSimulation => !matches!(mode, Event | ContinuousTime),
-            Interface::ModelExchange => !matches!(mode, Stepping | StepDiscarded),
-        }
+        let states = match self {
+            Interface::CoSimulation => Mode::CS,
+            Interface::ModelExchange => Mode::ME,
+        };
+        states & mode.code() != 0
     }
 
     /// As the standards name it.

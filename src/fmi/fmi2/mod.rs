@@ -21,7 +21,7 @@ pub use me::*;
 
 use super::boundary::*;
 pub use super::boundary::{Component, FmuState};
-use super::core::mode::{bits, states};
+use super::core::mode::states;
 use super::gate::{self, gates, Gate, Table};
 use super::CallbackFunctions;
 use super::{Export, Instance, Interface, Logger, Mode, Status};
@@ -36,12 +36,12 @@ states! {
     pub enum State2 {
         Instantiated,
         InitializationMode,
-        StepComplete,
-        StepFailed,
+        StepComplete [cs],
+        StepFailed [cs],
         Terminated,
         Error,
-        EventMode,
-        ContinuousTimeMode,
+        EventMode [me],
+        ContinuousTimeMode [me],
     }
 }
 
@@ -63,13 +63,6 @@ impl State2 {
 }
 
 impl Table for State2 {
-    const CS: u32 = bits!(State2[
-        Instantiated, InitializationMode, StepComplete, StepFailed, Terminated, Error,
-    ]);
-    const ME: u32 = bits!(State2[
-        Instantiated, InitializationMode, EventMode, ContinuousTimeMode, Terminated, Error,
-    ]);
-
     fn made_by(own: Interface) -> String {
         format!("fmuType {} in fmi2Instantiate", own.code())
     }

@@ -22,7 +22,7 @@ pub use cs::*;
 pub use me::*;
 
 use super::boundary::{guard, ok, slice, slice_mut, Component, FmuState, Guarded};
-use super::core::mode::{bits, states};
+use super::core::mode::states;
 use super::gate::{self, gates, Gate, Table};
 use crate::fmi::{Export, Instance, Interface, Logger, Mode, Status};
 use crate::model::{System, VarKind};
@@ -62,8 +62,8 @@ states! {
         Instantiated,
         InitializationMode,
         EventMode,
-        ContinuousTimeMode,
-        StepMode,
+        ContinuousTimeMode [me],
+        StepMode [cs],
         Terminated,
         /// After a panic was caught (the core's error state): only reading, reset and free.
         Error,
@@ -89,13 +89,6 @@ impl State3 {
 }
 
 impl Table for State3 {
-    const CS: u32 = bits!(State3[
-        Instantiated, InitializationMode, EventMode, StepMode, Terminated, Error,
-    ]);
-    const ME: u32 = bits!(State3[
-        Instantiated, InitializationMode, EventMode, ContinuousTimeMode, Terminated, Error,
-    ]);
-
     fn made_by(own: Interface) -> String {
         match own {
             Interface::CoSimulation => "by fmi3InstantiateCoSimulation".into(),
