@@ -10,6 +10,7 @@
 
 use super::{close, default_experiment, empty, integer_attrs, log_categories, open, s, units, W};
 use super::{dependencies, real_attrs, solver_items, variable_head, GENERATION_TOOL};
+use super::{state_and_derivatives, Version};
 use crate::model::{Layout, Probe, System, VarKind};
 use quick_xml::events::{BytesDecl, Event};
 use quick_xml::Writer;
@@ -81,11 +82,8 @@ pub fn model_description3<M: System>() -> String {
             ("modelIdentifier", s(M::NAME)),
             ("needsExecutionTool", s(false)),
             ("canBeInstantiatedOnlyOncePerProcess", s(false)),
-            ("canGetAndSetFMUState", s(true)),
-            ("canSerializeFMUState", s(true)),
-            ("providesDirectionalDerivatives", s(true)),
-            ("providesAdjointDerivatives", s(true)),
         ];
+        attrs.extend(state_and_derivatives(Version::Fmi3));
         attrs.extend(extra);
         empty(w, tag, &attrs);
     };

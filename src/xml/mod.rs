@@ -89,6 +89,40 @@ fn close(w: &mut W, tag: &str) {
         .expect("write to memory");
 }
 
+/// Which standard a modelDescription is written for.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Version {
+    Fmi2,
+    Fmi3,
+}
+
+/// The FMU-state and derivative capabilities every interface of every FMU declares, in
+/// each version's words (FMI 2.0's "FMUstate" and "DirectionalDerivative", FMI 3.0's
+/// "FMUState", "DirectionalDerivatives" and its adjoint derivatives).
+pub(crate) fn state_and_derivatives(version: Version) -> Vec<(&'static str, String)> {
+    let (get_set, serialize, directional) = match version {
+        Version::Fmi2 => (
+            "canGetAndSetFMUstate",
+            "canSerializeFMUstate",
+            "providesDirectionalDerivative",
+        ),
+        Version::Fmi3 => (
+            "canGetAndSetFMUState",
+            "canSerializeFMUState",
+            "providesDirectionalDerivatives",
+        ),
+    };
+    let mut capabilities = vec![
+        (get_set, s(true)),
+        (serialize, s(true)),
+        (directional, s(true)),
+    ];
+    if version == Version::Fmi3 {
+        capabilities.push(("providesAdjointDerivatives", s(true)));
+    }
+    capabilities
+}
+
 fn s(v: impl ToString) -> String {
     v.to_string()
 }
@@ -248,10 +282,10 @@ fn render<M: System>(guid: &str) -> String {
             ("completedIntegratorStepNotNeeded", s(!probe.projects)),
             ("canBeInstantiatedOnlyOncePerProcess", s(false)),
             ("canNotUseMemoryManagementFunctions", s(true)),
-            ("canGetAndSetFMUstate", s(true)),
-            ("canSerializeFMUstate", s(true)),
-            ("providesDirectionalDerivative", s(true)),
-        ],
+        ]
+        .into_iter()
+        .chain(state_and_derivatives(Version::Fmi2))
+        .collect::<Vec<_>>(),
     );
     empty(
         &mut w,
@@ -268,10 +302,10 @@ fn render<M: System>(guid: &str) -> String {
             ("canRunAsynchronuously", s(false)),
             ("canBeInstantiatedOnlyOncePerProcess", s(false)),
             ("canNotUseMemoryManagementFunctions", s(true)),
-            ("canGetAndSetFMUstate", s(true)),
-            ("canSerializeFMUstate", s(true)),
-            ("providesDirectionalDerivative", s(true)),
-        ],
+        ]
+        .into_iter()
+        .chain(state_and_derivatives(Version::Fmi2))
+        .collect::<Vec<_>>(),
     );
 
     units::write_unit_definitions(&mut w, &layout);
