@@ -11,7 +11,7 @@
 //! before touching memory. The FMU states live here too (one registry for both versions:
 //! a state pointer is checked in it before it is read), and `mbfmu_describe`'s glue.
 
-use super::gate::Gate;
+use super::gate::{Gate, Row};
 use super::{Instance, Snapshot, Status};
 use crate::model::System;
 use std::collections::BTreeMap;
@@ -192,7 +192,7 @@ pub unsafe fn free_instance<I: Guarded>(c: Component) {
 /// `categories` points to `n` C strings when `n > 0`.
 pub unsafe fn set_debug_logging<I: Guarded>(
     c: Component,
-    (function, gate): (&'static str, Gate),
+    (function, gate): Row,
     logging_on: bool,
     (n, categories): (usize, *const *const c_char),
 ) -> Status {
@@ -214,7 +214,7 @@ pub unsafe fn set_debug_logging<I: Guarded>(
 ///
 /// # Safety
 /// Called while freeing `c`: no call of it runs.
-pub(crate) unsafe fn free_states_of(c: Component) {
+unsafe fn free_states_of(c: Component) {
     {
         let owned: Vec<usize> = {
             let mut map = states();
@@ -320,7 +320,7 @@ unsafe fn store<M: System>(
 /// `state` points to an FMU state pointer (NULL or one of ours).
 pub unsafe fn get_fmu_state<I: Guarded>(
     c: Component,
-    (function, gate): (&'static str, Gate),
+    (function, gate): Row,
     state: *mut FmuState,
 ) -> Status {
     guard::<I>(c, function, gate, |inst| {
@@ -352,7 +352,7 @@ pub unsafe fn restore<M: System>(
 /// As [`restore`].
 pub unsafe fn set_fmu_state<I: Guarded>(
     c: Component,
-    (function, gate): (&'static str, Gate),
+    (function, gate): Row,
     state: FmuState,
 ) -> Status {
     guard::<I>(c, function, gate, |inst| restore(c, inst.core_mut(), state))
@@ -364,7 +364,7 @@ pub unsafe fn set_fmu_state<I: Guarded>(
 /// As [`get_fmu_state`].
 pub unsafe fn free_fmu_state<I: Guarded>(
     c: Component,
-    (function, gate): (&'static str, Gate),
+    (function, gate): Row,
     state: *mut FmuState,
 ) -> Status {
     guard::<I>(c, function, gate, |inst| {
@@ -389,7 +389,7 @@ pub unsafe fn free_fmu_state<I: Guarded>(
 /// `state` is one of ours; `size` points to a writable `size_t`.
 pub unsafe fn serialized_fmu_state_size<I: Guarded>(
     c: Component,
-    (function, gate): (&'static str, Gate),
+    (function, gate): Row,
     state: FmuState,
     size: *mut usize,
 ) -> Status {
@@ -410,7 +410,7 @@ pub unsafe fn serialized_fmu_state_size<I: Guarded>(
 /// `state` is one of ours; `bytes` points to `size` writable bytes.
 pub unsafe fn serialize_fmu_state<I: Guarded>(
     c: Component,
-    (function, gate): (&'static str, Gate),
+    (function, gate): Row,
     state: FmuState,
     (bytes, size): (*mut u8, usize),
 ) -> Status {
@@ -435,7 +435,7 @@ pub unsafe fn serialize_fmu_state<I: Guarded>(
 /// `bytes` points to `size` bytes; `state` points to an FMU state pointer (NULL or ours).
 pub unsafe fn deserialize_fmu_state<I: Guarded>(
     c: Component,
-    (function, gate): (&'static str, Gate),
+    (function, gate): Row,
     (bytes, size): (*const u8, usize),
     state: *mut FmuState,
 ) -> Status {

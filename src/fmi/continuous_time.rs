@@ -5,11 +5,8 @@
 //! (`__continuous_time_symbols!`).
 
 use super::boundary::{guard, ok, slice, slice_mut, Component, Guarded};
-use super::gate::Gate;
+use super::gate::Row;
 use super::{Instance, Status};
-
-/// A call's name and its row of its version's table.
-pub type Row = (&'static str, Gate);
 
 /// fmi2SetTime, fmi3SetTime.
 pub fn set_time<I: Guarded>(c: Component, (function, gate): Row, time: f64) -> Status {

@@ -20,6 +20,10 @@ pub trait Table: States {
     }
 }
 
+/// A call's name and its row of its version's table: what every body shared by both
+/// versions is given, so that the guard can check and name it.
+pub type Row = (&'static str, Gate);
+
 /// Where a function may run: the states of its version's table that admit it, and the
 /// interface it belongs to (`None`: both).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

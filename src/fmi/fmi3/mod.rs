@@ -691,7 +691,7 @@ pub fn not_offered<E: Export>(c: Component, function: &'static str, why: &str) -
 /// `state` is NULL or one of ours.
 pub unsafe fn set_fmu_state<E: Export>(
     c: Component,
-    (function, gate): (&'static str, Gate),
+    (function, gate): gate::Row,
     state: FmuState,
 ) -> Status {
     call3::<E>(c, function, gate, |f| {
