@@ -17,16 +17,29 @@
 //! - [`own_model`]: a user's model in its own crate: `mbfmu new`, and building that crate.
 //! - [`catalogue`]: every system with an FMU, and what the CLI does with each.
 
-pub mod bench;
-pub mod catalogue;
-pub mod describe;
-pub mod docs;
+// What an FMU's binary runs, on every platform.
 pub mod fmi;
 pub mod integrators;
-pub mod linearize;
 pub mod model;
 pub mod multibody;
-pub mod own_model;
-pub mod package;
 pub mod systems;
 pub mod xml;
+
+// What the host's build adds for the packager (feature `describe`): a binary cross-built
+// for another platform carries FMI alone.
+#[cfg(feature = "describe")]
+pub mod describe;
+#[cfg(feature = "describe")]
+pub mod docs;
+#[cfg(feature = "describe")]
+pub mod linearize;
+#[cfg(feature = "describe")]
+pub mod package;
+
+// What only the `mbfmu` command needs (feature `cli`).
+#[cfg(feature = "cli")]
+pub mod bench;
+#[cfg(feature = "cli")]
+pub mod catalogue;
+#[cfg(feature = "cli")]
+pub mod own_model;

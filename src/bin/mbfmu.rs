@@ -10,7 +10,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use mbfmu::catalogue::{self, Entry};
 use mbfmu::describe::{LinearizeAnswer, LinearizeRequest};
 use mbfmu::linearize::{States, Trim};
-use mbfmu::package::{self, protocol, ModelLibrary};
+use mbfmu::package::{self, platforms, protocol, ModelLibrary, Platform};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
@@ -79,7 +79,7 @@ fn crosscheck(args: CrosscheckArgs) -> Result<(), String> {
     let written = package::crosscheck::write_tree(
         &fmus,
         &args.out,
-        package::platform(),
+        platforms::host().map_or("linux64", |p| p.fmi2),
         env!("CARGO_PKG_VERSION"),
     )?;
     for w in &written {
@@ -123,6 +123,12 @@ struct BuildArgs {
     /// --urdf) or of the crate (--manifest-path)]
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
+    /// The platforms the FMUs carry a binary for: all (x86_64-linux, x86_64-windows,
+    /// aarch64-linux: the others cross-built with Debian's toolchains, installed when
+    /// missing and run as root), host (this machine's alone: the quick edit-build loop), or
+    /// a comma-separated list
+    #[arg(long, value_name = "LIST", default_value = "all")]
+    platforms: String,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -294,20 +300,24 @@ fn select(names: &[String], all: bool) -> Result<Vec<Entry>, String> {
 /// Packages from the compiled cdylibs alone (their `mbfmu_describe`): the in-tree models
 /// and a user's crate take the same path.
 fn build(args: BuildArgs) -> Result<(), String> {
+    // Each path checks the toolchains after its own input (a bad file is its own error).
+    let chosen = platforms::parse(&args.platforms)?;
     if let Some(urdf) = &args.urdf {
-        return build_urdf(urdf, args.name.as_deref(), args.out);
+        return build_urdf(urdf, args.name.as_deref(), args.out, &chosen);
     }
     if let Some(path) = args.manifest_path {
         let manifest = mbfmu::own_model::manifest(&path)?;
+        platforms::ensure_toolchains(&chosen)?;
         let (library, runs) = mbfmu::own_model::build_generated(&manifest, false)?;
         println!("{}", runs);
+        let binaries = mbfmu::own_model::with_cross_builds(&manifest, library, &chosen, None)?;
         let out = args.out.unwrap_or_else(|| {
             manifest
                 .parent()
                 .expect("a manifest has a folder")
                 .join("target/fmu")
         });
-        let fmu = package::package_library(&library, &out)?;
+        let fmu = package::package_library(&binaries, &out)?;
         println!(
             "wrote {} (FMI 3.0: {})",
             fmu.display(),
@@ -316,6 +326,7 @@ fn build(args: BuildArgs) -> Result<(), String> {
         return Ok(());
     }
     let entries = select(&args.models, args.all)?;
+    platforms::ensure_toolchains(&chosen)?;
     let out = args.out.unwrap_or_else(|| target_dir().join("fmu"));
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let mut cmd = Command::new(cargo);
@@ -328,17 +339,42 @@ fn build(args: BuildArgs) -> Result<(), String> {
     if !status.success() {
         return Err(format!("cargo build failed ({status})"));
     }
+    // The other platforms: the library once per target, the FMU crates on it.
+    for platform in chosen.iter().filter(|p| !p.is_host()) {
+        let mut cmd = platforms::cross_cargo(platform, &target_dir());
+        cmd.current_dir(workspace_root());
+        for e in &entries {
+            cmd.args(["-p", e.crate_name]);
+        }
+        let status = cmd
+            .status()
+            .map_err(|e| format!("cannot run {:?}: {e}", cmd.get_program()))?;
+        if !status.success() {
+            return Err(format!(
+                "cargo build for {} failed ({status})",
+                platform.fmi3
+            ));
+        }
+    }
     let bar = progress(entries.len() as u64, "packaging");
     for e in &entries {
         bar.set_message(e.name);
-        let library = target_dir()
-            .join("release")
-            .join(package::library_file(e.crate_name));
-        let fmu = package::package_library(&library, &out)?;
+        let binaries: Vec<(&'static Platform, PathBuf)> = chosen
+            .iter()
+            .map(|&p| {
+                let dir = if p.is_host() {
+                    target_dir().join("release")
+                } else {
+                    platforms::release_dir(p, &target_dir())
+                };
+                (p, dir.join(p.library_file(e.crate_name)))
+            })
+            .collect();
+        let fmu = package::package_library(&binaries, &out)?;
         if fmu.file_stem().and_then(|s| s.to_str()) != Some(e.name) {
             return Err(format!(
                 "{} describes itself as {}, not {}",
-                library.display(),
+                binaries[0].1.display(),
                 fmu.display(),
                 e.name
             ));
@@ -391,11 +427,17 @@ fn absolute(path: &Path) -> String {
 /// crate declaring its bodies and joints under target/urdf/NAME, compiles it into the
 /// shared target/urdf-target, checks that the compiled mechanism is the URDF's, and
 /// packages NAME.fmu (written under a temporary name, then renamed: never a partial file).
-fn build_urdf(urdf: &Path, name: Option<&str>, out: Option<PathBuf>) -> Result<(), String> {
+fn build_urdf(
+    urdf: &Path,
+    name: Option<&str>,
+    out: Option<PathBuf>,
+    chosen: &[&'static Platform],
+) -> Result<(), String> {
     use mbfmu::own_model::{self, MechanismSource};
     let started = std::time::Instant::now();
     let file = urdf.display().to_string();
     let (mechanism, name) = read_urdf(urdf, name)?;
+    platforms::ensure_toolchains(chosen)?;
     for line in mbfmu::multibody::fmu::unmodelled(&mechanism) {
         eprintln!("warning: {file}: {line}");
     }
@@ -434,9 +476,10 @@ fn build_urdf(urdf: &Path, name: Option<&str>, out: Option<PathBuf>) -> Result<(
             dir.display()
         ));
     }
+    let binaries = own_model::with_cross_builds(&manifest, library, chosen, Some(&shared))?;
     let out = out.unwrap_or_else(|| target_dir().join("fmu"));
     let partial = out.join(format!(".{name}.fmu.partial-{}", std::process::id()));
-    let packaged = package::package_library(&library, &partial).and_then(|fmu| {
+    let packaged = package::package_library(&binaries, &partial).and_then(|fmu| {
         let fmu_path = out.join(format!("{name}.fmu"));
         std::fs::rename(&fmu, &fmu_path).map_err(|e| format!("{}: {e}", fmu_path.display()))?;
         // The FMI 3.0 FMU, beside in <out>3.

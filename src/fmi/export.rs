@@ -157,6 +157,36 @@ macro_rules! __continuous_time_symbols {
     };
 }
 
+/// `mbfmu_describe` and `mbfmu_free` (not FMI): the packager's questions
+/// ([`package::protocol`](crate::package::protocol)), answered by `describe::$respond` for
+/// the exported model `E`. Only with the feature `describe` (the host's build); a binary
+/// cross-built for another platform carries FMI alone (this macro is then empty).
+#[cfg(feature = "describe")]
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __describe_symbols {
+    ($respond:ident) => {
+        $crate::__fmi_c_symbols! {
+            [unsafe] fn mbfmu_describe(request: *const ::std::ffi::c_char)
+                -> *mut ::std::ffi::c_char
+                = $crate::fmi::boundary::describe(
+                    request, $crate::describe::$respond::<<E as $crate::fmi::Export>::Model>,
+                );
+            /// Frees what `mbfmu_describe` returned.
+            [unsafe] fn mbfmu_free(text: *mut ::std::ffi::c_char)
+                = $crate::fmi::boundary::free_string(text);
+        }
+    };
+}
+
+/// Without the feature `describe`: no packager's symbols (see above).
+#[cfg(not(feature = "describe"))]
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __describe_symbols {
+    ($respond:ident) => {};
+}
+
 /// Defines the complete FMI 2.0 and FMI 3.0 C APIs, Co-Simulation and Model Exchange, for one
 /// [`System`](crate::model::System).
 ///
@@ -202,15 +232,8 @@ macro_rules! export_fmu {
             /// This model's FMI 2.0 instance.
             type Inst = fmi2::Inst<E>;
 
+            $crate::__describe_symbols!($respond);
             $crate::__fmi_c_symbols! {
-                /// Not FMI: the packager's questions (`mbfmu::package::protocol`).
-                [unsafe] fn mbfmu_describe(request: *const c_char) -> *mut c_char
-                    = $crate::fmi::boundary::describe(
-                        request, $crate::describe::$respond::<<E as $crate::fmi::Export>::Model>,
-                    );
-                /// Not FMI: frees what `mbfmu_describe` returned.
-                [unsafe] fn mbfmu_free(text: *mut c_char)
-                    = $crate::fmi::boundary::free_string(text);
                 [] fn fmi2GetTypesPlatform() -> *const c_char
                     = fmi2::get_types_platform();
                 [] fn fmi2GetVersion() -> *const c_char

@@ -359,23 +359,44 @@ pub fn build_cdylib_in(
     quiet: bool,
     target: Option<&Path>,
 ) -> Result<PathBuf, String> {
-    use std::process::{Command, Stdio};
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let mut cmd = Command::new(&cargo);
+    let mut cmd = std::process::Command::new(&cargo);
     if let Some(target) = target {
         cmd.env("CARGO_TARGET_DIR", target);
     }
-    cmd.args(["build", "--release", "--lib", "--manifest-path"])
-        .arg(manifest)
-        .arg("--message-format=json-render-diagnostics")
+    // The packager's questions: on by the template's default features, and asked here
+    // for crates made before the feature existed.
+    cmd.args([
+        "build",
+        "--release",
+        "--lib",
+        "--features",
+        "mbfmu/describe",
+    ])
+    .arg("--manifest-path")
+    .arg(manifest);
+    run_cargo_for_cdylib(cmd, manifest, quiet)
+}
+
+#[cfg(feature = "cli")]
+/// Runs the cargo build `cmd` (its output as JSON messages, diagnostics rendered to
+/// stderr; `quiet`: only errors) and returns the cdylib of the crate at `manifest`.
+fn run_cargo_for_cdylib(
+    mut cmd: std::process::Command,
+    manifest: &Path,
+    quiet: bool,
+) -> Result<PathBuf, String> {
+    use std::process::Stdio;
+    cmd.arg("--message-format=json-render-diagnostics")
         .stdout(Stdio::piped())
         .stderr(Stdio::inherit());
     if quiet {
         cmd.arg("--quiet");
     }
+    let program = cmd.get_program().to_string_lossy().into_owned();
     let out = cmd
         .output()
-        .map_err(|e| format!("cannot run {cargo}: {e}"))?;
+        .map_err(|e| format!("cannot run {program}: {e}"))?;
     if !out.status.success() {
         return Err(format!(
             "cargo build of {} failed ({})",
@@ -394,6 +415,39 @@ pub fn build_cdylib_in(
                 manifest.display()
             )
         })
+}
+
+#[cfg(feature = "cli")]
+/// The host's cdylib `host` (built, and its equations generated, by [`build_generated`] or
+/// [`build_cdylib_in`]) and the crate at `manifest` cross-built for every other platform
+/// of `platforms` ([`platforms::cross_cargo`](crate::package::platforms::cross_cargo):
+/// FMI alone), into the cargo target folder `target` (`None`: the crate's own), the
+/// host's first, as [`package_library`](crate::package::package_library) takes them.
+pub fn with_cross_builds(
+    manifest: &Path,
+    host: PathBuf,
+    platforms: &[&'static crate::package::Platform],
+    target: Option<&Path>,
+) -> Result<Vec<(&'static crate::package::Platform, PathBuf)>, String> {
+    use crate::package::platforms;
+    let mut binaries = Vec::with_capacity(platforms.len());
+    for &platform in platforms {
+        if platform.is_host() {
+            binaries.insert(0, (platform, host.clone()));
+            continue;
+        }
+        let default_target = manifest
+            .parent()
+            .expect("a manifest has a folder")
+            .join("target");
+        let target = target.map_or(default_target, Path::to_path_buf);
+        let mut cmd = platforms::cross_cargo(platform, &target);
+        cmd.arg("--manifest-path").arg(manifest);
+        let library = run_cargo_for_cdylib(cmd, manifest, true)
+            .map_err(|e| format!("{e} (for {})", platform.fmi3))?;
+        binaries.push((platform, library));
+    }
+    Ok(binaries)
 }
 
 #[cfg(feature = "cli")]

@@ -16,14 +16,61 @@ pub struct ModelLibrary {
     free: FreeFn,
 }
 
-fn dl_error() -> String {
-    // SAFETY: dlerror returns NULL or a valid C string owned by libc.
-    let e = unsafe { libc::dlerror() };
-    if e.is_null() {
-        "unknown error".into()
-    } else {
-        // SAFETY: non-null, NUL-terminated (above).
-        unsafe { CStr::from_ptr(e) }.to_string_lossy().into_owned()
+/// The platform's dynamic loader: `dlopen`/`dlsym` on Unix, `LoadLibraryA`/`GetProcAddress`
+/// on Windows (a handle is never closed, see [`ModelLibrary`]).
+mod loader {
+    #[cfg(windows)]
+    use std::ffi::c_char;
+    use std::ffi::{c_void, CStr};
+
+    #[cfg(unix)]
+    pub fn open(path: &CStr) -> Result<*mut c_void, String> {
+        // SAFETY: a valid C string; loading runs the library's initialisers, which for a
+        // Rust cdylib are std's own.
+        let handle = unsafe { libc::dlopen(path.as_ptr(), libc::RTLD_NOW | libc::RTLD_LOCAL) };
+        if handle.is_null() {
+            // SAFETY: dlerror returns NULL or a valid C string owned by libc.
+            let e = unsafe { libc::dlerror() };
+            return Err(if e.is_null() {
+                "unknown error".into()
+            } else {
+                // SAFETY: non-null, NUL-terminated (above).
+                unsafe { CStr::from_ptr(e) }.to_string_lossy().into_owned()
+            });
+        }
+        Ok(handle)
+    }
+
+    #[cfg(unix)]
+    pub fn symbol(handle: *mut c_void, name: &CStr) -> *mut c_void {
+        // SAFETY: a live handle and a valid C string.
+        unsafe { libc::dlsym(handle, name.as_ptr()) }
+    }
+
+    #[cfg(windows)]
+    extern "system" {
+        fn LoadLibraryA(name: *const c_char) -> *mut c_void;
+        fn GetProcAddress(module: *mut c_void, name: *const c_char) -> *mut c_void;
+        fn GetLastError() -> u32;
+    }
+
+    #[cfg(windows)]
+    pub fn open(path: &CStr) -> Result<*mut c_void, String> {
+        // SAFETY: a valid C string (an ANSI path).
+        let handle = unsafe { LoadLibraryA(path.as_ptr()) };
+        if handle.is_null() {
+            // SAFETY: no arguments; the calling thread's last error.
+            return Err(format!("LoadLibrary failed (Windows error {})", unsafe {
+                GetLastError()
+            }));
+        }
+        Ok(handle)
+    }
+
+    #[cfg(windows)]
+    pub fn symbol(handle: *mut c_void, name: &CStr) -> *mut c_void {
+        // SAFETY: a live module handle and a valid C string.
+        unsafe { GetProcAddress(handle, name.as_ptr()) }
     }
 }
 
@@ -32,19 +79,14 @@ impl ModelLibrary {
     pub fn open(path: &Path) -> Result<ModelLibrary, String> {
         let c_path = CString::new(path.as_os_str().as_encoded_bytes())
             .map_err(|_| format!("{}: a NUL in the path", path.display()))?;
-        // SAFETY: a valid C string; loading runs the library's initialisers, which for a
-        // Rust cdylib are std's own.
-        let handle = unsafe { libc::dlopen(c_path.as_ptr(), libc::RTLD_NOW | libc::RTLD_LOCAL) };
-        if handle.is_null() {
-            return Err(format!("cannot load {}: {}", path.display(), dl_error()));
-        }
+        let handle =
+            loader::open(&c_path).map_err(|e| format!("cannot load {}: {e}", path.display()))?;
         let symbol = |name: &str| -> Result<*mut c_void, String> {
             let c_name = CString::new(name).expect("symbol names have no NUL");
-            // SAFETY: a live handle and a valid C string.
-            let s = unsafe { libc::dlsym(handle, c_name.as_ptr()) };
+            let s = loader::symbol(handle, &c_name);
             if s.is_null() {
                 Err(format!(
-                    "{} has no symbol {name}: not an FMU built by `mbfmu::export_fmu!` of this version",
+                    "{} has no symbol {name}: not an FMU built by `mbfmu::export_fmu!` of this version (or one built for another platform, or without the packager's `describe` feature)",
                     path.display()
                 ))
             } else {

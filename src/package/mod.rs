@@ -1,41 +1,18 @@
-//! The FMU archive: modelDescription.xml, the platform binary, the documentation page and the
-//! other files (made by `docs`),
+//! The FMU archive: modelDescription.xml, a binary per platform ([`platforms`]), the
+//! documentation page and the other files (made by `docs`),
 //! filled from what the compiled model itself answers ([`protocol`], [`library`]).
 
 pub mod crosscheck;
 pub mod library;
+pub mod platforms;
 pub mod protocol;
 
 pub use library::ModelLibrary;
+pub use platforms::Platform;
 
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use zip::write::SimpleFileOptions;
-
-/// The FMI platform folder of the machine building the FMU.
-pub fn platform() -> &'static str {
-    match (std::env::consts::OS, std::env::consts::ARCH) {
-        ("linux", "x86_64") => "linux64",
-        ("linux", "x86") => "linux32",
-        ("windows", "x86_64") => "win64",
-        ("windows", "x86") => "win32",
-        ("macos", _) => "darwin64",
-        _ => "linux64",
-    }
-}
-
-/// The FMI 3.0 platform tuple of the machine building the FMU (`binaries/<tuple>/`).
-pub fn platform3() -> &'static str {
-    match (std::env::consts::OS, std::env::consts::ARCH) {
-        ("linux", "x86") => "x86-linux",
-        ("linux", "aarch64") => "aarch64-linux",
-        ("windows", "x86_64") => "x86_64-windows",
-        ("windows", "x86") => "x86-windows",
-        ("macos", "aarch64") => "aarch64-darwin",
-        ("macos", _) => "x86_64-darwin",
-        _ => "x86_64-linux",
-    }
-}
 
 /// Where the FMI 3.0 FMUs go beside the FMI 2.0 ones in `out_dir`: the sibling folder
 /// named with a 3 (`target/fmu` → `target/fmu3`).
@@ -47,64 +24,30 @@ pub fn fmi3_dir(out_dir: &Path) -> std::path::PathBuf {
     out_dir.with_file_name(format!("{name}3"))
 }
 
-/// The shared-library file name cargo gives a cdylib crate named `crate_name`.
-pub fn library_file(crate_name: &str) -> String {
-    let stem = crate_name.replace('-', "_");
-    match std::env::consts::OS {
-        "windows" => format!("{stem}.dll"),
-        "macos" => format!("lib{stem}.dylib"),
-        _ => format!("lib{stem}.so"),
-    }
-}
-
-/// Writes `<out>`, an FMU with the model's XML, documentation, binary `library`
-/// (stored as `binaries/<platform>/<model_identifier>.<ext>`) and `resources`
-/// (`(file name, content)` pairs under `resources/`) and `files` (`(path in the archive,
-/// content)`: the FMI-LS-REF reference result under `extra/`).
-pub fn write_fmu(
-    out: &Path,
-    model_identifier: &str,
-    model_description: &str,
-    documentation: &str,
-    library: &Path,
-    resources: &[(String, String)],
-    files: &[(String, String)],
-) -> Result<(), String> {
-    let contents = Contents {
-        model_identifier,
-        model_description,
-        documentation,
-        library,
-        resources,
-        files,
-    };
-    write_fmu_in(out, platform(), &contents)
-}
-
-/// What an FMU holds (see [`write_fmu`]).
+/// What an FMU holds beside its binaries.
 struct Contents<'a> {
     model_identifier: &'a str,
     model_description: &'a str,
     documentation: &'a str,
-    library: &'a Path,
+    /// Each platform's binary (read), the host's first.
+    binaries: &'a [(&'static Platform, Vec<u8>)],
+    /// `(file name, content)` pairs under `resources/`.
     resources: &'a [(String, String)],
+    /// `(path in the archive, content)`: the FMI-LS-REF reference result under `extra/`.
     files: &'a [(String, String)],
 }
 
-/// [`write_fmu`] with the binary under `binaries/<platform>/` (FMI 2.0's folder names or
-/// FMI 3.0's tuples).
-fn write_fmu_in(out: &Path, platform: &str, c: &Contents) -> Result<(), String> {
+/// Writes the FMU `out`: each binary under `binaries/<folder>/<model_identifier>.<ext>`,
+/// the folder FMI 3.0's platform tuple (`fmi3`) or FMI 2.0's name.
+fn write_fmu_in(out: &Path, fmi3: bool, c: &Contents) -> Result<(), String> {
     let Contents {
         model_identifier,
         model_description,
         documentation,
-        library,
+        binaries,
         resources,
         files,
     } = *c;
-    let binary =
-        std::fs::read(library).map_err(|e| format!("cannot read {}: {e}", library.display()))?;
-    let ext = library.extension().and_then(|e| e.to_str()).unwrap_or("so");
     if let Some(dir) = out.parent() {
         std::fs::create_dir_all(dir)
             .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
@@ -116,14 +59,17 @@ fn write_fmu_in(out: &Path, platform: &str, c: &Contents) -> Result<(), String> 
     let options = SimpleFileOptions::default()
         .compression_method(zip::CompressionMethod::Deflated)
         .last_modified_time(zip::DateTime::default());
-    let mut entries: Vec<(String, &[u8])> = vec![
-        ("modelDescription.xml".into(), model_description.as_bytes()),
-        (
-            format!("binaries/{platform}/{model_identifier}.{ext}"),
-            &binary,
-        ),
-        ("documentation/index.html".into(), documentation.as_bytes()),
-    ];
+    let mut entries: Vec<(String, &[u8])> =
+        vec![("modelDescription.xml".into(), model_description.as_bytes())];
+    for (platform, binary) in binaries {
+        let folder = if fmi3 { platform.fmi3 } else { platform.fmi2 };
+        let ext = platform.extension();
+        entries.push((
+            format!("binaries/{folder}/{model_identifier}.{ext}"),
+            binary,
+        ));
+    }
+    entries.push(("documentation/index.html".into(), documentation.as_bytes()));
     for (name, text) in resources {
         entries.push((format!("resources/{name}"), text.as_bytes()));
     }
@@ -153,9 +99,22 @@ pub fn is_model_identifier(name: &str) -> bool {
 
 /// Writes `<out_dir>/<model identifier>.fmu` (FMI 2.0) and, when the model describes
 /// itself in FMI 3.0 too, `<out_dir>3/<model identifier>.fmu` ([`fmi3_dir`]) from the
-/// cdylib `library` alone: its `mbfmu_describe` gives the XML, the documentation and the
-/// resources. Returns the FMI 2.0 FMU's path.
-pub fn package_library(library: &Path, out_dir: &Path) -> Result<std::path::PathBuf, String> {
+/// model's binaries alone, one per platform, the host's first: its `mbfmu_describe` gives
+/// the XML, the documentation and the resources (one modelDescription for every
+/// platform). Returns the FMI 2.0 FMU's path.
+pub fn package_library(
+    binaries: &[(&'static Platform, PathBuf)],
+    out_dir: &Path,
+) -> Result<PathBuf, String> {
+    let (host, library) = binaries
+        .first()
+        .ok_or("no binary to package: the host's describes the model")?;
+    if !host.is_host() {
+        return Err(format!(
+            "{}: the first binary must be this machine's, to describe the model",
+            library.display()
+        ));
+    }
     let records =
         ModelLibrary::open(library)?.call(&protocol::encode(&[("request", "package")]))?;
     let get = |key: &str| {
@@ -176,21 +135,29 @@ pub fn package_library(library: &Path, out_dir: &Path) -> Result<std::path::Path
         .iter()
         .filter_map(|(k, v)| Some((k.strip_prefix("file:")?.to_string(), v.clone())))
         .collect();
+    let read: Vec<(&'static Platform, Vec<u8>)> = binaries
+        .iter()
+        .map(|(p, path)| {
+            std::fs::read(path)
+                .map(|bytes| (*p, bytes))
+                .map_err(|e| format!("cannot read {}: {e}", path.display()))
+        })
+        .collect::<Result<_, _>>()?;
     let fmu = out_dir.join(format!("{identifier}.fmu"));
     let mut contents = Contents {
         model_identifier: identifier,
         model_description: get("model_description")?,
         documentation: get("documentation")?,
-        library,
+        binaries: &read,
         resources: &resources,
         files: &files,
     };
-    write_fmu_in(&fmu, platform(), &contents)?;
-    // The FMI 3.0 FMU: the same binary and files, FMI 3.0's description and platform folder.
+    write_fmu_in(&fmu, false, &contents)?;
+    // The FMI 3.0 FMU: the same binaries and files, FMI 3.0's description and folders.
     if let Some(description3) = protocol::value(&records, "model_description3") {
         contents.model_description = description3;
         let fmu3 = fmi3_dir(out_dir).join(format!("{identifier}.fmu"));
-        write_fmu_in(&fmu3, platform3(), &contents)?;
+        write_fmu_in(&fmu3, true, &contents)?;
     }
     Ok(fmu)
 }

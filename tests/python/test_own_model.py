@@ -58,7 +58,7 @@ GENERATED = "runs the equations generated from its Lagrangian (src/eom.rs"
 
 def build(crate: pathlib.Path, runs: str | None = None) -> pathlib.Path:
     """`mbfmu build` of the crate; `runs`: what it must say the FMU runs."""
-    out = run("build", "--manifest-path", crate / "Cargo.toml", env=build_env())
+    out = run("build", "--manifest-path", crate / "Cargo.toml", "--platforms", "host", env=build_env())
     if runs is not None:
         assert runs in out.stdout, out.stdout
     fmu = crate / "target" / "fmu" / f"{NAME}.fmu"
