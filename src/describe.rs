@@ -36,7 +36,7 @@ pub fn linearize_at<M: System>(
     if !all_finite {
         return Err(format!(
             "{}: the linearisation at this point is not finite (a derivative is singular there)",
-            M::NAME
+            M::name()
         ));
     }
     Ok(lin)
@@ -120,7 +120,7 @@ impl LinearizeRequest {
 
     /// The answer of `M` (what its cdylib would send).
     pub fn answer<M: System>(&self) -> Result<LinearizeAnswer, String> {
-        let model = M::NAME;
+        let model = M::name();
         let mut overrides: Vec<(String, f64)> = Vec::new();
         for name in &self.scenes {
             let scene = M::scenes()
@@ -190,7 +190,7 @@ fn package<M: System>(
     let (documentation, page_files) =
         crate::docs::page::page::<M>(Some(&page_lin), &reference, traced.as_deref(), pictures);
     let mut records: Records = vec![
-        ("model_identifier".into(), M::NAME.into()),
+        ("model_identifier".into(), M::name().into()),
         (
             "model_description".into(),
             crate::xml::model_description::<M>(),
@@ -205,7 +205,7 @@ fn package<M: System>(
     ];
     records.extend(
         reference
-            .files(M::NAME)
+            .files(M::name())
             .into_iter()
             .chain(page_files)
             .map(|(path, text)| (format!("file:{path}"), text)),
@@ -406,7 +406,7 @@ pub fn respond_mechanism<R: crate::multibody::fmu::OfMechanism>(request: &str) -
                 start[i] = built.start[k];
             }
             let pictures = skeleton.map(|skeleton| crate::docs::stick::MechanismPictures {
-                name: D::<R>::NAME,
+                name: D::<R>::name(),
                 skeleton,
                 start: &start,
             });
@@ -423,6 +423,44 @@ pub fn respond_mechanism<R: crate::multibody::fmu::OfMechanism>(request: &str) -
         _ => return respond::<R>(request),
     }
     protocol::encode(&records)
+}
+
+/// [`respond_mechanism`] for the mechanism runtime
+/// ([`multibody::runtime`](crate::multibody::runtime)): a request carrying
+/// `model_identifier` and `urdf` loads that robot first (the packager's `mbfmu build
+/// --urdf`); the package answer then carries both texts as the FMU's resources, which
+/// the runtime reads at instantiation.
+pub fn respond_runtime<R: crate::multibody::fmu::OfMechanism>(request: &str) -> String {
+    use crate::multibody::runtime;
+    let refuse = |e: &str| protocol::encode(&[("abi", ABI), ("error", e)]);
+    let records = match protocol::decode(request) {
+        Ok(r) => r,
+        Err(e) => return refuse(&e),
+    };
+    let (Some(name), Some(urdf)) = (
+        protocol::value(&records, "model_identifier"),
+        protocol::value(&records, "urdf"),
+    ) else {
+        return refuse("the mechanism runtime answers for a robot given with the request (model_identifier, urdf)");
+    };
+    if let Err(e) = runtime::load(name, urdf) {
+        return refuse(&e);
+    }
+    let answer = respond_mechanism::<R>(request);
+    match protocol::decode(&answer) {
+        Ok(mut out) if protocol::value(&records, "request") == Some("package") => {
+            out.push((
+                format!("resource:{}", runtime::NAME_RESOURCE),
+                name.to_string(),
+            ));
+            out.push((
+                format!("resource:{}", runtime::URDF_RESOURCE),
+                urdf.to_string(),
+            ));
+            protocol::encode(&out)
+        }
+        _ => answer,
+    }
 }
 
 /// The response of `M` to one request: what `mbfmu_describe` returns.

@@ -506,3 +506,71 @@ fn multibody_algorithms_allocate_nothing_with_their_data() {
         }
     }
 }
+
+exported!(
+    RuntimeRobot,
+    mbfmu::multibody::fmu::Robot<mbfmu::multibody::runtime::Runtime>
+);
+
+/// A three-joint arm as URDF text, as the mechanism runtime reads it from an FMU.
+const ARM: &str = r#"<robot name="arm">
+  <link name="base"/>
+  <link name="upper"><inertial><origin xyz="0 0 0.2"/><mass value="2"/>
+    <inertia ixx="0.03" ixy="0" ixz="0" iyy="0.03" iyz="0" izz="0.004"/></inertial></link>
+  <link name="fore"><inertial><origin xyz="0 0 0.15"/><mass value="1.2"/>
+    <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.002"/></inertial></link>
+  <link name="hand"><inertial><origin xyz="0 0.02 0.05"/><mass value="0.4"/>
+    <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.0005"/></inertial></link>
+  <joint name="shoulder" type="continuous"><parent link="base"/><child link="upper"/>
+    <axis xyz="0 1 0"/></joint>
+  <joint name="elbow" type="continuous"><parent link="upper"/><child link="fore"/>
+    <origin xyz="0 0 0.4" rpy="0.1 0 0"/><axis xyz="0 1 0"/></joint>
+  <joint name="wrist" type="continuous"><parent link="fore"/><child link="hand"/>
+    <origin xyz="0 0 0.3"/><axis xyz="1 0 0"/></joint>
+</robot>"#;
+
+/// The mechanism runtime (a robot read at run time, `mbfmu build --urdf` without a
+/// compiler): its right-hand side allocates nothing (q̈ by the interpreted articulated-body
+/// algorithm on a workspace kept per thread), so a doStep's allocations do not grow with
+/// its internal steps. What it allocates is its outputs' (the ends' forward kinematics and
+/// the energy, once per doStep): counted and printed.
+#[test]
+fn mechanism_runtime_steps_without_allocating_per_step() {
+    mbfmu::multibody::runtime::load("arm", ARM).unwrap();
+    type R = mbfmu::multibody::fmu::Robot<mbfmu::multibody::runtime::Runtime>;
+    let x = [0.8, -0.5, 0.3, 0.0, 0.1, 0.2];
+    let (u, p) = ([0.0; 3], [1.0]);
+    let mut dx = [0.0; 6];
+    assert_eq!(<R as System>::parameters().len(), p.len());
+    <R as System>::derivatives(0.0, &x, &u, &p, &mut dx);
+    let per_rhs = allocations(|| {
+        for _ in 0..100 {
+            <R as System>::derivatives(0.0, &x, &u, &p, &mut dx);
+        }
+    });
+    assert_eq!(per_rhs, 0, "allocations in 100 right-hand sides");
+    let scene = ("released", &[("shoulder", 0.8), ("elbow", -0.5)][..]);
+    for method in [1, 2] {
+        let step = 1e-3;
+        let mut per_do_step = Vec::new();
+        for internal in [1.0, 4.0] {
+            let case = Case {
+                method,
+                step,
+                h: internal * step,
+                landing: false,
+                moving: false,
+            };
+            let counts = run::<RuntimeRobot>(scene, case);
+            println!(
+                "mechanism runtime solver {method} h {}: {counts:?} over {COUNTED} doSteps",
+                case.h
+            );
+            per_do_step.push(counts.do_step);
+        }
+        assert_eq!(
+            per_do_step[0], per_do_step[1],
+            "solver {method}: allocations grow with the steps"
+        );
+    }
+}

@@ -119,6 +119,12 @@ struct BuildArgs {
     /// than letters, digits and _ made _]
     #[arg(long, value_name = "NAME", requires = "urdf")]
     name: Option<String>,
+    /// With --urdf: write a crate declaring the robot, with its q̈ generated as
+    /// straight-line code, and compile it (faster FMUs; needs cargo, 10-90 s a robot). By
+    /// default the FMU runs the prebuilt mechanism runtime, which reads the robot from the
+    /// FMU's resources: no compiler, about a second
+    #[arg(long, requires = "urdf")]
+    compile: bool,
     /// Where to write the .fmu files [default: target/fmu, of this tree (in-tree models,
     /// --urdf) or of the crate (--manifest-path)]
     #[arg(long, value_name = "DIR")]
@@ -303,7 +309,11 @@ fn build(args: BuildArgs) -> Result<(), String> {
     // Each path checks the toolchains after its own input (a bad file is its own error).
     let chosen = platforms::parse(&args.platforms)?;
     if let Some(urdf) = &args.urdf {
-        return build_urdf(urdf, args.name.as_deref(), args.out, &chosen);
+        return if args.compile {
+            build_urdf(urdf, args.name.as_deref(), args.out, &chosen)
+        } else {
+            build_urdf_runtime(urdf, args.name.as_deref(), args.out, &chosen)
+        };
     }
     if let Some(path) = args.manifest_path {
         let manifest = mbfmu::own_model::manifest(&path)?;
@@ -332,8 +342,13 @@ fn build(args: BuildArgs) -> Result<(), String> {
     let mut cmd = Command::new(cargo);
     cmd.current_dir(workspace_root())
         .args(["build", "--release", "--lib"]);
-    for e in &entries {
-        cmd.args(["-p", e.crate_name]);
+    let mut crates: Vec<&str> = entries.iter().map(|e| e.crate_name).collect();
+    if args.all {
+        // The mechanism runtime `build --urdf` packages robots with: built, not packaged.
+        crates.push(RUNTIME_CRATE);
+    }
+    for c in &crates {
+        cmd.args(["-p", c]);
     }
     let status = cmd.status().map_err(|e| format!("cannot run cargo: {e}"))?;
     if !status.success() {
@@ -343,8 +358,8 @@ fn build(args: BuildArgs) -> Result<(), String> {
     for platform in chosen.iter().filter(|p| !p.is_host()) {
         let mut cmd = platforms::cross_cargo(platform, &target_dir());
         cmd.current_dir(workspace_root());
-        for e in &entries {
-            cmd.args(["-p", e.crate_name]);
+        for c in &crates {
+            cmd.args(["-p", c]);
         }
         let status = cmd
             .status()
@@ -477,9 +492,83 @@ fn build_urdf(
         ));
     }
     let binaries = own_model::with_cross_builds(&manifest, library, chosen, Some(&shared))?;
+    let fmu = package_robot(&binaries, &[], out, &name)?;
+    report_robot(&fmu, &mechanism, started, &runs);
+    Ok(())
+}
+
+/// The mechanism runtime's crate (fmu/mechanism_runtime), built by `build --all`.
+const RUNTIME_CRATE: &str = "mechanism_runtime";
+
+/// `mbfmu build --urdf FILE [--name NAME] [--out DIR]` (without --compile): reads and checks
+/// the URDF and packages NAME.fmu from the prebuilt mechanism runtime (a binary per
+/// platform, built by `build --all`), the URDF and NAME as its resources: no compiler.
+fn build_urdf_runtime(
+    urdf: &Path,
+    name: Option<&str>,
+    out: Option<PathBuf>,
+    chosen: &[&'static Platform],
+) -> Result<(), String> {
+    let started = std::time::Instant::now();
+    let file = urdf.display().to_string();
+    let (mechanism, name) = read_urdf(urdf, name)?;
+    if !mechanism.closures.is_empty() {
+        return Err(format!("{file}: loop closures need --compile"));
+    }
+    let text = std::fs::read_to_string(urdf).map_err(|e| format!("{file}: {e}"))?;
+    for line in mbfmu::multibody::fmu::unmodelled(&mechanism) {
+        eprintln!("warning: {file}: {line}");
+    }
+    let mut binaries = Vec::with_capacity(chosen.len());
+    for &p in chosen {
+        let dir = if p.is_host() {
+            target_dir().join("release")
+        } else {
+            platforms::release_dir(p, &target_dir())
+        };
+        let binary = dir.join(p.library_file(RUNTIME_CRATE));
+        if !binary.is_file() {
+            return Err(format!(
+                "the mechanism runtime for {} is not built ({}): run `cargo run --release --bin mbfmu -- build --all` once in {}, or build with --compile (needs cargo)",
+                p.fmi3,
+                binary.display(),
+                workspace_root().display()
+            ));
+        }
+        binaries.push((p, binary));
+    }
+    // The host's runtime answers for one robot per process: a fresh copy of it is loaded.
+    let copy = std::env::temp_dir().join(format!(
+        "mbfmu-runtime-{}-{}",
+        std::process::id(),
+        binaries[0].1.file_name().expect("a file").to_string_lossy()
+    ));
+    std::fs::copy(&binaries[0].1, &copy).map_err(|e| format!("{}: {e}", copy.display()))?;
+    binaries[0].1 = copy.clone();
+    let request = [("model_identifier", name.as_str()), ("urdf", text.as_str())];
+    let packaged = package_robot(&binaries, &request, out, &name);
+    let _ = std::fs::remove_file(&copy);
+    let fmu = packaged?;
+    report_robot(
+        &fmu,
+        &mechanism,
+        started,
+        "runs the articulated-body algorithm interpreted by the prebuilt mechanism runtime, which reads the robot from the FMU's resources (no compiler; --compile generates straight-line code for this robot: faster, needs cargo)",
+    );
+    Ok(())
+}
+
+/// Packages a robot's NAME.fmu into `out` (default target/fmu), its FMI 3.0 twin into
+/// `out`3: written under a temporary name, then renamed (never a partial file).
+fn package_robot(
+    binaries: &[(&'static Platform, PathBuf)],
+    request: &[(&str, &str)],
+    out: Option<PathBuf>,
+    name: &str,
+) -> Result<PathBuf, String> {
     let out = out.unwrap_or_else(|| target_dir().join("fmu"));
     let partial = out.join(format!(".{name}.fmu.partial-{}", std::process::id()));
-    let packaged = package::package_library(&binaries, &partial).and_then(|fmu| {
+    let packaged = package::package_library_with(binaries, &partial, request).and_then(|fmu| {
         let fmu_path = out.join(format!("{name}.fmu"));
         std::fs::rename(&fmu, &fmu_path).map_err(|e| format!("{}: {e}", fmu_path.display()))?;
         // The FMI 3.0 FMU, beside in <out>3.
@@ -495,19 +584,27 @@ fn build_urdf(
     });
     let _ = std::fs::remove_dir_all(&partial);
     let _ = std::fs::remove_dir_all(package::fmi3_dir(&partial));
-    let fmu = packaged?;
-    let size = std::fs::metadata(&fmu).map(|m| m.len()).unwrap_or(0);
+    packaged
+}
+
+/// The line a robot's build ends with.
+fn report_robot(
+    fmu: &Path,
+    mechanism: &mbfmu::multibody::Mechanism,
+    started: std::time::Instant,
+    runs: &str,
+) {
+    let size = std::fs::metadata(fmu).map(|m| m.len()).unwrap_or(0);
     println!(
-        "wrote {} ({} joints, {:.1} MB, {:.0} s; FMI 3.0: {}): {runs}",
+        "wrote {} ({} joints, {:.1} MB, {:.1} s; FMI 3.0: {}): {runs}",
         fmu.display(),
-        mbfmu::multibody::Model::new(&mechanism)
+        mbfmu::multibody::Model::new(mechanism)
             .map(|m| m.nq())
             .unwrap_or(0),
         size as f64 / 1e6,
         started.elapsed().as_secs_f64(),
-        fmi3_path(&fmu).display()
+        fmi3_path(fmu).display()
     );
-    Ok(())
 }
 
 /// The FMI 3.0 FMU written beside the FMI 2.0 one at `fmu` ([`package::fmi3_dir`]).

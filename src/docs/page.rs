@@ -171,7 +171,7 @@ fn scene_section<M: System>(
     files.push((
         format!("documentation/{file}"),
         chart(
-            &format!("{} — {}: states", M::NAME, scene.name),
+            &format!("{} — {}: states", M::name(), scene.name),
             "t (s)",
             &traj.t,
             &series,
@@ -179,7 +179,7 @@ fn scene_section<M: System>(
     ));
     h.push_str(&format!(
         "<figure><img src=\"{file}\" width=\"720\" height=\"300\" alt=\"{} scene {}: the states against time\"><figcaption>The states{} with DOPRI5 at the default tolerance, {} points.</figcaption></figure>\n",
-        M::NAME,
+        M::name(),
         escape(scene.name),
         if traj.names.iter().zip(&traj.is_state).filter(|(_, s)| **s).count() > PLOT_SERIES {
             format!(" (the first {PLOT_SERIES})")
@@ -225,7 +225,7 @@ fn scene_section<M: System>(
         files.push((
             format!("documentation/{file}"),
             chart(
-                &format!("{} — {}: invariants", M::NAME, scene.name),
+                &format!("{} — {}: invariants", M::name(), scene.name),
                 "t (s)",
                 &traj.t,
                 &series,
@@ -243,7 +243,7 @@ fn scene_section<M: System>(
             .collect();
         h.push_str(&format!(
             "<figure><img src=\"{file}\" width=\"720\" height=\"300\" alt=\"{} scene {}: drift of its invariants\"><figcaption>Invariants of this scene (outputs that stay within {INVARIANT_SPREAD:e} of their scale): {}.</figcaption></figure>\n",
-            M::NAME,
+            M::name(),
             escape(scene.name),
             spreads.join(", ")
         ));
@@ -355,13 +355,13 @@ pub fn page<M: System>(
     let mut files = Vec::new();
     let mut h = String::new();
     h.push_str("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n");
-    h.push_str(&format!("<title>{}</title>\n", escape(M::NAME)));
+    h.push_str(&format!("<title>{}</title>\n", escape(M::name())));
     // (`mover>mo`: a gap under each dot, so it never touches a tall letter's top, Ω's say.)
     h.push_str("<style>body{font-family:sans-serif;max-width:64em;margin:2em auto;padding:0 1em;line-height:1.45}table{border-collapse:collapse;margin:.5em 0}td,th{border:1px solid #ccc;padding:.2em .5em;text-align:left;vertical-align:top}code{background:#f4f4f4}ul.eq li{margin:.35em 0}math{font-size:1.1em}mover>mo{padding-bottom:.15em}figure{margin:1em 0}figcaption{font-size:.9em;color:#444}img{max-width:100%;height:auto}nav a{margin-right:1em}</style>\n");
     h.push_str("</head>\n<body>\n");
     h.push_str(&format!(
         "<h1>{}</h1>\n<p>{}</p>\n<nav>{}<a href=\"#equations\">Equations</a><a href=\"#variables\">Variables</a><a href=\"#scenes\">Scenes</a><a href=\"#linearisation\">Linearisation</a><a href=\"#solvers\">Solvers</a><a href=\"#reference\">Reference result</a></nav>\n",
-        escape(M::NAME),
+        escape(M::name()),
         escape(M::DESCRIPTION),
         pictures.map_or(String::new(), |p| {
             let (id, name) = p.anchor();
@@ -376,7 +376,7 @@ pub fn page<M: System>(
     h.push_str(
         "<h2 id=\"equations\">Coordinates, conventions and equations</h2>\n<ul class=\"eq\">\n",
     );
-    for line in M::EQUATIONS {
+    for line in M::equations() {
         h.push_str(&format!("<li>{}</li>\n", line_html(line)));
     }
     h.push_str("</ul>\n");
@@ -447,7 +447,7 @@ pub fn page<M: System>(
 
     h.push_str(&format!(
         "<h2 id=\"reference\">Reference result</h2>\n<p>{} The file is <a href=\"../{LS_REF_DIR}/{REFERENCE_CSV}\"><code>{LS_REF_DIR}/{REFERENCE_CSV}</code></a>, described in <a href=\"../{LS_REF_DIR}/fmi-ls-manifest.xml\"><code>fmi-ls-manifest.xml</code></a> (FMI-LS-REF): compare your importer's run of the default experiment with it.</p>\n",
-        escape(&reference.description(M::NAME))
+        escape(&reference.description(M::name()))
     ));
     h.push_str("</body>\n</html>\n");
     (h, files)

@@ -195,6 +195,10 @@ macro_rules! __describe_symbols {
 /// of motion generated from its T, V and constraints, which `mbfmu build --manifest-path`
 /// writes into the crate (`src/eom.rs`) for its `generated_eom!` line to run.
 ///
+/// `export_fmu!(mechanism_runtime)` for the mechanism runtime
+/// ([`multibody::runtime`](crate::multibody::runtime)): its robot is read from the FMU's
+/// resources at instantiation, or from the packager's request.
+///
 /// `export_fmu!(mechanism Ur5)` for a mechanism declared with
 /// [`mechanism_fmu!`](crate::mechanism_fmu): the model is
 /// [`Robot<Ur5>`](crate::multibody::fmu::Robot), and its describe answer also gives the
@@ -204,13 +208,25 @@ macro_rules! export_fmu {
     (mechanism $declared:ty) => {
         $crate::export_fmu!(@with respond_mechanism, $crate::multibody::fmu::Robot<$declared>);
     };
+    (mechanism_runtime) => {
+        $crate::export_fmu!(
+            @with respond_runtime,
+            $crate::multibody::fmu::Robot<$crate::multibody::runtime::Runtime>,
+            /// The robot, from the FMU's resources (`multibody::runtime`).
+            fn prepare(
+                resources: &$crate::fmi::ResourceLocation,
+            ) -> ::std::result::Result<(), ::std::string::String> {
+                $crate::multibody::runtime::load_from(&resources.folder()?)
+            }
+        );
+    };
     (lagrangian $model:ty) => {
         $crate::export_fmu!(@with respond_lagrangian, $model);
     };
     ($model:ty) => {
         $crate::export_fmu!(@with respond, $model);
     };
-    (@with $respond:ident, $model:ty) => {
+    (@with $respond:ident, $model:ty $(, $(#[$attr:meta])* fn prepare $($prepare:tt)*)?) => {
         /// The exported model, with its layout and GUID computed once per process.
         pub struct ExportedModel;
 
@@ -221,6 +237,7 @@ macro_rules! export_fmu {
                     ::std::sync::OnceLock::new();
                 INFO.get_or_init($crate::fmi::ModelInfo::of::<$model>)
             }
+            $($(#[$attr])* fn prepare $($prepare)*)?
         }
 
         mod fmi2_symbols {
@@ -387,15 +404,15 @@ macro_rules! export_fmu {
                         c, ("fmi3SetDebugLogging", fmi3::ANY), on != 0, (n, cats),
                     );
                 [unsafe] fn fmi3InstantiateModelExchange(
-                    name: *const c_char, token: *const c_char, _resources: *const c_char,
+                    name: *const c_char, token: *const c_char, resources: *const c_char,
                     _visible: Bool3, logging_on: Bool3, env: *mut c_void, log: Option<LogMessage3>,
                 ) -> Instance
                     = fmi3::instantiate::<E>(
                         "fmi3InstantiateModelExchange", Interface::ModelExchange, name, token,
-                        logging_on, (false, false, 0), env, log, None,
+                        resources, logging_on, (false, false, 0), env, log, None,
                     );
                 [unsafe] fn fmi3InstantiateCoSimulation(
-                    name: *const c_char, token: *const c_char, _resources: *const c_char,
+                    name: *const c_char, token: *const c_char, resources: *const c_char,
                     _visible: Bool3, logging_on: Bool3, event_mode_used: Bool3,
                     early_return_allowed: Bool3, _required: *const u32, n_required: usize,
                     env: *mut c_void, log: Option<LogMessage3>,
@@ -403,7 +420,7 @@ macro_rules! export_fmu {
                 ) -> Instance
                     = fmi3::instantiate::<E>(
                         "fmi3InstantiateCoSimulation", Interface::CoSimulation, name, token,
-                        logging_on, (event_mode_used != 0, early_return_allowed != 0, n_required), env,
+                        resources, logging_on, (event_mode_used != 0, early_return_allowed != 0, n_required), env,
                         log, intermediate_update,
                     );
                 [unsafe] fn fmi3InstantiateScheduledExecution(

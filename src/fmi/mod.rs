@@ -47,4 +47,106 @@ pub trait Export: 'static {
     type Model: System;
     /// Cached per process (the layout and the GUID are derived once).
     fn info() -> &'static ModelInfo;
+
+    /// Called by every instantiate before [`Export::info`], with where the importer says
+    /// the FMU's resources are: nothing to do but for the mechanism runtime, which reads
+    /// its robot from there. An error refuses the instantiation with that one line.
+    fn prepare(_resources: &ResourceLocation) -> Result<(), String> {
+        Ok(())
+    }
+}
+
+/// Where an instance's `resources/` folder is, as the importer gave it.
+#[derive(Clone, Copy, Debug)]
+pub enum ResourceLocation<'a> {
+    /// FMI 2.0's `fmuResourceLocation`: a URI (`file:///…`).
+    Uri(&'a str),
+    /// FMI 3.0's `resourcePath`: a path in the platform's syntax.
+    Path(&'a str),
+    /// NULL.
+    Absent,
+}
+
+impl ResourceLocation<'_> {
+    /// The folder, as a path of this platform: a `file:` URI decoded (`%20`, `localhost`,
+    /// a Windows drive letter, a UNC host), a path taken as it is.
+    pub fn folder(&self) -> Result<std::path::PathBuf, String> {
+        match *self {
+            ResourceLocation::Absent => {
+                Err("no resource location given (NULL): the FMU's resources are needed".into())
+            }
+            ResourceLocation::Path("") => {
+                Err("an empty resourcePath: the FMU's resources are needed".into())
+            }
+            ResourceLocation::Path(p) => Ok(std::path::PathBuf::from(p)),
+            ResourceLocation::Uri(uri) => file_uri_path(uri)
+                .map(std::path::PathBuf::from)
+                .ok_or_else(|| format!("fmuResourceLocation {uri:?} is no file: URI")),
+        }
+    }
+}
+
+/// The path of a `file:` URI (RFC 8089): `file:///p`, `file:/p`, `file://localhost/p`,
+/// `file:///C:/p` (Windows: `C:/p`), `file://host/share` (UNC: `//host/share`), percent
+/// escapes decoded; `None` for another scheme or a bad escape.
+fn file_uri_path(uri: &str) -> Option<String> {
+    let rest = uri
+        .strip_prefix("file:")
+        .or_else(|| uri.strip_prefix("FILE:"))?;
+    let path = match rest.strip_prefix("//") {
+        Some(authority_and_path) => {
+            let (host, path) = match authority_and_path.find('/') {
+                Some(i) => authority_and_path.split_at(i),
+                None => (authority_and_path, ""),
+            };
+            if host.is_empty() || host.eq_ignore_ascii_case("localhost") {
+                path.to_string()
+            } else {
+                format!("//{host}{path}")
+            }
+        }
+        None => rest.to_string(),
+    };
+    let bytes = path.as_bytes();
+    let mut decoded = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        if bytes[i] == b'%' {
+            let hex = std::str::from_utf8(bytes.get(i + 1..i + 3)?).ok()?;
+            decoded.push(u8::from_str_radix(hex, 16).ok()?);
+            i += 3;
+        } else {
+            decoded.push(bytes[i]);
+            i += 1;
+        }
+    }
+    let mut path = String::from_utf8(decoded).ok()?;
+    // `/C:/…` is a Windows drive path.
+    let b = path.as_bytes();
+    if b.len() >= 3 && b[0] == b'/' && b[1].is_ascii_alphabetic() && b[2] == b':' {
+        path.remove(0);
+    }
+    Some(path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::file_uri_path;
+
+    #[test]
+    fn file_uris_become_paths() {
+        let cases = [
+            ("file:///tmp/a%20b/resources/", "/tmp/a b/resources/"),
+            ("file:/tmp/x", "/tmp/x"),
+            ("file://localhost/tmp/x", "/tmp/x"),
+            ("file:///C:/Users/me/res", "C:/Users/me/res"),
+            ("file://server/share/res", "//server/share/res"),
+        ];
+        for (uri, path) in cases {
+            assert_eq!(file_uri_path(uri).as_deref(), Some(path), "{uri}");
+        }
+        assert_eq!(file_uri_path("http://x/y"), None);
+        assert_eq!(file_uri_path("file:///bad%2"), None);
+        assert_eq!(file_uri_path("file:///bad%zz"), None);
+    }
 }

@@ -47,7 +47,7 @@ impl OperatingPoint {
             }
             let vr = layout
                 .vr_of(name)
-                .ok_or_else(|| format!("{} has no variable named {name}", M::NAME))?;
+                .ok_or_else(|| format!("{} has no variable named {name}", M::name()))?;
             let slot = layout.slot(vr).expect("vr from the layout");
             let target = match slot.kind {
                 VarKind::Parameter => &mut op.p,
@@ -56,7 +56,7 @@ impl OperatingPoint {
                 _ => {
                     return Err(format!(
                         "{name} is not a parameter, state or input of {}",
-                        M::NAME
+                        M::name()
                     ))
                 }
             };
@@ -176,7 +176,7 @@ pub fn linearize<M: System>(op: &OperatingPoint) -> Linearization {
     let mut output_names = state_names.clone();
     output_names.extend(names(M::outputs()));
     Linearization {
-        model: M::NAME,
+        model: M::name(),
         state_index: (0..n).collect(),
         eliminated: Vec::new(),
         dropped: Vec::new(),
@@ -322,7 +322,7 @@ pub fn reduced_on<M: System>(
     if k != M::STATE_CONSTRAINTS {
         return Err(format!(
             "{}: {k} dependent states named for {} constraints on the state",
-            M::NAME,
+            M::name(),
             M::STATE_CONSTRAINTS
         ));
     }
@@ -331,7 +331,7 @@ pub fn reduced_on<M: System>(
         if consistent::residuals::<M>(op.t, &op.x, &op.p).is_empty() {
             return Err(format!(
                 "{}: the constraints do not hold at this state, nothing to reduce",
-                M::NAME
+                M::name()
             ));
         }
         let all: Vec<usize> = (0..n).collect();
@@ -356,7 +356,7 @@ pub fn reduced_on<M: System>(
         let dh = cd.lu().solve(&(-ci)).ok_or_else(|| {
             format!(
                 "{}: the constraints cannot be solved for the dependent states here (singular)",
-                M::NAME
+                M::name()
             )
         })?;
         for (row, &d) in dependent.iter().enumerate() {
@@ -390,7 +390,7 @@ pub fn reduced_on<M: System>(
                 } else {
                     "is not a state"
                 };
-                format!("{}: cannot keep {name}: it {why}", M::NAME)
+                format!("{}: cannot keep {name}: it {why}", M::name())
             })?;
             chosen.push(at);
         }
@@ -401,7 +401,7 @@ pub fn reduced_on<M: System>(
                 if a[(i, j)].abs() > DROP_TOLERANCE * a.amax() {
                     return Err(format!(
                         "{}: cannot drop {}: the derivative of {} depends on it (∂/∂ = {:e}); keep it too",
-                        M::NAME,
+                        M::name(),
                         names[j],
                         names[i],
                         a[(i, j)]

@@ -59,7 +59,7 @@ pub fn solve<M: System>(t: f64, p: &[f64], x: &mut [f64]) -> Result<(), String> 
     if dependent.len() != M::STATE_CONSTRAINTS {
         return Err(format!(
             "{} declares {} state constraints but {} dependent states: initialisation needs as many of each",
-            M::NAME,
+            M::name(),
             M::STATE_CONSTRAINTS,
             dependent.len()
         ));
@@ -76,7 +76,7 @@ pub fn solve<M: System>(t: f64, p: &[f64], x: &mut [f64]) -> Result<(), String> 
         if step.iter().any(|v| !v.is_finite()) {
             return Err(format!(
                 "{}: the constraints cannot be solved for the dependent states ({}) here: their Jacobian is singular",
-                M::NAME,
+                M::name(),
                 names::<M>(&dependent)
             ));
         }
@@ -95,7 +95,7 @@ pub fn solve<M: System>(t: f64, p: &[f64], x: &mut [f64]) -> Result<(), String> 
     if !converged || !worst.is_finite() {
         return Err(format!(
             "{}: no consistent state near the values set: Newton on the constraints for {} did not converge (residual {worst:e}); check the independent values and the start values of the dependent ones",
-            M::NAME,
+            M::name(),
             names::<M>(&dependent)
         ));
     }

@@ -57,6 +57,21 @@ pub trait Lagrangian: 'static {
     /// Equations and notes for the FMU's documentation (plain text, one per line).
     const EQUATIONS: &'static [&'static str];
 
+    /// [`System::name`].
+    fn name() -> &'static str {
+        Self::NAME
+    }
+
+    /// [`System::token_text`].
+    fn token_text(model_description: String) -> String {
+        model_description
+    }
+
+    /// [`System::equations`].
+    fn equations() -> &'static [&'static str] {
+        Self::EQUATIONS
+    }
+
     fn parameters() -> Vec<Var>;
     fn inputs() -> Vec<Var>;
     /// The generalised coordinates q (their start values are the initial state).
@@ -205,6 +220,15 @@ pub struct AutoDiff<L>(std::marker::PhantomData<L>);
 
 impl<L: Lagrangian> Lagrangian for AutoDiff<L> {
     const NAME: &'static str = L::NAME;
+    fn name() -> &'static str {
+        L::name()
+    }
+    fn token_text(model_description: String) -> String {
+        L::token_text(model_description)
+    }
+    fn equations() -> &'static [&'static str] {
+        L::equations()
+    }
     const DESCRIPTION: &'static str = L::DESCRIPTION;
     const EQUATIONS: &'static [&'static str] = L::EQUATIONS;
     const CONSTRAINTS: usize = L::CONSTRAINTS;
@@ -684,6 +708,18 @@ impl<L: Lagrangian> System for L {
     const EQUATIONS: &'static [&'static str] = <L as Lagrangian>::EQUATIONS;
     const SECOND_ORDER: bool = true;
     const EVALUATION_WEIGHT: u64 = L::EVALUATION_WEIGHT;
+
+    fn name() -> &'static str {
+        <L as Lagrangian>::name()
+    }
+
+    fn token_text(model_description: String) -> String {
+        <L as Lagrangian>::token_text(model_description)
+    }
+
+    fn equations() -> &'static [&'static str] {
+        <L as Lagrangian>::equations()
+    }
 
     fn parameters() -> Vec<Var> {
         <L as Lagrangian>::parameters()

@@ -122,6 +122,26 @@ pub trait System: 'static {
     /// Equations and notes for the FMU's documentation (plain text, one per line).
     const EQUATIONS: &'static [&'static str];
 
+    /// The modelIdentifier the FMU has: [`System::NAME`], but for a model whose identity is
+    /// read at run time (the mechanism runtime: the robot's name from its resources).
+    fn name() -> &'static str {
+        Self::NAME
+    }
+
+    /// [`System::EQUATIONS`], but for a model whose notes are made at run time (the
+    /// mechanism runtime: what its robot does not model).
+    fn equations() -> &'static [&'static str] {
+        Self::EQUATIONS
+    }
+
+    /// What the instantiation token is a hash of, given the modelDescription rendered
+    /// without it: that text. The mechanism runtime's instead: its robot's URDF and name
+    /// and its variables, which every platform reads alike (its XML holds start values
+    /// computed with the platform's sin and cos, whose last bits differ between libms).
+    fn token_text(model_description: String) -> String {
+        model_description
+    }
+
     fn parameters() -> Vec<Var>;
     fn inputs() -> Vec<Var>;
     fn states() -> Vec<Var>;

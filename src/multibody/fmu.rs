@@ -80,6 +80,26 @@ macro_rules! mechanism_loop_equations {
 pub trait Declared: 'static {
     /// The FMU's modelIdentifier.
     const NAME: &'static str;
+
+    /// The modelIdentifier the FMU has: [`Declared::NAME`], but for the mechanism runtime
+    /// ([`runtime`](super::runtime)), whose robot is read at run time.
+    fn name() -> &'static str {
+        Self::NAME
+    }
+
+    /// [`System::token_text`](crate::model::System::token_text): the modelDescription
+    /// without its start values, which a mechanism computes with the platform's sin and
+    /// cos (the torques that hold the start, a closed loop's dependent joints): their last
+    /// bits differ between libms, and every platform's binary must compute the token the
+    /// host wrote. The mechanism runtime's is its robot's URDF instead.
+    fn token_text(model_description: String) -> String {
+        without_start_values(&model_description)
+    }
+
+    /// [`Declared::EQUATIONS`], but for the mechanism runtime (its robot's notes).
+    fn equations() -> &'static [&'static str] {
+        Self::EQUATIONS
+    }
     /// One line: what the mechanism is.
     const DESCRIPTION: &'static str = DESCRIPTION;
     /// Equations and notes for the documentation, one per line.
@@ -274,7 +294,7 @@ impl Built {
     /// validate cannot be a model: `mbfmu build --urdf` validates before it generates),
     /// and when `D` declares another number of closure residuals than its mechanism has.
     pub fn of<D: Declared>() -> Built {
-        let built = Built::new(D::mechanism()).unwrap_or_else(|e| panic!("{}: {e}", D::NAME));
+        let built = Built::new(D::mechanism()).unwrap_or_else(|e| panic!("{}: {e}", D::name()));
         let m = built.model.closure_residuals();
         assert_eq!(
             D::CONSTRAINTS,
@@ -799,6 +819,45 @@ pub fn generated_is_current<D: Declared>() -> bool {
     !matches!(D::GENERATED_FROM, Some(f) if f != D::built().fingerprint)
 }
 
+/// [`Model::aba_in`] with a workspace kept per thread and scalar type (f64, and each dual
+/// number the Jacobians use): after the first call on a thread, q̈ allocates nothing.
+fn aba_reusing<S: Scalar + 'static>(model: &Model, q: &[S], qd: &[S], tau: &[S], qdd: &mut [S]) {
+    use super::dynamics::Data;
+    use std::any::Any;
+    use std::cell::RefCell;
+    thread_local! {
+        static WORKSPACES: RefCell<Vec<Box<dyn Any>>> = const { RefCell::new(Vec::new()) };
+    }
+    WORKSPACES.with(|w| {
+        let mut w = w.borrow_mut();
+        let at = match w.iter().position(|d| d.is::<Data<S>>()) {
+            Some(at) => at,
+            None => {
+                w.push(Box::new(Data::<S>::new(model)));
+                w.len() - 1
+            }
+        };
+        let data = w[at].downcast_mut::<Data<S>>().expect("found by its type");
+        model.aba_in(data, q, qd, tau, qdd);
+    });
+}
+
+/// `xml` with every ` start="…"` attribute left out.
+fn without_start_values(xml: &str) -> String {
+    let mut out = String::with_capacity(xml.len());
+    let mut rest = xml;
+    while let Some(at) = rest.find(" start=\"") {
+        out.push_str(&rest[..at]);
+        let value = &rest[at + " start=\"".len()..];
+        rest = match value.find('"') {
+            Some(end) => &value[end + 1..],
+            None => "",
+        };
+    }
+    out.push_str(rest);
+    out
+}
+
 /// A declared mechanism as a [`Lagrangian`] (hence a `System` and an FMU).
 pub struct Robot<D>(PhantomData<D>);
 
@@ -814,6 +873,19 @@ impl<D: Declared> OfMechanism for Robot<D> {
 
 impl<D: Declared> Lagrangian for Robot<D> {
     const NAME: &'static str = D::NAME;
+
+    fn name() -> &'static str {
+        D::name()
+    }
+
+    fn equations() -> &'static [&'static str] {
+        D::equations()
+    }
+
+    fn token_text(model_description: String) -> String {
+        D::token_text(model_description)
+    }
+
     const DESCRIPTION: &'static str = D::DESCRIPTION;
     const EQUATIONS: &'static [&'static str] = D::EQUATIONS;
     /// Neither Q nor the outputs read t.
@@ -891,7 +963,7 @@ impl<D: Declared> Lagrangian for Robot<D> {
         let generated = !matches!(D::GENERATED_FROM, Some(f) if f != b.fingerprint);
         if b.natural_order && b.model.springs.is_empty() {
             if !(generated && D::generated_aba(q, qd, u, qdd)) {
-                qdd.copy_from_slice(&b.model.aba(q, qd, u));
+                aba_reusing(&b.model, q, qd, u, qdd);
             }
             return true;
         }
@@ -962,5 +1034,19 @@ impl<D: Declared> Lagrangian for Robot<D> {
 
     fn on_event(t: f64, q: &mut [f64], _qd: &mut [f64], _p: &[f64]) -> Result<(), String> {
         Err(D::built().limit_reached(t, q))
+    }
+}
+
+#[cfg(test)]
+mod token_tests {
+    use super::without_start_values;
+
+    #[test]
+    fn start_values_are_left_out_of_a_mechanisms_token() {
+        let xml = r#"<A name="q" start="0.25"/><B start="1e-3" unit="m"/><C/>"#;
+        assert_eq!(
+            without_start_values(xml),
+            r#"<A name="q"/><B unit="m"/><C/>"#
+        );
     }
 }

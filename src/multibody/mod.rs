@@ -15,6 +15,7 @@ pub mod fmu;
 #[rustfmt::skip]
 pub mod generated;
 pub mod mechanism;
+pub mod runtime;
 pub mod source;
 pub mod spatial;
 pub mod urdf;

@@ -89,13 +89,7 @@ fn write_fmu_in(out: &Path, fmi3: bool, c: &Contents) -> Result<(), String> {
     Ok(())
 }
 
-/// Whether `name` can be an FMI modelIdentifier: a C identifier (it names the binary and
-/// prefixes nothing, but importers build file names and C code from it).
-pub fn is_model_identifier(name: &str) -> bool {
-    let mut chars = name.chars();
-    matches!(chars.next(), Some(c) if c.is_ascii_alphabetic() || c == '_')
-        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
-}
+pub use crate::xml::is_model_identifier;
 
 /// Writes `<out_dir>/<model identifier>.fmu` (FMI 2.0) and, when the model describes
 /// itself in FMI 3.0 too, `<out_dir>3/<model identifier>.fmu` ([`fmi3_dir`]) from the
@@ -106,6 +100,16 @@ pub fn package_library(
     binaries: &[(&'static Platform, PathBuf)],
     out_dir: &Path,
 ) -> Result<PathBuf, String> {
+    package_library_with(binaries, out_dir, &[])
+}
+
+/// [`package_library`] with `request` records added to the `package` request (the
+/// mechanism runtime's robot: its `model_identifier` and `urdf`).
+pub fn package_library_with(
+    binaries: &[(&'static Platform, PathBuf)],
+    out_dir: &Path,
+    request: &[(&str, &str)],
+) -> Result<PathBuf, String> {
     let (host, library) = binaries
         .first()
         .ok_or("no binary to package: the host's describes the model")?;
@@ -115,8 +119,9 @@ pub fn package_library(
             library.display()
         ));
     }
-    let records =
-        ModelLibrary::open(library)?.call(&protocol::encode(&[("request", "package")]))?;
+    let mut asked = vec![("request", "package")];
+    asked.extend_from_slice(request);
+    let records = ModelLibrary::open(library)?.call(&protocol::encode(&asked))?;
     let get = |key: &str| {
         protocol::value(&records, key)
             .ok_or_else(|| format!("{}: the package answer has no {key}", library.display()))

@@ -71,7 +71,7 @@ pub fn model_description3<M: System>() -> String {
         "fmiModelDescription",
         &[
             ("fmiVersion", s("3.0")),
-            ("modelName", s(M::NAME)),
+            ("modelName", s(M::name())),
             ("instantiationToken", guid),
             ("description", fmi3_words(M::DESCRIPTION)),
             ("generationTool", s(GENERATION_TOOL)),
@@ -79,7 +79,7 @@ pub fn model_description3<M: System>() -> String {
     );
     let common = |w: &mut W, tag: &str, extra: Vec<(&str, String)>| {
         let mut attrs = vec![
-            ("modelIdentifier", s(M::NAME)),
+            ("modelIdentifier", s(M::name())),
             ("needsExecutionTool", s(false)),
             ("canBeInstantiatedOnlyOncePerProcess", s(false)),
         ];

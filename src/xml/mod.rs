@@ -41,18 +41,28 @@ const GUID_PLACEHOLDER: &str = "{00000000-0000-0000-0000-000000000000}";
 /// The model description of `M`, with its content GUID.
 pub fn model_description<M: System>() -> String {
     let body = render::<M>(GUID_PLACEHOLDER);
-    body.replace(GUID_PLACEHOLDER, &guid_of(&body))
+    let guid = guid_of(&M::token_text(body.clone()));
+    body.replace(GUID_PLACEHOLDER, &guid)
 }
 
-/// The content GUID of `M` (what `fmi2Instantiate` checks).
+/// The content GUID of `M` (what `fmi2Instantiate` checks): of its modelDescription and
+/// or of what defines it instead ([`System::token_text`]).
 pub fn guid<M: System>() -> String {
-    guid_of(&render::<M>(GUID_PLACEHOLDER))
+    guid_of(&M::token_text(render::<M>(GUID_PLACEHOLDER)))
 }
 
 fn guid_of(body: &str) -> String {
     // A fixed namespace for this tool: UUID v5 of the tool's name in the URL namespace.
     let ns = uuid::Uuid::new_v5(&uuid::Uuid::NAMESPACE_URL, b"mbfmu");
     format!("{{{}}}", uuid::Uuid::new_v5(&ns, body.as_bytes()))
+}
+
+/// Whether `name` can be an FMI modelIdentifier: a C identifier (it names the binary and
+/// prefixes nothing, but importers build file names and C code from it).
+pub fn is_model_identifier(name: &str) -> bool {
+    let mut chars = name.chars();
+    matches!(chars.next(), Some(c) if c.is_ascii_alphabetic() || c == '_')
+        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
 }
 
 /// Shortest text that parses back to the same f64 (xs:double syntax).
@@ -264,7 +274,7 @@ fn render<M: System>(guid: &str) -> String {
         "fmiModelDescription",
         &[
             ("fmiVersion", s("2.0")),
-            ("modelName", s(M::NAME)),
+            ("modelName", s(M::name())),
             ("guid", s(guid)),
             ("description", s(M::DESCRIPTION)),
             ("generationTool", s(GENERATION_TOOL)),
@@ -277,7 +287,7 @@ fn render<M: System>(guid: &str) -> String {
         &mut w,
         "ModelExchange",
         &[
-            ("modelIdentifier", s(M::NAME)),
+            ("modelIdentifier", s(M::name())),
             ("needsExecutionTool", s(false)),
             ("completedIntegratorStepNotNeeded", s(!probe.projects)),
             ("canBeInstantiatedOnlyOncePerProcess", s(false)),
@@ -291,7 +301,7 @@ fn render<M: System>(guid: &str) -> String {
         &mut w,
         "CoSimulation",
         &[
-            ("modelIdentifier", s(M::NAME)),
+            ("modelIdentifier", s(M::name())),
             ("needsExecutionTool", s(false)),
             ("canHandleVariableCommunicationStepSize", s(true)),
             ("canInterpolateInputs", s(true)),

@@ -2,8 +2,9 @@
  * the values of the named value references at every communication point, one line each,
  * "%.17g" (enough digits to read the doubles back bit for bit).
  *
- *   fmu_run fmi2|fmi3 LIBRARY TOKEN RESOURCES_URI STOP STEP VR...
+ *   fmu_run fmi2|fmi3 LIBRARY TOKEN RESOURCES_URI STOP STEP [VR=VALUE...] VR...
  *
+ * VR=VALUE sets that Real (Float64) variable before initialisation (a start value).
  * Compiled for each platform an FMU carries (gcc, aarch64-linux-gnu-gcc,
  * x86_64-w64-mingw32-gcc) and run there (natively, under qemu-aarch64, under wine) by
  * tests/python/test_platforms.py, which compares the platforms' lines. Co-Simulation,
@@ -68,6 +69,7 @@ static void logger2(void *env, const char *instance, int status, const char *cat
 }
 
 static int run2(const char *token, const char *resources, double stop, double step,
+                const unsigned *set_vrs, const double *set_values, int n_set,
                 const unsigned *vrs, int n) {
     typedef void *(*Instantiate)(const char *, int, const char *, const char *,
                                  const Callbacks2 *, int, int);
@@ -75,6 +77,7 @@ static int run2(const char *token, const char *resources, double stop, double st
     typedef int (*Mode)(void *);
     typedef int (*DoStep)(void *, double, double, int);
     typedef int (*GetReal)(void *, const unsigned *, size_t, double *);
+    typedef int (*SetReal)(void *, const unsigned *, size_t, const double *);
     typedef void (*Free)(void *);
     static Callbacks2 callbacks = {logger2, calloc, free, NULL, NULL};
     void *c = ((Instantiate)need("fmi2Instantiate"))("run", 1 /* fmi2CoSimulation */, token,
@@ -87,6 +90,8 @@ static int run2(const char *token, const char *resources, double stop, double st
         return 1;
     }
     check(((Setup)need("fmi2SetupExperiment"))(c, 0, 0.0, 0.0, 1, stop), "fmi2SetupExperiment");
+    if (n_set > 0)
+        check(((SetReal)need("fmi2SetReal"))(c, set_vrs, (size_t)n_set, set_values), "fmi2SetReal");
     check(((Mode)need("fmi2EnterInitializationMode"))(c), "fmi2EnterInitializationMode");
     check(((Mode)need("fmi2ExitInitializationMode"))(c), "fmi2ExitInitializationMode");
     for (i = 0; i <= steps; i++) {
@@ -110,6 +115,7 @@ static void logger3(void *env, int status, const char *category, const char *mes
 }
 
 static int run3(const char *token, const char *resources, double stop, double step,
+                const unsigned *set_vrs, const double *set_values, int n_set,
                 const unsigned *vrs, int n) {
     typedef void *(*Instantiate)(const char *, const char *, const char *, bool, bool, bool,
                                  bool, const unsigned *, size_t, void *, void *, void *);
@@ -117,6 +123,7 @@ static int run3(const char *token, const char *resources, double stop, double st
     typedef int (*Mode)(void *);
     typedef int (*DoStep)(void *, double, double, bool, bool *, bool *, bool *, double *);
     typedef int (*GetFloat64)(void *, const unsigned *, size_t, double *, size_t);
+    typedef int (*SetFloat64)(void *, const unsigned *, size_t, const double *, size_t);
     typedef void (*Free)(void *);
     void *c = ((Instantiate)need("fmi3InstantiateCoSimulation"))(
         "run", token, resources, false, false, false, false, NULL, 0, NULL, (void *)logger3, NULL);
@@ -129,6 +136,10 @@ static int run3(const char *token, const char *resources, double stop, double st
         fprintf(stderr, "fmu_run: fmi3InstantiateCoSimulation returned NULL\n");
         return 1;
     }
+    if (n_set > 0)
+        check(((SetFloat64)need("fmi3SetFloat64"))(c, set_vrs, (size_t)n_set, set_values,
+                                                    (size_t)n_set),
+              "fmi3SetFloat64");
     check(((Enter)need("fmi3EnterInitializationMode"))(c, false, 0.0, 0.0, true, stop),
           "fmi3EnterInitializationMode");
     check(((Mode)need("fmi3ExitInitializationMode"))(c), "fmi3ExitInitializationMode");
@@ -150,10 +161,12 @@ static int run3(const char *token, const char *resources, double stop, double st
 }
 
 int main(int argc, char **argv) {
-    unsigned *vrs;
-    int n, k;
+    unsigned *vrs, *set_vrs;
+    double *set_values;
+    int n = 0, n_set = 0, k;
     if (argc < 8) {
-        fprintf(stderr, "usage: fmu_run fmi2|fmi3 LIBRARY TOKEN RESOURCES_URI STOP STEP VR...\n");
+        fprintf(stderr,
+                "usage: fmu_run fmi2|fmi3 LIBRARY TOKEN RESOURCES_URI STOP STEP [VR=VALUE...] VR...\n");
         return 2;
     }
     lib = open_library(argv[2]);
@@ -161,10 +174,21 @@ int main(int argc, char **argv) {
         fprintf(stderr, "fmu_run: cannot load %s\n", argv[2]);
         return 2;
     }
-    n = argc - 7;
-    vrs = calloc((size_t)n, sizeof(unsigned));
-    for (k = 0; k < n; k++) vrs[k] = (unsigned)strtoul(argv[7 + k], NULL, 10);
+    vrs = calloc((size_t)argc, sizeof(unsigned));
+    set_vrs = calloc((size_t)argc, sizeof(unsigned));
+    set_values = calloc((size_t)argc, sizeof(double));
+    for (k = 7; k < argc; k++) {
+        const char *eq = strchr(argv[k], '=');
+        if (eq) {
+            set_vrs[n_set] = (unsigned)strtoul(argv[k], NULL, 10);
+            set_values[n_set++] = strtod(eq + 1, NULL);
+        } else {
+            vrs[n++] = (unsigned)strtoul(argv[k], NULL, 10);
+        }
+    }
     if (strcmp(argv[1], "fmi3") == 0)
-        return run3(argv[3], argv[4], atof(argv[5]), atof(argv[6]), vrs, n);
-    return run2(argv[3], argv[4], atof(argv[5]), atof(argv[6]), vrs, n);
+        return run3(argv[3], argv[4], atof(argv[5]), atof(argv[6]), set_vrs, set_values, n_set,
+                    vrs, n);
+    return run2(argv[3], argv[4], atof(argv[5]), atof(argv[6]), set_vrs, set_values, n_set, vrs,
+                n);
 }

@@ -44,7 +44,8 @@ import subprocess
 import time
 import xml.etree.ElementTree as ET
 import zipfile
-from ctypes import c_double, c_uint
+import ctypes
+from ctypes import byref, c_double, c_uint
 
 import fmpy
 import numpy as np
@@ -96,13 +97,23 @@ ROBOTS = {
     "panda": ("panda", None),
     "damped": ("damped_pendulum", "damped_pendulum"),
     "dp": ("DoublePendulumURDF", "DoublePendulumURDF"),
+    # The compiler-free route: the prebuilt mechanism runtime reads the robot from the FMU.
+    "ur5 runtime": ("ur5", None),
+    "kinova runtime": ("kinova", None),
+    "z1 runtime": ("z1_description", None),
 }
+RUNTIME = " runtime"
 
 
 def urdf_file(robot: str, tmp: pathlib.Path) -> pathlib.Path:
     robots = robots_dir()
+    robot = robot.removesuffix(RUNTIME)
     if robot == "ur5":
         return robots / "ur_description" / "urdf" / "ur5_robot.urdf"
+    if robot == "kinova":
+        return robots / "kinova_description" / "robots" / "kinova.urdf"
+    if robot == "z1":
+        return robots / "z1_description" / "urdf" / "z1.urdf"
     if robot == "panda":
         text = (robots / "panda_description" / "urdf" / "panda.urdf").read_text()
         text = re.sub(r"<mimic[^>]*/>", "", text)
@@ -140,19 +151,29 @@ def robot(tmp_path_factory):
         if name not in cache:
             urdf = urdf_file(name, out)
             identifier, given = ROBOTS[name]
-            # This machine's binary alone: test_platforms.py builds UR5 for every platform.
-            args = ["build", "--urdf", str(urdf), "--out", str(out), "--platforms", "host"]
+            env = build_env()
+            if name.endswith(RUNTIME):
+                # Every platform, from the prebuilt runtime, with no cargo, rustc or C
+                # compiler reachable: PATH is an empty folder.
+                where = out / "runtime"
+                args = ["build", "--urdf", str(urdf), "--out", str(where)]
+                env["PATH"] = str(tmp_path_factory.mktemp("empty_path"))
+            else:
+                # The compiled route (a crate with q̈ generated for the robot), this machine's
+                # binary alone (test_platforms.py builds every platform's).
+                where = out
+                args = ["build", "--urdf", str(urdf), "--out", str(out), "--platforms", "host", "--compile"]
             if given:
                 args += ["--name", given]
             start = time.perf_counter()
-            res = subprocess.run([str(cli()), *args], capture_output=True, text=True, env=build_env())
+            res = subprocess.run([str(cli()), *args], capture_output=True, text=True, env=env)
             seconds = time.perf_counter() - start
             if res.returncode != 0:
                 pytest.fail(f"mbfmu {' '.join(args)} failed:\n{res.stderr[-3000:]}", pytrace=False)
             print(f"{name}: built in {seconds:.0f} s: {res.stdout.strip()}")
-            fmu = out / f"{identifier}.fmu"
+            fmu = where / f"{identifier}.fmu"
             assert fmu.is_file(), res.stdout
-            assert not list(out.glob(".*partial*")), "a partial file was left"
+            assert not list(where.glob(".*partial*")), "a partial file was left"
             cache[name] = Built(name, fmu, urdf, seconds, res.stdout)
         return cache[name]
 
@@ -190,7 +211,7 @@ def damping(b: Built) -> np.ndarray:
     return b.ref.ours(b.ref.model.damping)
 
 
-@pytest.mark.parametrize("name", ["ur5", "panda", "damped"])
+@pytest.mark.parametrize("name", ["ur5", "panda", "damped", "ur5 runtime", "kinova runtime", "z1 runtime"])
 def test_state_derivatives_energy_and_poses_equal_pinocchio(robot, instances, name):
     b = robot(name)
     model, ref = b.model, b.ref
@@ -226,7 +247,7 @@ def test_state_derivatives_energy_and_poses_equal_pinocchio(robot, instances, na
     assert worst["pose"] < 1e-12, worst
 
 
-@pytest.mark.parametrize("name", ["ur5", "panda", "damped"])
+@pytest.mark.parametrize("name", ["ur5", "panda", "damped", "ur5 runtime", "kinova runtime", "z1 runtime"])
 def test_directional_derivatives_equal_pinocchios_aba_derivatives(robot, instances, name):
     b = robot(name)
     model, ref = b.model, b.ref
@@ -260,7 +281,7 @@ def test_directional_derivatives_equal_pinocchios_aba_derivatives(robot, instanc
     assert worst < 1e-8, worst
 
 
-@pytest.mark.parametrize("name", ["ur5", "panda", "damped"])
+@pytest.mark.parametrize("name", ["ur5", "panda", "damped", "ur5 runtime", "kinova runtime", "z1 runtime"])
 def test_mass_matrix_through_the_fmu_equals_pinocchios_crba(robot, instances, name):
     """The FMU's mass matrix: q̈ = M⁻¹ (τ − d q̇ − b(q, q̇)) is affine in the inputs τ
     (``tau_J``), so the directional derivatives of ``der(J_dot)`` along each input are the
@@ -582,3 +603,111 @@ def test_the_page_draws_the_mechanism_a_marker_per_joint_where_it_is(robot, inst
             drawn = sorted(e.get("data-joint") for e in pose.iter()
                            if (e.get("class") or "").startswith("joint "))
             assert drawn == sorted(b.joints), scene
+
+
+# ------------------------------------------------- the compiler-free route: the runtime
+
+
+@pytest.mark.parametrize("name", ["ur5 runtime", "kinova runtime", "z1 runtime"])
+def test_the_runtime_builds_every_platform_without_a_compiler(robot, name):
+    """`mbfmu build --urdf` with no cargo, rustc or C compiler on PATH writes a complete FMU
+    (page, linearisation, reference result, both versions) from the prebuilt runtime: each
+    platform's runtime binary under the robot's modelIdentifier, the URDF as given and the
+    identifier as its resources. The time is printed (measured, not asserted)."""
+    b = robot(name)
+    identifier = ROBOTS[name][0]
+    assert "interpreted by the prebuilt mechanism runtime" in b.stdout, b.stdout
+    print(f"{name}: built in {b.seconds:.2f} s with no compiler on PATH")
+    for fmu, fmi3 in [(b.fmu, False), (b.fmu.parent.with_name(b.fmu.parent.name + "3") / b.fmu.name, True)]:
+        with zipfile.ZipFile(fmu) as z:
+            names = z.namelist()
+            folders = ["x86_64-linux", "x86_64-windows", "aarch64-linux"] if fmi3 else ["linux64", "win64", "aarch64-linux"]
+            assert sorted(n for n in names if n.startswith("binaries/")) == sorted(
+                f"binaries/{f}/{identifier}.{'dll' if 'win' in f else 'so'}" for f in folders)
+            assert z.read("resources/mechanism.urdf") == b.urdf.read_bytes()
+            assert z.read("resources/model_identifier.txt").decode() == identifier
+            for part in ["documentation/index.html", "documentation/mechanism.svg",
+                         "resources/linearization.json", "extra/org.fmi-standard.fmi-ls-ref/reference.csv"]:
+                assert part in names, part
+        assert validate_fmu(str(fmu)) == [], fmu
+
+
+def test_the_runtime_and_the_compiled_crate_describe_the_same_fmu(robot):
+    """UR5 from the runtime and from its compiled crate: the same modelDescription, FMI 2.0
+    and 3.0, to the byte but for the instantiation token (the runtime's is a hash of the
+    URDF text, its name and its variables, the same on every platform)."""
+    compiled, runtime = robot("ur5"), robot("ur5 runtime")
+    twin = lambda fmu: fmu.parent.with_name(fmu.parent.name + "3") / fmu.name
+    token = re.compile(r'(guid|instantiationToken)="\{[0-9a-f-]+\}"')
+    for a, b in [(compiled.fmu, runtime.fmu), (twin(compiled.fmu), twin(runtime.fmu))]:
+        with zipfile.ZipFile(a) as za, zipfile.ZipFile(b) as zb:
+            xa, xb = za.read("modelDescription.xml").decode(), zb.read("modelDescription.xml").decode()
+            assert len(token.findall(xa)) == 1 and token.findall(xa) == token.findall(xb)
+            assert token.sub("TOKEN", xa) == token.sub("TOKEN", xb), (a, b)
+            assert token.search(xa).group(0) != token.search(xb).group(0)
+
+
+def edited_copy(fmu: pathlib.Path, out: pathlib.Path, entry: str, edit) -> pathlib.Path:
+    """`fmu` with its `entry` replaced by `edit(text)`."""
+    with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as dst:
+        for item in src.infolist():
+            data = src.read(item)
+            if item.filename == entry:
+                text = data.decode()
+                changed = edit(text)
+                assert changed != text, f"the edit changed nothing in {entry}"
+                data = changed.encode()
+            dst.writestr(item, data)
+    return out
+
+
+UR5_EDITS = {
+    "a mass changed": ("resources/mechanism.urdf",
+                       lambda t: t.replace('<mass value="3.7"/>', '<mass value="3.8"/>', 1)),
+    # The end effector's joint and link: still a valid URDF, of another mechanism.
+    "a joint removed": ("resources/mechanism.urdf",
+                        lambda t: re.sub(r'<joint name="ee_fixed_joint".*?</joint>\s*<link name="ee_link">.*?</link>',
+                                         "", t, flags=re.S)),
+    "a truncated file": ("resources/mechanism.urdf", lambda t: t[: len(t) // 2]),
+    "another identifier": ("resources/model_identifier.txt", lambda t: "ur10"),
+}
+
+
+@pytest.mark.parametrize("edit", list(UR5_EDITS))
+def test_an_edited_runtime_fmu_is_refused_at_instantiation(robot, logs, edit, tmp_path):
+    """UR5's runtime FMU with its resources edited or damaged: FMI 2.0 and FMI 3.0
+    instantiation return NULL with one log line (fmi2Error / fmi3Error) saying why; nothing
+    runs a mechanism the modelDescription does not describe."""
+    entry, change = UR5_EDITS[edit]
+    fmu = edited_copy(robot("ur5 runtime").fmu, tmp_path / "ur5.fmu", entry, change)
+    model = fs.Model("ur5", fmu)
+    lib = model.library()
+    try:
+        name = f"ur5_{edit.replace(' ', '_')}"
+        fs.ensure_logger()
+        mark = logs.mark()
+        comp = lib._functions["fmi2Instantiate"](name.encode(), fs.fmi2CoSimulation, model.guid.encode(),
+                                                 model.resource_uri(), byref(fs.CALLBACKS), 0, 0)
+        assert not comp, edit
+        records = logs.since(mark)
+        assert len(records) == 1 and records[0].status == fs.fmi2Error, records
+        message = records[0].message
+        print(f"{edit}: {message}")
+        assert "\n" not in message.strip()
+        assert ("does not match this binary" in message) or ("resources/mechanism.urdf" in message), message
+    finally:
+        lib.freeLibrary()
+    # FMI 3.0: the same refusal through fmi3InstantiateCoSimulation.
+    messages = []
+    Log3 = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_char_p)
+    log3 = Log3(lambda env, status, category, message: messages.append((status, message.decode())))
+    so = ctypes.CDLL(str(pathlib.Path(model.unzipdir, "binaries", "linux64", "ur5.so")))
+    inst3 = so.fmi3InstantiateCoSimulation
+    inst3.restype = ctypes.c_void_p
+    inst3.argtypes = [ctypes.c_char_p, ctypes.c_char_p, ctypes.c_char_p, ctypes.c_bool, ctypes.c_bool,
+                      ctypes.c_bool, ctypes.c_bool, ctypes.c_void_p, ctypes.c_size_t, ctypes.c_void_p,
+                      Log3, ctypes.c_void_p]
+    resources = str(pathlib.Path(model.unzipdir, "resources")) + "/"
+    assert not inst3(b"ur5_3", model.guid.encode(), resources.encode(), False, False, False, False,
+                     None, 0, None, log3, None)
+    assert len(messages) == 1 and messages[0][0] == 3, messages  # fmi3Error

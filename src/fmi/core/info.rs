@@ -32,7 +32,7 @@ impl ModelInfo {
     pub fn of<M: System>() -> ModelInfo {
         let layout = Layout::of::<M>();
         ModelInfo {
-            name: M::NAME,
+            name: M::name(),
             probe: crate::model::Probe::of::<M>(&layout),
             layout,
             guid: crate::xml::guid::<M>(),

@@ -221,7 +221,7 @@ impl<M: System> Instance<M> {
             return Err(format!(
                 "solver {} needs a linear time-invariant system; {} with these parameters is not",
                 d.method.name(),
-                M::NAME
+                M::name()
             ));
         }
         for line in &adjusted {
@@ -816,19 +816,19 @@ fn check_method<M: System>(method: Method, u: &[f64], p: &[f64], lti: bool) -> R
     if lti && method.needs_linear_time_invariant() && !M::linear_time_invariant(p) {
         return Err(format!(
             "solver {name} needs a linear time-invariant system; {} is not (with these parameters)",
-            M::NAME
+            M::name()
         ));
     }
     if method.needs_mechanics() && M::mechanics(u, p).is_none() {
         return Err(format!(
             "solver {name} needs a system written as a Lagrangian with time-independent holonomic constraints only; {} is not",
-            M::NAME
+            M::name()
         ));
     }
     if method.needs_second_order() && !M::SECOND_ORDER {
         return Err(format!(
             "solver {name} needs states of the form (q, q̇); {} has none",
-            M::NAME
+            M::name()
         ));
     }
     Ok(())

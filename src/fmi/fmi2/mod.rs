@@ -24,7 +24,7 @@ pub use super::boundary::{Component, FmuState};
 use super::core::mode::states;
 use super::gate::{self, gates, Gate, Table};
 use super::CallbackFunctions;
-use super::{Export, Instance, Interface, Logger, Mode, Status};
+use super::{Export, Instance, Interface, Logger, Mode, ResourceLocation, Status};
 use crate::model::System;
 use std::ffi::{c_char, c_int, c_uint, CStr};
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -159,7 +159,7 @@ pub unsafe fn instantiate<E: Export>(
     instance_name: *const c_char,
     fmu_type: c_int,
     guid: *const c_char,
-    _resource_location: *const c_char,
+    resource_location: *const c_char,
     functions: *const CallbackFunctions,
     _visible: c_int,
     logging_on: c_int,
@@ -180,12 +180,23 @@ pub unsafe fn instantiate<E: Export>(
             name.as_deref().unwrap_or("?"),
             logging_on != 0,
         );
-        let info = E::info();
         logger.set_function("fmi2Instantiate");
         let fail = |message: String| {
             logger.failure(Status::Error, &message);
             std::ptr::null_mut()
         };
+        let resources = if resource_location.is_null() {
+            ResourceLocation::Absent
+        } else {
+            match CStr::from_ptr(resource_location).to_str() {
+                Ok(uri) => ResourceLocation::Uri(uri),
+                Err(_) => return fail("fmuResourceLocation is not UTF-8".into()),
+            }
+        };
+        if let Err(e) = E::prepare(&resources) {
+            return fail(e);
+        }
+        let info = E::info();
         match name.as_deref() {
             None | Some("") => return fail("instanceName is NULL or empty".into()),
             Some(_) => {}

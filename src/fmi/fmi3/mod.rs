@@ -24,7 +24,7 @@ pub use me::*;
 use super::boundary::{guard, ok, slice, slice_mut, Component, FmuState, Guarded};
 use super::core::mode::states;
 use super::gate::{self, gates, Gate, Table};
-use crate::fmi::{Export, Instance, Interface, Logger, Mode, Status};
+use crate::fmi::{Export, Instance, Interface, Logger, Mode, ResourceLocation, Status};
 use crate::model::{System, VarKind};
 use std::ffi::{c_char, c_void, CStr};
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -282,6 +282,7 @@ pub unsafe fn instantiate<E: Export>(
     interface: Interface,
     instance_name: *const c_char,
     token: *const c_char,
+    resource_path: *const c_char,
     logging_on: Bool3,
     (event_mode_used, early_return_allowed, n_required): (bool, bool, usize),
     env: *mut c_void,
@@ -301,11 +302,22 @@ pub unsafe fn instantiate<E: Export>(
             logging_on != 0,
         );
         logger.set_function(function);
-        let info = E::info();
         let fail = |message: String| {
             logger.failure(Status::Error, &message);
             std::ptr::null_mut()
         };
+        let resources = if resource_path.is_null() {
+            ResourceLocation::Absent
+        } else {
+            match CStr::from_ptr(resource_path).to_str() {
+                Ok(path) => ResourceLocation::Path(path),
+                Err(_) => return fail("resourcePath is not UTF-8".into()),
+            }
+        };
+        if let Err(e) = E::prepare(&resources) {
+            return fail(e);
+        }
+        let info = E::info();
         if matches!(name.as_deref(), None | Some("")) {
             return fail("instanceName is NULL or empty".into());
         }
