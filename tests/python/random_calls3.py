@@ -92,7 +92,8 @@ class Spec:
 
 def load(spec: Spec, fmu: pathlib.Path):
     d = pathlib.Path(extract(str(fmu)))
-    so = next((d / "binaries").glob(f"*/{spec.identifier}.*"))
+    # This machine's binary (the FMU carries Windows and aarch64 ones too).
+    so = d / "binaries" / "x86_64-linux" / f"{spec.identifier}.so"
     lib = ctypes.CDLL(str(so))
     P = c_void_p
     sig = {
