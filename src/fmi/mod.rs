@@ -67,7 +67,25 @@ pub enum ResourceLocation<'a> {
     Absent,
 }
 
-impl ResourceLocation<'_> {
+impl<'a> ResourceLocation<'a> {
+    /// The importer's C string: FMI 2.0's URI (`uri`) or FMI 3.0's path; NULL is absent.
+    ///
+    /// # Safety
+    /// `location` is NULL or a NUL-terminated string that outlives `'a`.
+    pub unsafe fn from_c(
+        location: *const std::ffi::c_char,
+        uri: bool,
+    ) -> Result<ResourceLocation<'a>, String> {
+        if location.is_null() {
+            return Ok(ResourceLocation::Absent);
+        }
+        match (std::ffi::CStr::from_ptr(location).to_str(), uri) {
+            (Ok(text), true) => Ok(ResourceLocation::Uri(text)),
+            (Ok(text), false) => Ok(ResourceLocation::Path(text)),
+            (Err(_), _) => Err("the resource location is not UTF-8".into()),
+        }
+    }
+
     /// The folder, as a path of this platform: a `file:` URI decoded (`%20`, `localhost`,
     /// a Windows drive letter, a UNC host), a path taken as it is.
     pub fn folder(&self) -> Result<std::path::PathBuf, String> {

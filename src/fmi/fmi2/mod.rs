@@ -185,15 +185,8 @@ pub unsafe fn instantiate<E: Export>(
             logger.failure(Status::Error, &message);
             std::ptr::null_mut()
         };
-        let resources = if resource_location.is_null() {
-            ResourceLocation::Absent
-        } else {
-            match CStr::from_ptr(resource_location).to_str() {
-                Ok(uri) => ResourceLocation::Uri(uri),
-                Err(_) => return fail("fmuResourceLocation is not UTF-8".into()),
-            }
-        };
-        if let Err(e) = E::prepare(&resources) {
+        let resources = ResourceLocation::from_c(resource_location, true);
+        if let Err(e) = resources.and_then(|r| E::prepare(&r)) {
             return fail(e);
         }
         let info = E::info();

@@ -306,15 +306,8 @@ pub unsafe fn instantiate<E: Export>(
             logger.failure(Status::Error, &message);
             std::ptr::null_mut()
         };
-        let resources = if resource_path.is_null() {
-            ResourceLocation::Absent
-        } else {
-            match CStr::from_ptr(resource_path).to_str() {
-                Ok(path) => ResourceLocation::Path(path),
-                Err(_) => return fail("resourcePath is not UTF-8".into()),
-            }
-        };
-        if let Err(e) = E::prepare(&resources) {
+        let resources = ResourceLocation::from_c(resource_path, false);
+        if let Err(e) = resources.and_then(|r| E::prepare(&r)) {
             return fail(e);
         }
         let info = E::info();
