@@ -355,13 +355,21 @@ pub fn respond_mechanism<R: crate::multibody::fmu::OfMechanism>(request: &str) -
     let mut records = vec![("abi".to_string(), ABI.to_string())];
     match asked.as_deref() {
         Some("symbolic") => {
-            let n = D::<R>::model().nq();
+            let model = D::<R>::model();
+            let n = model.nq();
             let (z, mut qdd) = (vec![0.0; n], vec![0.0; n]);
-            let joints = if n == 1 {
+            let mut joints = if n == 1 {
                 "1 moving joint".to_string()
             } else {
                 format!("{n} moving joints")
             };
+            let mimics = n - model.ndof();
+            if mimics > 0 {
+                joints += &format!(
+                    " ({mimics} of them mimic joints: q̈ from the mass matrix reduced to the {} independent ones, O(n³))",
+                    model.ndof()
+                );
+            }
             let m = D::<R>::CONSTRAINTS;
             let runs = if m > 0 {
                 format!(
@@ -390,7 +398,8 @@ pub fn respond_mechanism<R: crate::multibody::fmu::OfMechanism>(request: &str) -
                         records.push(("dynamics".into(), g.source));
                     }
                 }
-                format!("runs {how}: {joints}, q̈ in O(n){stale}")
+                let order = if mimics > 0 { "" } else { ", q̈ in O(n)" };
+                format!("runs {how}: {joints}{order}{stale}")
             };
             records.push(("runs".into(), runs));
         }
@@ -400,11 +409,8 @@ pub fn respond_mechanism<R: crate::multibody::fmu::OfMechanism>(request: &str) -
         Some("package") => {
             let built = D::<R>::built();
             let skeleton = crate::docs::stick::Skeleton::new(&built.mechanism, &built.model);
-            // The pictures take q in the model's order (coordinate k is model's order[k]).
-            let mut start = vec![0.0; built.start.len()];
-            for (k, &i) in built.order.iter().enumerate() {
-                start[i] = built.start[k];
-            }
+            // The pictures take every model joint's q (mimic joints' from those they follow).
+            let start = built.positions_to_model(&built.start);
             let pictures = skeleton.map(|skeleton| crate::docs::stick::MechanismPictures {
                 name: D::<R>::name(),
                 skeleton,

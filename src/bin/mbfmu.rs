@@ -497,6 +497,14 @@ fn build_urdf(
     Ok(())
 }
 
+/// Whether a joint of `mechanism` follows another (a mimic joint on a moving joint).
+fn mechanism_has_mimics(mechanism: &mbfmu::multibody::Mechanism) -> bool {
+    mechanism
+        .joints
+        .iter()
+        .any(|j| j.moves() && j.mimic.is_some())
+}
+
 /// The mechanism runtime's crate (fmu/mechanism_runtime), built by `build --all`.
 const RUNTIME_CRATE: &str = "mechanism_runtime";
 
@@ -553,7 +561,11 @@ fn build_urdf_runtime(
         &fmu,
         &mechanism,
         started,
-        "runs the articulated-body algorithm interpreted by the prebuilt mechanism runtime, which reads the robot from the FMU's resources (no compiler; --compile generates straight-line code for this robot: faster, needs cargo)",
+        if mechanism_has_mimics(&mechanism) {
+            "runs the mass matrix reduced to the independent joints (mimic joints follow them), interpreted by the prebuilt mechanism runtime, which reads the robot from the FMU's resources (no compiler; --compile generates straight-line code for this robot: faster, needs cargo)"
+        } else {
+            "runs the articulated-body algorithm interpreted by the prebuilt mechanism runtime, which reads the robot from the FMU's resources (no compiler; --compile generates straight-line code for this robot: faster, needs cargo)"
+        },
     );
     Ok(())
 }
@@ -599,8 +611,11 @@ fn report_robot(
         "wrote {} ({} joints, {:.1} MB, {:.1} s; FMI 3.0: {}): {runs}",
         fmu.display(),
         mbfmu::multibody::Model::new(mechanism)
-            .map(|m| m.nq())
-            .unwrap_or(0),
+            .map(|m| match m.nq() - m.ndof() {
+                0 => m.nq().to_string(),
+                mimics => format!("{} + {mimics} mimic", m.ndof()),
+            })
+            .unwrap_or_default(),
         size as f64 / 1e6,
         started.elapsed().as_secs_f64(),
         fmi3_path(fmu).display()

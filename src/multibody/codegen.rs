@@ -171,7 +171,13 @@ pub fn fewest_operations(model: &Model) -> Algorithm {
 }
 
 /// [`fewest_operations`] with entries within `snap` of 0 or ±1 snapped.
+///
+/// A model with mimic joints: [`Algorithm::Aba`], which is [`Model::aba`]'s reduced
+/// mass-matrix solve for it (the other two know no mimics).
 pub fn fewest_operations_within(model: &Model, snap: f64) -> Algorithm {
+    if model.has_mimics() {
+        return Algorithm::Aba;
+    }
     let ops = |alg| {
         let t = trace_within(model, alg, None, snap);
         straight_line(&t.graph, &t.qdd, &leaf_name).operations

@@ -44,6 +44,15 @@ pub struct Tip {
     pub quaternion: [f64; 4],
 }
 
+/// A joint whose position follows another's (a mimic joint): `q_i = multiplier · q_joint +
+/// offset`, `joint` being a model joint of its own coordinate (chains of mimics composed).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Follows {
+    pub joint: usize,
+    pub multiplier: f64,
+    pub offset: f64,
+}
+
 /// A mechanism precomputed for the dynamics: flat arrays, one entry per moving joint (=
 /// per moving body, after fixed joints were merged), parents before children.
 #[derive(Clone, Debug, PartialEq)]
@@ -76,6 +85,13 @@ pub struct Model {
     pub closures: Vec<PointPair>,
     /// The springs, likewise.
     pub springs: Vec<PointPair>,
+    /// Per joint: the joint it follows if it is a mimic joint ([`Follows`]). Every array
+    /// here stays per joint, mimics included (the tree); [`Model::aba`] then solves the
+    /// dynamics reduced to the independent joints.
+    pub follows: Vec<Option<Follows>>,
+    /// Per joint: the index of the joint that drives it (itself, or the one it follows)
+    /// among the independent joints, in model order.
+    pub driver_index: Vec<usize>,
 }
 
 /// Two points fixed in bodies of the model (`None`: the base), in those bodies' frames: a
@@ -98,6 +114,11 @@ pub struct Data<S> {
     d_inv: Vec<S>,
     u: Vec<S>,
     ic: Vec<RigidInertia<S>>,
+    /// With mimic joints: the mass matrix, the bias forces, the reduced system.
+    mass: Vec<S>,
+    bias: Vec<S>,
+    reduced: Vec<S>,
+    rhs: Vec<S>,
 }
 
 impl<S: Scalar> Data<S> {
@@ -114,6 +135,10 @@ impl<S: Scalar> Data<S> {
             d_inv: Vec::with_capacity(n),
             u: Vec::with_capacity(n),
             ic: Vec::with_capacity(n),
+            mass: Vec::new(),
+            bias: Vec::new(),
+            reduced: Vec::new(),
+            rhs: Vec::new(),
         }
     }
 }
@@ -156,6 +181,8 @@ impl Model {
             tips: Vec::new(),
             closures: Vec::new(),
             springs: Vec::new(),
+            follows: Vec::new(),
+            driver_index: Vec::new(),
         };
         // Pre-order walk from the root, children in declaration order: (joint, parent).
         let mut order: Vec<(usize, Option<usize>)> = Vec::new();
@@ -249,7 +276,41 @@ impl Model {
             .collect();
         model.closures = closures;
         model.springs = springs;
+        model.follows = order
+            .iter()
+            .map(|&(j, _)| {
+                let (root, multiplier, offset) = m.mimic_root(&m.joints[j])?;
+                let joint = model.joints.iter().position(|n| *n == root)?;
+                Some(Follows {
+                    joint,
+                    multiplier,
+                    offset,
+                })
+            })
+            .collect();
+        let rank = |i: usize| model.follows[..i].iter().filter(|f| f.is_none()).count();
+        model.driver_index = (0..model.nq()).map(|i| rank(model.driver(i).0)).collect();
         Ok(model)
+    }
+
+    /// The number of independent joints (the coordinates, mimic joints left out).
+    pub fn ndof(&self) -> usize {
+        self.follows.iter().filter(|f| f.is_none()).count()
+    }
+
+    /// Whether some joint follows another (mimic joints): q̈ then comes from the mass
+    /// matrix reduced to the independent joints, not from the articulated-body algorithm.
+    pub fn has_mimics(&self) -> bool {
+        self.follows.iter().any(Option::is_some)
+    }
+
+    /// The joint whose coordinate moves joint `i` (itself unless it is a mimic), and the
+    /// ratio of their velocities.
+    pub fn driver(&self, i: usize) -> (usize, f64) {
+        match self.follows[i] {
+            Some(f) => (f.joint, f.multiplier),
+            None => (i, 1.0),
+        }
     }
 
     /// How many residuals the loop closures have (one per closure axis).
@@ -523,9 +584,19 @@ impl Model {
     }
 
     /// [`Model::aba`] into `qdd`, with the workspace `d`: no allocation.
+    ///
+    /// With mimic joints ([`Model::follows`]), `q` and `q̇` must be consistent with them,
+    /// and `q̈` (every joint's, consistent too) solves the dynamics reduced to the
+    /// independent joints, `Gᵀ M G q̈ᵣ = Gᵀ (τ − d q̇ − b)` with `q̇ = G q̇ᵣ`
+    /// ([`Model::reduced_in`]): a force on a mimic joint acts on the joint it follows
+    /// through the multiplier, and so does its damping (`−r² d q̇ᵣ`).
     pub fn aba_in<S: Scalar>(&self, d: &mut Data<S>, q: &[S], qd: &[S], tau: &[S], qdd: &mut [S]) {
         let n = self.nq();
         assert_eq!(tau.len(), n, "tau has {} entries, not nq", tau.len());
+        if self.has_mimics() {
+            self.reduced_in(d, q, qd, tau, qdd);
+            return;
+        }
         self.velocities_into(q, qd, d);
         let Data {
             xs,
@@ -584,6 +655,91 @@ impl Model {
         }
     }
 
+    /// q̈ of a model with mimic joints: the mass matrix (CRBA) and the bias forces
+    /// `b = RNEA(q, q̇, 0)` of the tree, reduced by `G` (`q̇ = G q̇ᵣ`: a 1 in each independent
+    /// joint's column for itself, the multiplier for each joint following it), solved by
+    /// LDLᵀ (`Gᵀ M G` is positive definite when the reduced mechanism has mass on every
+    /// coordinate), and `q̈ = G q̈ᵣ`. Allocates nothing after the first call on `d`.
+    fn reduced_in<S: Scalar>(&self, d: &mut Data<S>, q: &[S], qd: &[S], tau: &[S], qdd: &mut [S]) {
+        let n = self.nq();
+        let mut mass = std::mem::take(&mut d.mass);
+        mass.resize(n * n, S::zero());
+        self.crba_in(d, q, &mut mass);
+        let mut bias = std::mem::take(&mut d.bias);
+        bias.clear();
+        bias.resize(n, S::zero());
+        // q̈ = 0 for the bias: `qdd` is overwritten below.
+        qdd.fill(S::zero());
+        self.rnea_in(d, q, qd, qdd, &mut bias);
+        let (rank, nr) = (&self.driver_index, self.ndof());
+        let (reduced, rhs) = (&mut d.reduced, &mut d.rhs);
+        reduced.clear();
+        reduced.resize(nr * nr, S::zero());
+        rhs.clear();
+        rhs.resize(nr, S::zero());
+        for i in 0..n {
+            let (a, ri) = (rank[i], self.driver(i).1);
+            rhs[a] += (tau[i] - qd[i] * self.damping[i] - bias[i]) * ri;
+            for j in 0..n {
+                let (b, rj) = (rank[j], self.driver(j).1);
+                reduced[a * nr + b] += mass[i * n + j] * (ri * rj);
+            }
+        }
+        ldl_solve_flat(reduced, nr, rhs);
+        for i in 0..n {
+            qdd[i] = rhs[rank[i]] * self.driver(i).1;
+        }
+        d.mass = mass;
+        d.bias = bias;
+    }
+
+    /// The mass matrix of the independent joints, `Gᵀ M(q) G` ([`Model::ndof`] square,
+    /// row-major; `M` itself without mimic joints).
+    pub fn reduced_mass_matrix(&self, q: &[f64]) -> Vec<f64> {
+        let (n, nr) = (self.nq(), self.ndof());
+        let mut mass = vec![0.0; n * n];
+        self.crba_in(&mut Data::new(self), q, &mut mass);
+        let mut reduced = vec![0.0; nr * nr];
+        for i in 0..n {
+            for j in 0..n {
+                let r = self.driver(i).1 * self.driver(j).1;
+                reduced[self.driver_index[i] * nr + self.driver_index[j]] += mass[i * n + j] * r;
+            }
+        }
+        reduced
+    }
+
+    /// The first independent joint (model index) at which the LDLᵀ factorisation of the
+    /// reduced mass matrix at `q` meets a pivot below `1e-12` of that joint's diagonal
+    /// entry (or a non-positive one): the dynamics is singular there (a joint moving no
+    /// inertia about its axis). `None`: positive definite.
+    pub fn singular_joint(&self, q: &[f64]) -> Option<usize> {
+        let nr = self.ndof();
+        let mut m = self.reduced_mass_matrix(q);
+        let diagonal: Vec<f64> = (0..nr).map(|k| m[k * nr + k]).collect();
+        for j in 0..nr {
+            for k in 0..j {
+                let t = m[j * nr + k] * (m[j * nr + k] * m[k * nr + k]);
+                m[j * nr + j] -= t;
+            }
+            let pivot = m[j * nr + j];
+            // (NaN fails both comparisons: singular too.)
+            let positive = pivot > 1e-12 * diagonal[j] && diagonal[j] > 0.0;
+            if !positive {
+                return (0..self.nq())
+                    .find(|&i| self.follows[i].is_none() && self.driver_index[i] == j);
+            }
+            for i in j + 1..nr {
+                let mut s = m[i * nr + j];
+                for k in 0..j {
+                    s -= m[i * nr + k] * (m[j * nr + k] * m[k * nr + k]);
+                }
+                m[i * nr + j] = s / pivot;
+            }
+        }
+        None
+    }
+
     /// Kinetic energy `½ Σ v_iᵀ I_i v_i`.
     pub fn kinetic_energy<S: Scalar>(&self, q: &[S], qd: &[S]) -> S {
         let (_, v) = self.velocities(q, qd);
@@ -610,5 +766,41 @@ impl Model {
             v -= mc[0] * g[0] + mc[1] * g[1] + mc[2] * g[2];
         }
         v
+    }
+}
+
+/// Solves `m x = b` in place (`x` holds b; `m`, n × n row-major, symmetric positive
+/// definite, is overwritten by its LDLᵀ factors), without pivoting or branches, so that
+/// dual numbers and the tracer go through it.
+#[allow(clippy::needless_range_loop)] // triangular index arithmetic reads best as indices
+pub fn ldl_solve_flat<S: Scalar>(m: &mut [S], n: usize, x: &mut [S]) {
+    for j in 0..n {
+        for k in 0..j {
+            let t = m[j * n + k] * (m[j * n + k] * m[k * n + k]);
+            m[j * n + j] -= t;
+        }
+        let inv = m[j * n + j].recip();
+        for i in j + 1..n {
+            let mut s = m[i * n + j];
+            for k in 0..j {
+                s -= m[i * n + k] * (m[j * n + k] * m[k * n + k]);
+            }
+            m[i * n + j] = s * inv;
+        }
+    }
+    for i in 0..n {
+        for k in 0..i {
+            let t = m[i * n + k] * x[k];
+            x[i] -= t;
+        }
+    }
+    for i in 0..n {
+        x[i] /= m[i * n + i];
+    }
+    for i in (0..n).rev() {
+        for k in i + 1..n {
+            let t = m[k * n + i] * x[k];
+            x[i] -= t;
+        }
     }
 }

@@ -51,7 +51,7 @@ macro_rules! mechanism_equations {
             "M(q) q̈ = Q + ∂L/∂q − (∂²L/∂q̇∂q) q̇, solved by the articulated-body algorithm (Featherstone, Rigid Body Dynamics Algorithms, table 7.1): O(n), no mass matrix formed",
             "E = T + V; for the end of each branch, its position and orientation quaternion (w, x, y, z) in the base frame",
             "Joint position limits: the model has no end stops; a joint reaching one ends the doStep with fmi2Discard at that instant, saying which joint and limit (a parameter switches this off)",
-            "Not modelled: Coulomb friction, velocity limits, end stops; mimic joints and a floating base are refused; effort limits are the ranges of the inputs",
+            "Not modelled: Coulomb friction, velocity limits, end stops; a floating base is refused; effort limits are the ranges of the inputs; a mimic joint follows the joint it names (q = r q_joint + o, no coordinate or input of its own: its position and velocity are outputs), q̈ then from the mass matrix reduced to the independent joints",
             $($note,)*
         ]
     };
@@ -324,12 +324,20 @@ impl Built {
                 .position(|j| j == name)
                 .expect("validated: a moving joint")
         };
+        // The coordinates: the independent joints (mimic joints follow them).
         let order: Vec<usize> = if mechanism.order.is_empty() {
-            (0..n).collect()
+            (0..n).filter(|&i| model.follows[i].is_none()).collect()
         } else {
             mechanism.order.iter().map(index_of).collect()
         };
-        let natural_order = order.iter().enumerate().all(|(k, &i)| k == i);
+        let natural_order = order.len() == n && order.iter().enumerate().all(|(k, &i)| k == i);
+        let mimics: Vec<usize> = (0..n).filter(|&i| model.follows[i].is_some()).collect();
+        if order.is_empty() {
+            return Err(Error::new(
+                robot(),
+                "has no moving joint: its FMU would have no state, nothing to simulate (every joint is fixed, or there is none)".into(),
+            ));
+        }
         // Model order from here to the variables.
         let dependent_model: Vec<usize> = mechanism.dependent.iter().map(index_of).collect();
         let mut start = vec![0.0; n];
@@ -338,7 +346,7 @@ impl Built {
         for (i, s) in start.iter_mut().enumerate() {
             let j = joint_of(i);
             effort[i] = j.limit.effort.filter(|e| *e > 0.0);
-            if j.kind == JointKind::Continuous {
+            if j.kind == JointKind::Continuous || model.follows[i].is_some() {
                 continue;
             }
             if let (Some(lower), Some(upper)) = (j.limit.lower, j.limit.upper) {
@@ -356,6 +364,16 @@ impl Built {
         }
         for (name, v) in &mechanism.start {
             start[index_of(name)] = *v;
+        }
+        for &i in &mimics {
+            let (d, r) = model.driver(i);
+            start[i] = r * start[d] + model.follows[i].map_or(0.0, |f| f.offset);
+        }
+        if let Some(i) = model.singular_joint(&start) {
+            return Err(Error::joint(
+                &model.joints[i],
+                "moves no inertia about its axis at the start configuration: the mass matrix is singular there (a point mass on the axis, or links that carry nothing)".into(),
+            ));
         }
         let m = model.closure_residuals();
         if m > 0 {
@@ -429,6 +447,12 @@ impl Built {
                 hold[j] = 0.0; // exactly, not by rounding
             }
         }
+        // A mimic joint's holding force acts on the joint it follows (virtual work).
+        for &i in &mimics {
+            let (d, r) = model.driver(i);
+            hold[d] += r * hold[i];
+            hold[i] = 0.0;
+        }
         for (h, e) in hold.iter_mut().zip(&effort) {
             if let Some(e) = e {
                 *h = h.clamp(-e, *e);
@@ -439,7 +463,16 @@ impl Built {
         }
         // Coordinate order from here.
         let permute = |v: &[f64]| -> Vec<f64> { order.iter().map(|&i| v[i]).collect() };
-        let (start, hold, damping) = (permute(&start), permute(&hold), permute(&model.damping));
+        // A mimic joint's damping acts on the joint it follows: −r² d q̇ (Q = τ − d q̇ of the
+        // Lagrangian, which the articulated-body route equals).
+        let mut damping_model = model.damping.clone();
+        for &i in &mimics {
+            let (d, r) = model.driver(i);
+            damping_model[d] += r * r * model.damping[i];
+            damping_model[i] = 0.0;
+        }
+        let model_start = start.clone();
+        let (start, hold, damping) = (permute(&start), permute(&hold), permute(&damping_model));
         let effort: Vec<Option<f64>> = order.iter().map(|&i| effort[i]).collect();
         let dependent: Vec<bool> = order.iter().map(|i| dependent_model.contains(i)).collect();
         let unit = |i: usize| match model.kinds[i] {
@@ -547,6 +580,29 @@ impl Built {
                 outputs.push(v);
             }
         }
+        let closure_outputs = outputs.len();
+        for &i in &mimics {
+            let j = joint_of(i);
+            let (u, v, ..) = unit(i);
+            let f = model.follows[i].expect("a mimic");
+            let of = &model.joints[f.joint];
+            let mut q = Var::new("", Some(u), model_start[i], "");
+            q.name = j.name.clone().into();
+            q.description = format!(
+                "Position of {} joint {} (link {} in {}), a mimic joint: {:?} × {of} + {:?} (no coordinate of its own)",
+                j.kind.name(), j.name, j.child, j.parent, f.multiplier, f.offset
+            )
+            .into();
+            let mut qd = Var::new("", Some(v), 0.0, "");
+            qd.name = format!("{}_dot", j.name).into();
+            qd.description = format!(
+                "Velocity of mimic joint {}: {:?} × {of}_dot",
+                j.name, f.multiplier
+            )
+            .into();
+            outputs.push(q);
+            outputs.push(qd);
+        }
         // Every name once, none of the FMU's own.
         let mut seen: std::collections::HashMap<String, String> = RESERVED
             .iter()
@@ -585,7 +641,20 @@ impl Built {
                 ));
             }
         }
-        for v in outputs.iter().skip(tip_outputs) {
+        for (k, v) in outputs.iter().enumerate().skip(closure_outputs) {
+            let joint = &model.joints[mimics[(k - closure_outputs) / 2]];
+            let what = format!("an output of mimic joint \"{joint}\"");
+            if let Some(other) = seen.insert(v.name.to_string(), what) {
+                return Err(Error::joint(
+                    joint,
+                    format!(
+                        "its output \"{}\" would also be {other}: rename the joint",
+                        v.name
+                    ),
+                ));
+            }
+        }
+        for v in outputs.iter().take(closure_outputs).skip(tip_outputs) {
             if let Some(other) = seen.insert(v.name.to_string(), "a closure output".into()) {
                 return Err(Error::new(
                     robot(),
@@ -633,14 +702,40 @@ impl Built {
         })
     }
 
-    /// `v` (per coordinate) in the model's order: borrowed when that is the coordinate
-    /// order.
-    pub fn to_model<'a, S: Copy>(&self, v: &'a [S]) -> std::borrow::Cow<'a, [S]> {
+    /// Positions per coordinate as every model joint's (a mimic joint's from the joint it
+    /// follows): borrowed when the coordinates are the model's joints in its order.
+    pub fn positions_to_model<'a, S: Scalar>(&self, q: &'a [S]) -> std::borrow::Cow<'a, [S]> {
+        self.to_model(q, |f, v| v * f.multiplier + f.offset)
+    }
+
+    /// Velocities per coordinate as every model joint's (a mimic's: multiplier × q̇).
+    pub fn velocities_to_model<'a, S: Scalar>(&self, qd: &'a [S]) -> std::borrow::Cow<'a, [S]> {
+        self.to_model(qd, |f, v| v * f.multiplier)
+    }
+
+    /// Joint forces per coordinate as every model joint's (none on a mimic joint).
+    pub fn forces_to_model<'a, S: Scalar>(&self, u: &'a [S]) -> std::borrow::Cow<'a, [S]> {
+        self.to_model(u, |_, _| S::zero())
+    }
+
+    fn to_model<'a, S: Scalar>(
+        &self,
+        v: &'a [S],
+        mimic: impl Fn(&super::dynamics::Follows, S) -> S,
+    ) -> std::borrow::Cow<'a, [S]> {
         if self.natural_order {
-            std::borrow::Cow::Borrowed(v)
-        } else {
-            std::borrow::Cow::Owned(self.order.iter().map(|&i| v[i]).collect())
+            return std::borrow::Cow::Borrowed(v);
         }
+        let mut out = vec![S::zero(); self.model.nq()];
+        for (k, &i) in self.order.iter().enumerate() {
+            out[i] = v[k];
+        }
+        for (i, f) in self.model.follows.iter().enumerate() {
+            if let Some(f) = f {
+                out[i] = mimic(f, out[f.joint]);
+            }
+        }
+        std::borrow::Cow::Owned(out)
     }
 
     /// The signed distance to the nearest position limit (in the coordinate's unit):
@@ -732,10 +827,13 @@ fn scenes(
 /// What the mechanism's URDF data say and the model does not hold, one line each naming
 /// the joints (the build warnings): Coulomb friction, velocity limits, limits that raise
 /// no event (lower ≥ upper, or on a continuous joint).
+///
+/// Then the inertias accepted with a warning ([`Mechanism::inertia_warnings`]).
 pub fn unmodelled(mechanism: &Mechanism) -> Vec<String> {
     unmodelled_by_joint(mechanism)
         .into_iter()
         .map(|(what, joints, source)| format!("{what}: joints {} ({source})", joints.join(", ")))
+        .chain(mechanism.inertia_warnings())
         .collect()
 }
 
@@ -798,14 +896,29 @@ fn unmodelled_by_joint(mechanism: &Mechanism) -> Vec<(&'static str, Vec<String>,
         .iter()
         .filter(|j| j.moves())
         .filter(|j| match (j.limit.lower, j.limit.upper) {
-            (Some(lo), Some(hi)) => j.kind == JointKind::Continuous || lo >= hi,
+            (Some(lo), Some(hi)) => {
+                j.kind == JointKind::Continuous || lo >= hi || j.mimic.is_some()
+            }
             _ => false,
         })
         .map(|j| format!("\"{}\"", j.name))
         .collect();
+    let fixed_mimic: Vec<String> = mechanism
+        .joints
+        .iter()
+        .filter(|j| !j.moves() && j.mimic.is_some())
+        .map(|j| format!("\"{}\"", j.name))
+        .collect();
+    if !fixed_mimic.is_empty() {
+        lines.push((
+            "a mimic on a fixed joint means nothing and is ignored",
+            fixed_mimic,
+            "URDF <mimic> on a fixed joint",
+        ));
+    }
     if !no_event.is_empty() {
         lines.push((
-            "position limits that raise no event (continuous joint, or lower ≥ upper) are ignored",
+            "position limits that raise no event (continuous joint, lower ≥ upper, or a mimic joint, which follows the limits of the joint it mimics) are ignored",
             no_event,
             "URDF <limit lower upper>",
         ));
@@ -919,12 +1032,13 @@ impl<D: Declared> Lagrangian for Robot<D> {
 
     fn kinetic<S: Scalar>(_t: S, q: &[S], qd: &[S], _p: &[S]) -> S {
         let b = D::built();
-        b.model.kinetic_energy(&b.to_model(q), &b.to_model(qd))
+        b.model
+            .kinetic_energy(&b.positions_to_model(q), &b.velocities_to_model(qd))
     }
 
     fn potential<S: Scalar>(_t: S, q: &[S], _p: &[S]) -> S {
         let b = D::built();
-        let q = b.to_model(q);
+        let q = b.positions_to_model(q);
         b.model.potential_energy(&q) + b.model.spring_energy(&q)
     }
 
@@ -941,7 +1055,7 @@ impl<D: Declared> Lagrangian for Robot<D> {
     /// The loop closures by forward kinematics ([`Model::closure_residuals_at`]).
     fn constraints<S: Scalar>(_t: S, q: &[S], _p: &[S], phi: &mut [S]) {
         let b = D::built();
-        b.model.closure_residuals_at(&b.to_model(q), phi);
+        b.model.closure_residuals_at(&b.positions_to_model(q), phi);
     }
 
     /// A tree: q̈ by the articulated-body algorithm (springs as joint forces
@@ -967,7 +1081,11 @@ impl<D: Declared> Lagrangian for Robot<D> {
             }
             return true;
         }
-        let (q, qd, u) = (b.to_model(q), b.to_model(qd), b.to_model(u));
+        let (q, qd, u) = (
+            b.positions_to_model(q),
+            b.velocities_to_model(qd),
+            b.forces_to_model(u),
+        );
         let tau: Vec<S> = u
             .iter()
             .zip(spring_gradient(&b.model, &q))
@@ -986,7 +1104,7 @@ impl<D: Declared> Lagrangian for Robot<D> {
     fn extra_outputs<S: Scalar>(t: f64, q: &[S], qd: &[S], u: &[S], p: &[S], y: &mut [S]) {
         let b = D::built();
         let model = &b.model;
-        let (qm, qdm) = (b.to_model(q), b.to_model(qd));
+        let (qm, qdm) = (b.positions_to_model(q), b.velocities_to_model(qd));
         y[0] = model.kinetic_energy(&qm, &qdm)
             + model.potential_energy(&qm)
             + model.spring_energy(&qm);
@@ -1012,6 +1130,15 @@ impl<D: Declared> Lagrangian for Robot<D> {
                 &mut lambda,
             );
             y[at + m..at + 2 * m].copy_from_slice(&lambda);
+        }
+        // The mimic joints' positions and velocities, last.
+        let mut at = 1 + 7 * tips + 2 * m;
+        for (i, f) in model.follows.iter().enumerate() {
+            if f.is_some() {
+                y[at] = qm[i];
+                y[at + 1] = qdm[i];
+                at += 2;
+            }
         }
     }
 

@@ -173,6 +173,19 @@ pub struct Joint {
     /// Coulomb friction (read and kept; not modelled by the dynamics yet).
     pub friction: f64,
     pub limit: Limit,
+    /// URDF's `<mimic>`: the joint's position follows another joint's, and it has no
+    /// coordinate of its own (ignored on a fixed joint).
+    pub mimic: Option<Mimic>,
+}
+
+/// `q = multiplier · q_joint + offset`: a joint whose position follows joint `joint`'s
+/// (URDF `<mimic joint multiplier offset>`, a gear or a coupled finger). Its velocity is
+/// `multiplier · q̇_joint`; a force on it acts on `joint` through the multiplier.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mimic {
+    pub joint: String,
+    pub multiplier: f64,
+    pub offset: f64,
 }
 
 impl Joint {
@@ -187,6 +200,7 @@ impl Joint {
             damping: 0.0,
             friction: 0.0,
             limit: Limit::default(),
+            mimic: None,
         }
     }
 
@@ -217,9 +231,24 @@ impl Joint {
         self
     }
 
-    /// Whether the joint has a coordinate.
+    /// Makes the joint follow `joint`: `q = multiplier · q_joint + offset` ([`Mimic`]).
+    pub fn mimic(mut self, joint: &str, multiplier: f64, offset: f64) -> Self {
+        self.mimic = Some(Mimic {
+            joint: joint.to_string(),
+            multiplier,
+            offset,
+        });
+        self
+    }
+
+    /// Whether the joint moves (has a position, its own or a mimicked one).
     pub fn moves(&self) -> bool {
         self.kind != JointKind::Fixed
+    }
+
+    /// Whether the joint has a coordinate of its own: it moves and mimics no other.
+    pub fn independent(&self) -> bool {
+        self.moves() && self.mimic.is_none()
     }
 }
 
@@ -386,6 +415,14 @@ pub struct Merged {
 /// its trace; 1e-4 of the trace is physically nothing and lets such files through.
 pub const INERTIA_RTOL: f64 = 1e-4;
 
+/// A principal moment down to −1e-9 of the largest is zero by rounding (hyq's feet:
+/// −2.2e-22 beside 3e-6 kg m²); below, the inertia is refused.
+pub const INERTIA_ZERO: f64 = 1e-9;
+
+/// A body whose principal moments are all below this many kg m² per kg of its mass (a
+/// radius of gyration of a micrometre) is a point mass.
+pub const POINT_MASS: f64 = 1e-12;
+
 impl Mechanism {
     /// An empty mechanism with gravity `[0, 0, −9.81]`.
     pub fn new(name: &str) -> Self {
@@ -551,13 +588,6 @@ impl Mechanism {
             if self.bodies[..k].iter().any(|o| o.name == b.name) {
                 return Err(Error::link(&b.name, "is declared twice".into()));
             }
-            // A point mass (no inertia of its own) on a fixed joint is folded into its
-            // parent, whose combined inertia is checked after the merge.
-            let folded = self
-                .joints
-                .iter()
-                .any(|j| j.kind == JointKind::Fixed && j.child == b.name);
-            check_body(b, folded)?;
         }
         let mut parent_joint: Vec<Option<usize>> = vec![None; n];
         let mut child_joints = vec![Vec::new(); n];
@@ -638,9 +668,140 @@ impl Mechanism {
             parent_joint,
             child_joints,
         };
+        let base = self.fixed_base(&tree);
+        for (k, b) in self.bodies.iter().enumerate() {
+            // A point mass (no inertia of its own) on a fixed joint is folded into its
+            // parent, whose combined inertia is checked after the merge.
+            let folded = self
+                .joints
+                .iter()
+                .any(|j| j.kind == JointKind::Fixed && j.child == b.name);
+            check_body(b, folded, base[k])?;
+        }
+        self.check_mimics()?;
         self.check_singular(&tree)?;
         self.check_loops()?;
         Ok(tree)
+    }
+
+    /// The inertias [`Mechanism::validate`] accepts with a warning, one line each naming
+    /// the link (a point mass on a moving joint, a zero principal moment, the triangle
+    /// inequality broken beyond rounding); empty for a mechanism that does not validate.
+    pub fn inertia_warnings(&self) -> Vec<String> {
+        let Ok(tree) = self.validate() else {
+            return Vec::new();
+        };
+        let base = self.fixed_base(&tree);
+        self.bodies
+            .iter()
+            .enumerate()
+            .filter_map(|(k, b)| {
+                let folded = self
+                    .joints
+                    .iter()
+                    .any(|j| j.kind == JointKind::Fixed && j.child == b.name);
+                let warning = check_body(b, folded, base[k]).ok().flatten()?;
+                Some(format!("link \"{}\": {warning}", b.name))
+            })
+            .collect()
+    }
+
+    /// Which bodies are the fixed base: the root and what fixed joints fold into it. Their
+    /// inertia plays no part in the dynamics (the base does not move), so it is not checked.
+    fn fixed_base(&self, tree: &Tree) -> Vec<bool> {
+        let mut base = vec![false; self.bodies.len()];
+        let mut stack = vec![tree.root];
+        while let Some(b) = stack.pop() {
+            base[b] = true;
+            for &j in &tree.child_joints[b] {
+                if !self.joints[j].moves() {
+                    stack.push(self.body_index(&self.joints[j].child).expect("validated"));
+                }
+            }
+        }
+        base
+    }
+
+    /// The independent joint a mimic joint follows at the end of its chain, with the
+    /// composed multiplier and offset (`q = r q_root + o`); `None` for a joint that mimics
+    /// nothing, and for a chain that never ends (a cycle) or names a missing joint (which
+    /// [`Mechanism::validate`] refuses).
+    pub fn mimic_root(&self, joint: &Joint) -> Option<(String, f64, f64)> {
+        let mut m = joint.mimic.as_ref()?;
+        let (mut r, mut o) = (m.multiplier, m.offset);
+        for _ in 0..self.joints.len() {
+            let next = self.joints.iter().find(|k| k.name == m.joint)?;
+            match &next.mimic {
+                Some(n) if next.moves() => {
+                    // q = r (r' q'' + o') + o
+                    o += r * n.offset;
+                    r *= n.multiplier;
+                    m = n;
+                }
+                _ => return Some((next.name.clone(), r, o)),
+            }
+        }
+        None
+    }
+
+    /// Mimic joints name a moving joint, with finite numbers, and their chains end at a
+    /// joint of its own coordinate; a mechanism with mimics has no loop closures.
+    fn check_mimics(&self) -> Result<(), Error> {
+        for j in self.joints.iter().filter(|j| j.moves()) {
+            let Some(m) = &j.mimic else { continue };
+            let err = |why: String| Err(Error::joint(&j.name, why));
+            if !(m.multiplier.is_finite() && m.offset.is_finite()) {
+                return err(format!(
+                    "<mimic multiplier=\"{}\" offset=\"{}\">: not finite numbers",
+                    m.multiplier, m.offset
+                ));
+            }
+            match self.joints.iter().find(|k| k.name == m.joint) {
+                None => {
+                    return err(format!(
+                        "mimics joint \"{}\", which does not exist",
+                        m.joint
+                    ))
+                }
+                Some(k) if !k.moves() => {
+                    return err(format!(
+                        "mimics joint \"{}\", which is fixed (it has no position to follow)",
+                        m.joint
+                    ))
+                }
+                Some(_) => {}
+            }
+        }
+        // Every link of every chain exists: a chain without an end is a cycle.
+        for j in self.joints.iter().filter(|j| j.moves()) {
+            let err = |why: String| Err(Error::joint(&j.name, why));
+            if j.mimic.is_some() && self.mimic_root(j).is_none() {
+                let mut names = vec![format!("\"{}\"", j.name)];
+                let mut at = j;
+                while let Some(next) = at
+                    .mimic
+                    .as_ref()
+                    .and_then(|m| self.joints.iter().find(|k| k.name == m.joint))
+                {
+                    names.push(format!("\"{}\"", next.name));
+                    if next.name == j.name || names.len() > self.joints.len() {
+                        break;
+                    }
+                    at = next;
+                }
+                return err(format!(
+                    "is on a cycle of mimic joints {} (each follows the next: none has a coordinate of its own)",
+                    names.join(" → ")
+                ));
+            }
+            if j.mimic.is_some() && !self.closures.is_empty() {
+                return err(
+                    "is a mimic joint in a mechanism with loop closures: the two together are not supported"
+                        .into(),
+                );
+            }
+        }
+        Ok(())
     }
 
     /// A moving joint that carries no mass (prismatic) or neither mass nor rotational
@@ -650,11 +811,19 @@ impl Mechanism {
     /// are not detected.
     fn check_singular(&self, tree: &Tree) -> Result<(), Error> {
         for j in &self.joints {
-            if !j.moves() {
+            if !j.independent() {
                 continue;
             }
-            let child = self.body_index(&j.child).expect("validated");
-            let mut stack = vec![child];
+            // What the coordinate moves: its joint's subtree and those of its mimics.
+            let mut stack: Vec<usize> = self
+                .joints
+                .iter()
+                .filter(|k| {
+                    k.name == j.name
+                        || (k.moves() && self.mimic_root(k).is_some_and(|(r, ..)| r == j.name))
+                })
+                .map(|k| self.body_index(&k.child).expect("validated"))
+                .collect();
             let (mut mass, mut inertia) = (0.0, 0.0);
             let mut names = Vec::new();
             while let Some(b) = stack.pop() {
@@ -748,7 +917,14 @@ impl Mechanism {
         }
         let moving = |what: &str, j: &str| -> Result<(), Error> {
             match self.joints.iter().find(|k| k.name == j) {
-                Some(k) if k.moves() => Ok(()),
+                Some(k) if k.independent() => Ok(()),
+                Some(k) if k.moves() => Err(Error::joint(
+                    j,
+                    format!(
+                        "mimics joint \"{}\": it has no coordinate of its own to be {what}",
+                        k.mimic.as_ref().map_or("", |m| m.joint.as_str())
+                    ),
+                )),
                 Some(_) => Err(Error::joint(
                     j,
                     format!("is fixed: it has no coordinate to be {what}"),
@@ -790,7 +966,7 @@ impl Mechanism {
             if let Some(j) = self
                 .joints
                 .iter()
-                .find(|j| j.moves() && !self.order.contains(&j.name))
+                .find(|j| j.independent() && !self.order.contains(&j.name))
             {
                 return Err(Error::joint(
                     &j.name,
@@ -966,7 +1142,20 @@ impl Mechanism {
 /// `folded`: the body hangs on a fixed joint, so a point mass (mass > 0, no inertia: a
 /// sensor's mass in URDFs such as Talos's) is allowed; merged into its parent it adds
 /// m (|d|² 1 − d dᵀ) to an inertia that must still pass these checks.
-fn check_body(b: &Body, folded: bool) -> Result<(), Error> {
+///
+/// `base`: the body is (folded into) the fixed base, whose inertia plays no part: only its
+/// numbers' finiteness and the mass's sign are checked.
+///
+/// Refused: a negative or non-finite mass, a non-finite or non-symmetric inertia, and a
+/// principal moment negative beyond rounding (below −[`INERTIA_ZERO`] of the largest): not a
+/// body. Accepted with a warning (the returned line), the inertia used as given, as
+/// Pinocchio uses it: a point mass on a moving joint, a zero principal moment (a thin rod
+/// about its axis), and principal moments that break the triangle inequality by more than
+/// [`INERTIA_RTOL`] of the trace (no rigid body has them, but the mass matrix stays positive
+/// definite; by less, it is the rounding of printed digits, accepted silently).
+/// [`Mechanism::validate`]'s structural check and the start configuration's mass matrix
+/// ([`super::fmu::Built::new`]) catch what would make the dynamics singular.
+fn check_body(b: &Body, folded: bool, base: bool) -> Result<Option<String>, Error> {
     let err = |why: String| Err(Error::link(&b.name, why));
     if !b.mass.is_finite() || b.mass < 0.0 {
         return err(format!("mass {} is not a finite number ≥ 0", b.mass));
@@ -980,8 +1169,8 @@ fn check_body(b: &Body, folded: bool) -> Result<(), Error> {
     }
     let trace = i[0][0] + i[1][1] + i[2][2];
     let all_zero = i.iter().flatten().all(|&x| x == 0.0);
-    if all_zero && (b.mass == 0.0 || folded) {
-        return Ok(());
+    if base || (all_zero && (b.mass == 0.0 || folded)) {
+        return Ok(None);
     }
     let sym_tol = 1e-9 * trace.abs();
     for (r, s) in [(0, 1), (0, 2), (1, 2)] {
@@ -995,24 +1184,36 @@ fn check_body(b: &Body, folded: bool) -> Result<(), Error> {
     let m = nalgebra::Matrix3::from_fn(|r, s| 0.5 * (i[r][s] + i[s][r]));
     let mut e: Vec<f64> = m.symmetric_eigenvalues().iter().copied().collect();
     e.sort_by(f64::total_cmp);
+    let moments = format!("principal moments {:.6e}, {:.6e}, {:.6e}", e[0], e[1], e[2]);
+    // A point mass: no rotational inertia of its own beyond noise (radius of gyration
+    // under a micrometre: icub's head, 1.3 kg with 2.4e-35 kg m²).
+    if b.mass > 0.0 && e[2].max(-e[0]) <= POINT_MASS * b.mass {
+        return Ok(Some(format!(
+            "a point mass ({} kg, {moments}): no rotational inertia of its own",
+            b.mass
+        )));
+    }
+    if e[0] < -INERTIA_ZERO * e[2].abs() || e[2] <= 0.0 {
+        return err(format!(
+            "inertia is not positive definite ({moments}; negative beyond rounding)"
+        ));
+    }
     if e[0] <= 0.0 {
-        let hint = if b.mass > 0.0 && all_zero {
-            " (a point mass needs a small inertia too, unless on a fixed joint)"
-        } else {
-            ""
-        };
-        return err(format!(
-            "inertia is not positive definite (principal moments {:.6e}, {:.6e}, {:.6e}){hint}",
-            e[0], e[1], e[2]
-        ));
+        return Ok(Some(format!(
+            "inertia has a zero principal moment ({moments}; a thin rod about its axis): used as given"
+        )));
     }
-    if e[0] + e[1] < e[2] - INERTIA_RTOL * trace {
-        return err(format!(
-            "inertia breaks the triangle inequality: principal moments {:.6e} + {:.6e} < {:.6e}",
-            e[0], e[1], e[2]
-        ));
+    let excess = e[2] - e[0] - e[1];
+    if excess > INERTIA_RTOL * trace {
+        return Ok(Some(format!(
+            "inertia breaks the triangle inequality ({moments}: {:.6e} + {:.6e} < {:.6e}, by {:.1}% of the largest): no rigid body has it; used as given, as Pinocchio does",
+            e[0],
+            e[1],
+            e[2],
+            100.0 * excess / e[2]
+        )));
     }
-    Ok(())
+    Ok(None)
 }
 
 fn check_joint(j: &Joint) -> Result<(), Error> {

@@ -124,6 +124,12 @@ fn joint(j: &Joint) -> String {
     if !same(&base.friction, &j.friction) {
         s += &format!("\n            .friction({:?})", j.friction);
     }
+    if let Some(m) = &j.mimic {
+        s += &format!(
+            "\n            .mimic({:?}, {:?}, {:?})",
+            m.joint, m.multiplier, m.offset
+        );
+    }
     if !same(&base.limit, &j.limit) {
         let l = &j.limit;
         s += &format!(

@@ -2,13 +2,15 @@
 //!
 //! Read: the robot's name; each link's `<inertial>` (origin xyz rpy, mass, inertia
 //! ixx…izz; a link without one is massless); each joint's type, origin, parent, child, axis
-//! (default `1 0 0`, normalised), `<limit>` and `<dynamics damping friction>`. Ignored:
+//! (default `1 0 0`, normalised), `<limit>`, `<dynamics damping friction>` and `<mimic joint
+//! multiplier offset>` (defaults 1 and 0; on a fixed joint it means nothing). Ignored:
 //! `<visual>`, `<collision>`, `<transmission>`, `<gazebo>`, `<material>` and anything else
 //! not listed. Refused, each with one line naming the file, the element and the reason:
 //! malformed XML, a root element other than `<robot>`, unexpanded xacro (an `xacro:`
 //! element or `${` in an attribute), floating and planar joints, unknown joint types,
-//! mimic joints, and everything [`Mechanism::validate`] refuses (missing links, two
-//! parents, cycles, negative mass, bad inertia, a moving joint carrying no mass).
+//! and everything [`Mechanism::validate`] refuses (missing links, two parents, cycles,
+//! negative mass, bad inertia, a moving joint carrying no mass, a mimic of a missing joint
+//! or on a cycle of mimics).
 
 use super::mechanism::{Body, Error, Joint, JointKind, Limit, Mechanism, Origin};
 use super::spatial::{mat_mul, transpose};
@@ -389,15 +391,13 @@ impl Parser<'_> {
                 j.friction = f;
             }
             "mimic" => {
-                let of = get(attrs, "joint").unwrap_or("?");
-                return self.fail(
-                    line,
-                    format!(
-                        "<mimic joint=\"{of}\"> is not supported yet: its position would follow \
-                         joint \"{of}\" (a constraint not modelled); remove <mimic> to make it \
-                         an independent joint"
-                    ),
-                );
+                let Some(of) = get(attrs, "joint") else {
+                    return self.fail(line, "<mimic> has no joint attribute".into());
+                };
+                let r = self.numbers(attrs, "mimic", "multiplier", [1.0], line)?[0];
+                let o = self.numbers(attrs, "mimic", "offset", [0.0], line)?[0];
+                let j = self.joint.take().expect("in a joint");
+                self.joint = Some(j.mimic(of, r, o));
             }
             _ => {}
         }

@@ -8,7 +8,7 @@ use mbfmu::model::Scalar;
 
 /// [`fingerprint`](mbfmu::multibody::codegen::fingerprint) of the model this code
 /// was generated from.
-pub const FINGERPRINT: u64 = 0x50c4d9d9e2885f70;
+pub const FINGERPRINT: u64 = 0xaac27d8305f6cb3c;
 /// The model's name and its number of joints.
 pub const NAME: &str = "ur5";
 pub const NQ: usize = 6;
