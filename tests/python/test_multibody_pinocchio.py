@@ -21,8 +21,9 @@ vectors are first checked equal (by joint name) and Pinocchio is then given Ï„ â
 
 Joints are matched by name (Pinocchio orders siblings its own way); a continuous joint has
 (cos q, sin q) as Pinocchio's configuration. The Panda's ``panda_finger_joint2`` mimics
-``panda_finger_joint1``: our reader refuses mimic joints, so both sides read a copy with the
-``<mimic>`` element removed (two independent fingers).
+``panda_finger_joint1``: both sides read a copy with the ``<mimic>`` element removed (two
+independent fingers), so that the tree's ABA is compared with ``pin.aba``, which refuses
+mimics (the mimic model is compared in test_real_robots.py).
 
 Run ``python tests/python/test_multibody_pinocchio.py --bench`` for ns per ABA call (Rust
 in a loop, and ``pin.aba`` from Python in a loop, binding overhead included).

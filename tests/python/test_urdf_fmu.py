@@ -1,7 +1,8 @@
 """`mbfmu build --urdf` end to end: a robot's URDF becomes an FMU, checked against Pinocchio.
 
 Robots: the UR5 of example-robot-data (as shipped), its Panda (a copy with the finger's
-``<mimic>`` removed, which our reader refuses, and its joint damping removed so that the
+``<mimic>`` removed, so that ``pin.aba``, which refuses mimics, is the reference: the mimic
+is tested in test_real_robots.py; and its joint damping removed so that the
 energy test has none to lose), the damped double pendulum of test_multibody_pinocchio.py
 (a continuous joint, a fixed tilted tip: damping against ``pin.aba`` given τ − d q̇), and a
 double pendulum with the in-tree DoublePendulum's parameters. Each is built once per
