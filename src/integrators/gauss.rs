@@ -68,9 +68,10 @@ const GAUSS6: Tableau = Tableau {
     c: &[0.5 - SQRT15 / 10.0, 0.5, 0.5 + SQRT15 / 10.0],
 };
 
-/// An increment that stops shrinking while below this (relative) size is rounding noise: the
-/// residual cannot be computed more accurately, so the iterate is accepted. Above it, an
-/// increment that does not shrink means divergence.
+/// An increment that stops shrinking while below this size (relative to the states, or
+/// absolute for states smaller than 1) is rounding noise: the residual cannot be computed
+/// more accurately, so the iterate is accepted. Above it, an increment that does not
+/// shrink means divergence.
 pub const NEWTON_STALL: f64 = 1e-12;
 
 /// LU factorization with partial pivoting of a row-major m×m matrix (Doolittle, rows swapped
@@ -274,7 +275,11 @@ pub fn collocation_in(
                 return Err(Failure::NonFinite { t: ta }.into());
             }
             let scale = x_norm.max(z_norm);
-            match watch.judge(step, (NEWTON_TOL * scale, NEWTON_STALL * scale)) {
+            // Stalling is judged against at least 1 (the states' nominal: SI units): a state
+            // held at rest near 0 (a robot at its equilibrium drifts by 1e-21 rad) has
+            // increments at the rounding of f, ~1e-22, which its own size never accepts.
+            let stall = NEWTON_STALL * scale.max(1.0);
+            match watch.judge(step, (NEWTON_TOL * scale, stall)) {
                 Verdict::Converged => {
                     converged = true;
                     break;

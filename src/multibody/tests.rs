@@ -1069,6 +1069,47 @@ fn mimic_joints_follow_and_their_dynamics_are_the_euler_lagrange_equations() {
     assert!(worst < 1e-10, "{worst:e}");
 }
 
+/// example-robot-data's double pendulum (its SolidWorks export's numbers): two light links
+/// balanced upright, damped.
+fn upright_pendulum() -> Mechanism {
+    let text = r#"<robot name="upright">
+  <link name="base_link"/>
+  <link name="link1"><inertial><origin xyz="0.0086107 2.1727E-06 0.036012"/><mass value="0.26703"/>
+    <inertia ixx="0.00040827" ixy="1.2675E-09" ixz="1.8738E-05" iyy="0.00038791" iyz="3.5443E-08" izz="3.6421E-05"/></inertial></link>
+  <joint name="joint1" type="revolute"><origin xyz="0.0060872 0 0.035"/><parent link="base_link"/><child link="link1"/>
+    <axis xyz="1 0 0"/><dynamics damping="0.05"/></joint>
+  <link name="link2"><inertial><origin xyz="-0.0050107 1.9371E-10 0.10088"/><mass value="0.33238"/>
+    <inertia ixx="0.0011753" ixy="-3.854E-13" ixz="-2.9304E-08" iyy="0.0011666" iyz="-5.2365E-12" izz="1.4553E-05"/></inertial></link>
+  <joint name="joint2" type="revolute"><origin xyz="0.023 0 0.1"/><parent link="link1"/><child link="link2"/>
+    <axis xyz="1 0 0"/><dynamics damping="0.05"/></joint>
+</robot>"#;
+    urdf::parse(text, "upright.urdf").unwrap()
+}
+
+crate::mechanism_fmu!(Upright, "Upright", upright_pendulum);
+
+/// The default experiment holds the mechanism at rest by its gravity torques: its states
+/// stay within rounding of 0 (1e-21 rad here), and Gauss6's Newton iteration must accept
+/// increments at the rounding of f there (it judged them against the states' own size, and
+/// failed: the build's reference check of example-robot-data's double pendulum).
+#[test]
+fn gauss6_runs_a_mechanism_held_at_rest() {
+    use crate::docs::run::{simulate, RunSettings};
+    use crate::integrators::Method;
+    let run = simulate::<Robot<Upright>>(
+        &[],
+        RunSettings {
+            method: Method::Gauss6,
+            tol: 1e-8,
+            step: 1.25e-3,
+            comm_step: 1e-2,
+            stop: 2.0,
+        },
+    )
+    .unwrap();
+    assert!(run.failure.is_none(), "{:?}", run.failure);
+}
+
 #[test]
 fn the_adapters_variables_are_named_after_joints_and_links() {
     let names = |v: Vec<crate::model::Var>| -> Vec<String> {

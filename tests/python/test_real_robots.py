@@ -1,7 +1,8 @@
 """Real robot files (issue 32): the URDFs of example-robot-data as they ship.
 
 Mimic joints: the real Panda (its ``panda_finger_joint2`` mimics ``panda_finger_joint1``,
-both damped) built with `mbfmu build --urdf` (the prebuilt runtime, no compiler) against
+both damped) built with `mbfmu build --urdf` (the prebuilt runtime, no compiler; and with
+--compile, the reduced q̈ generated as straight-line code) against
 Pinocchio's mimic model (``buildModelFromUrdf(…, mimic=True)``: the mimicking joint has no
 coordinate). Pinocchio's ``aba`` refuses mimics, so its q̈ is
 ``crba⁻¹ (τ − D v − nonLinearEffects)``; its model drops the mimic's damping, which ours
@@ -13,6 +14,9 @@ What must hold, at 50 random states and torques: ``der(J_dot)`` equal to Pinocch
 relative to max(1, |E|); the mimic's outputs ``J``, ``J_dot`` equal to multiplier × the
 followed joint's (+ offset); fmpy validates the FMU and runs its default experiment to the
 stop time.
+
+Every URDF of example-robot-data 6.0 (69 files): built, or refused for its own fault with
+one line (REFUSED); see the test's docstring, and docs/robots.md for the measured table.
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ from fmpy.validation import validate_fmu
 
 import fmu_support as fs
 from test_linearization import cli
+from test_urdf_fmu import build_env
 from test_multibody_pinocchio import robots_dir
 
 
@@ -37,14 +42,22 @@ def build(urdf: pathlib.Path, out: pathlib.Path, *extra: str) -> subprocess.Comp
                           capture_output=True, text=True)
 
 
-@pytest.fixture(scope="module")
-def panda(tmp_path_factory):
+@pytest.fixture(scope="module", params=["runtime", "compiled"])
+def panda(request, tmp_path_factory):
+    """The Panda from the runtime, and compiled (--compile: the reduced q̈ generated as
+    straight-line code, which the build checks it runs)."""
     out = tmp_path_factory.mktemp("panda_mimic")
     urdf = robots_dir() / "panda_description" / "urdf" / "panda.urdf"
-    res = build(urdf, out, "--name", "PandaMimic", "--platforms", "host")
+    name = "PandaMimic" if request.param == "runtime" else "PandaMimicCompiled"
+    extra = ["--compile"] if request.param == "compiled" else []
+    res = subprocess.run([str(cli()), "build", "--urdf", str(urdf), "--out", str(out), "--name", name,
+                          "--platforms", "host", *extra],
+                         capture_output=True, text=True, env=build_env())
     assert res.returncode == 0, res.stderr
     print(res.stdout.strip())
-    return urdf, fs.Model("PandaMimic", out / "PandaMimic.fmu")
+    if request.param == "compiled":
+        assert "runs straight-line code generated for this mechanism" in res.stdout, res.stdout
+    return urdf, fs.Model(name, out / f"{name}.fmu")
 
 
 def urdf_joints(urdf: pathlib.Path) -> dict[str, dict]:
