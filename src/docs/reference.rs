@@ -88,10 +88,10 @@ pub fn reference<M: System>() -> Result<Reference, String> {
             dop853(REFERENCE_TOL),
         )
     };
-    // Gauss6's Newton iteration fails on some mechanisms at this fixed step (stiff hands:
-    // light fingers with joint damping; and a few slow ones, issue 32's note): the check
-    // is then RADAU5 at the experiment's tolerance, adaptive and L-stable, another method
-    // and another step sequence still (the check run used is stated).
+    // Gauss6's Newton iteration can fail at this fixed step on a stiff mechanism (a hand:
+    // light fingers with joint damping): the check is then RADAU5 at the experiment's
+    // tolerance, adaptive and L-stable, another method and another step sequence still
+    // (the check run used is stated).
     let check_step = comm_step / CHECK_SUBSTEPS as f64;
     let (check_run, check) = match run(Method::Gauss6, tol, check_step) {
         Ok(t) => (
