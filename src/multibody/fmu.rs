@@ -911,14 +911,14 @@ fn unmodelled_by_joint(mechanism: &Mechanism) -> Vec<(&'static str, Vec<String>,
         .collect();
     if !fixed_mimic.is_empty() {
         lines.push((
-            "a mimic on a fixed joint means nothing and is ignored",
+            "a mimic element is ignored on a fixed joint, where it means nothing",
             fixed_mimic,
             "URDF <mimic> on a fixed joint",
         ));
     }
     if !no_event.is_empty() {
         lines.push((
-            "position limits that raise no event (continuous joint, lower ≥ upper, or a mimic joint, which follows the limits of the joint it mimics) are ignored",
+            "position limits that raise no event (continuous joint, lower ≥ upper, or a mimic joint, which moves with the joint it follows) are ignored",
             no_event,
             "URDF <limit lower upper>",
         ));

@@ -811,8 +811,23 @@ fn bad_mimics_are_refused() {
   <joint name="j1" type="fixed"><parent link="a"/><child link="b"/><mimic joint="j2"/></joint>
   <joint name="j2" type="revolute"><parent link="b"/><child link="c"/></joint>"#
     ));
-    let model = Model::new(&urdf::parse(&text, "ok.urdf").unwrap()).unwrap();
+    let ignored = urdf::parse(&text, "ok.urdf").unwrap();
+    let model = Model::new(&ignored).unwrap();
     assert_eq!((model.nq(), model.ndof()), (1, 1));
+    let warned = super::fmu::unmodelled(&ignored);
+    assert!(
+        warned
+            .iter()
+            .any(|w| w.contains("ignored on a fixed joint") && w.contains(r#""j1""#)),
+        "{warned:?}"
+    );
+    let notes = super::fmu::unmodelled_notes(&ignored);
+    assert!(
+        notes
+            .iter()
+            .any(|n| n.starts_with("A mimic element of 1 joint is ignored on a fixed joint")),
+        "{notes:?}"
+    );
     let m = refusal(&urdf_with(&format!(
         r#"{TWO_LINKS}
   <joint name="j1" type="revolute"><parent link="a"/><child link="b"/></joint>
