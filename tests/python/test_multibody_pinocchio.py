@@ -238,13 +238,17 @@ def test_dynamics_equal_pinocchio(example, tmp_path, robot):
     assert worst["tip"] < 1e-12, worst
 
 
-def test_mimic_is_refused_with_one_line(example):
-    panda = robots_dir() / "panda_description" / "urdf" / "panda.urdf"
-    out = subprocess.run([str(example), str(panda)], input="[]", capture_output=True, text=True)
+def test_a_mimic_of_a_missing_joint_is_refused_with_one_line(example, tmp_path):
+    """Mimic joints are read (test_real_robots.py checks their dynamics); one naming a joint
+    the file does not have is refused with one line naming both."""
+    panda = (robots_dir() / "panda_description" / "urdf" / "panda.urdf").read_text()
+    bad = tmp_path / "panda_bad_mimic.urdf"
+    bad.write_text(re.sub(r'<mimic joint="panda_finger_joint1"', '<mimic joint="nowhere"', panda))
+    out = subprocess.run([str(example), str(bad)], input="[]", capture_output=True, text=True)
     assert out.returncode != 0
     line = out.stderr.strip()
     assert "\n" not in line
-    assert 'joint "panda_finger_joint2"' in line and "mimic" in line, line
+    assert 'joint "panda_finger_joint2": mimics joint "nowhere", which does not exist' in line, line
 
 
 def bench(count: int = 200_000) -> None:
