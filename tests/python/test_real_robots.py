@@ -176,6 +176,18 @@ class PinocchioMimic:
                 + pin.computePotentialEnergy(self.free, self.free_data, pq))
 
 
+def initialised_at(inst, ours: list[str], q, qd, tau, reset: bool) -> None:
+    """The instance initialised at (q, q̇, τ) with limit events off (fmi2Reset first when
+    `reset`: states can only be set before initialisation)."""
+    if reset:
+        inst.ok("fmi2Reset")
+    values = {j: x for j, x in zip(ours, q)}
+    values.update({f"{j}_dot": x for j, x in zip(ours, qd)})
+    values.update({f"tau_{j}": x for j, x in zip(ours, tau)})
+    values["limit_events"] = 0.0
+    inst.initialize(values, tol=1e-10)
+
+
 def test_mimic_joints_equal_pinocchios_mimic_model(panda, instances):
     urdf, model = panda
     n = len(model.state_names) // 2
@@ -195,13 +207,7 @@ def test_mimic_joints_equal_pinocchios_mimic_model(panda, instances):
         q = rng.uniform(-np.pi, np.pi, n)
         q[7] = rng.uniform(0.0, 0.04)
         qd, tau = rng.uniform(-2, 2, n), rng.uniform(-10, 10, n)
-        if k:
-            inst.ok("fmi2Reset")
-        values = {j: x for j, x in zip(ours, q)}
-        values.update({f"{j}_dot": x for j, x in zip(ours, qd)})
-        values.update({f"tau_{j}": x for j, x in zip(ours, tau)})
-        values["limit_events"] = 0.0
-        inst.initialize(values, tol=1e-10)
+        initialised_at(inst, ours, q, qd, tau, reset=k > 0)
         want = ref.qdd(q, qd, tau - d * qd)
         got = np.array(inst.get_reals(der))
         worst["qdd"] = max(worst["qdd"], (np.abs(got - want) / np.maximum(1.0, np.abs(want))).max())
@@ -314,13 +320,7 @@ def test_every_urdf_builds_and_runs_or_is_refused_for_its_own_fault(rel, tmp_pat
         q = rng.uniform(-np.pi, np.pi, n)
         q[prismatic] = rng.uniform(-0.05, 0.05, prismatic.sum())
         qd, tau = rng.uniform(-2, 2, n), rng.uniform(-1, 1, n) * span
-        if k:
-            inst.ok("fmi2Reset")
-        values = {j: x for j, x in zip(ours, q)}
-        values.update({f"{j}_dot": x for j, x in zip(ours, qd)})
-        values.update({f"tau_{j}": x for j, x in zip(ours, tau)})
-        values["limit_events"] = 0.0
-        inst.initialize(values, tol=1e-10)
+        initialised_at(inst, ours, q, qd, tau, reset=k > 0)
         want = ref.qdd(q, qd, tau - d * qd)
         got = np.array(inst.get_reals([f"der({j}_dot)" for j in ours]))
         worst["qdd"] = max(worst["qdd"], (np.abs(got - want) / np.maximum(1.0, np.abs(want))).max())
