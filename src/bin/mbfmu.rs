@@ -408,7 +408,8 @@ fn build(args: BuildArgs) -> Result<(), String> {
 }
 
 /// A URDF read and checked into a mechanism, and the modelIdentifier it will have; any
-/// error is one line naming the file and the element.
+/// error is one line naming the file and the element. Once both are good, the build
+/// warnings (what the model does not hold, inertias used with a warning) go to stderr.
 fn read_urdf(
     urdf: &Path,
     name: Option<&str>,
@@ -426,6 +427,10 @@ fn read_urdf(
         return Err(format!(
             "{file}: {name:?} cannot name the FMU: use letters, digits and _, starting with a letter (--name)"
         ));
+    }
+    // What the model does not hold, and the inertias used with a warning: one line each.
+    for line in mbfmu::multibody::fmu::unmodelled(&mechanism) {
+        eprintln!("warning: {file}: {line}");
     }
     Ok((mechanism, name))
 }
@@ -453,9 +458,6 @@ fn build_urdf(
     let file = urdf.display().to_string();
     let (mechanism, name) = read_urdf(urdf, name)?;
     platforms::ensure_toolchains(chosen)?;
-    for line in mbfmu::multibody::fmu::unmodelled(&mechanism) {
-        eprintln!("warning: {file}: {line}");
-    }
     let dir = target_dir().join("urdf").join(&name);
     let absolute = absolute(urdf);
     let command = format!("build --urdf {absolute}");
@@ -497,14 +499,6 @@ fn build_urdf(
     Ok(())
 }
 
-/// Whether a joint of `mechanism` follows another (a mimic joint on a moving joint).
-fn mechanism_has_mimics(mechanism: &mbfmu::multibody::Mechanism) -> bool {
-    mechanism
-        .joints
-        .iter()
-        .any(|j| j.moves() && j.mimic.is_some())
-}
-
 /// The mechanism runtime's crate (fmu/mechanism_runtime), built by `build --all`.
 const RUNTIME_CRATE: &str = "mechanism_runtime";
 
@@ -524,9 +518,6 @@ fn build_urdf_runtime(
         return Err(format!("{file}: loop closures need --compile"));
     }
     let text = std::fs::read_to_string(urdf).map_err(|e| format!("{file}: {e}"))?;
-    for line in mbfmu::multibody::fmu::unmodelled(&mechanism) {
-        eprintln!("warning: {file}: {line}");
-    }
     let mut binaries = Vec::with_capacity(chosen.len());
     for &p in chosen {
         let dir = if p.is_host() {
@@ -561,7 +552,7 @@ fn build_urdf_runtime(
         &fmu,
         &mechanism,
         started,
-        if mechanism_has_mimics(&mechanism) {
+        if mbfmu::multibody::Model::new(&mechanism).is_ok_and(|m| m.has_mimics()) {
             "runs the mass matrix reduced to the independent joints (mimic joints follow them), interpreted by the prebuilt mechanism runtime, which reads the robot from the FMU's resources (no compiler; --compile generates straight-line code for this robot: faster, needs cargo)"
         } else {
             "runs the articulated-body algorithm interpreted by the prebuilt mechanism runtime, which reads the robot from the FMU's resources (no compiler; --compile generates straight-line code for this robot: faster, needs cargo)"
@@ -1005,16 +996,12 @@ fn new(args: NewArgs) -> Result<(), String> {
     match &args.from_urdf {
         Some(urdf) => {
             let (mechanism, name) = read_urdf(urdf, Some(&args.name))?;
-            let file = urdf.display().to_string();
             let source = absolute(urdf);
             let command = format!("new {name} --from-urdf {source}");
             let from = mbfmu::own_model::MechanismSource {
                 source: &source,
                 command: &command,
             };
-            for line in mbfmu::multibody::fmu::unmodelled(&mechanism) {
-                eprintln!("warning: {file}: {line}");
-            }
             mbfmu::own_model::write_mechanism_crate(
                 &name,
                 &dir,
