@@ -673,19 +673,14 @@ impl Model {
         self.rnea_in(d, q, qd, qdd, &mut bias);
         let (rank, nr) = (&self.driver_index, self.ndof());
         let (reduced, rhs) = (&mut d.reduced, &mut d.rhs);
-        reduced.clear();
-        reduced.resize(nr * nr, S::zero());
+        self.reduce_mass_into(&mass, reduced);
         rhs.clear();
         rhs.resize(nr, S::zero());
         for i in 0..n {
-            let (a, ri) = (rank[i], self.driver(i).1);
-            rhs[a] += (tau[i] - qd[i] * self.damping[i] - bias[i]) * ri;
-            for j in 0..n {
-                let (b, rj) = (rank[j], self.driver(j).1);
-                reduced[a * nr + b] += mass[i * n + j] * (ri * rj);
-            }
+            rhs[rank[i]] += (tau[i] - qd[i] * self.damping[i] - bias[i]) * self.driver(i).1;
         }
-        ldl_solve_flat(reduced, nr, rhs);
+        ldl_factor_flat(reduced, nr);
+        ldl_substitute_flat(reduced, nr, rhs);
         for i in 0..n {
             qdd[i] = rhs[rank[i]] * self.driver(i).1;
         }
@@ -693,51 +688,39 @@ impl Model {
         d.bias = bias;
     }
 
-    /// The mass matrix of the independent joints, `Gᵀ M(q) G` ([`Model::ndof`] square,
-    /// row-major; `M` itself without mimic joints).
-    pub fn reduced_mass_matrix(&self, q: &[f64]) -> Vec<f64> {
-        let (n, nr) = (self.nq(), self.ndof());
-        let mut mass = vec![0.0; n * n];
-        self.crba_in(&mut Data::new(self), q, &mut mass);
-        let mut reduced = vec![0.0; nr * nr];
+    /// `Gᵀ M G` into `reduced` ([`Model::ndof`] square, row-major) from the tree's mass
+    /// matrix `mass` ([`Model::nq`] square): `M` itself without mimic joints.
+    fn reduce_mass_into<S: Scalar>(&self, mass: &[S], reduced: &mut Vec<S>) {
+        let (n, nr, rank) = (self.nq(), self.ndof(), &self.driver_index);
+        reduced.clear();
+        reduced.resize(nr * nr, S::zero());
         for i in 0..n {
             for j in 0..n {
                 let r = self.driver(i).1 * self.driver(j).1;
-                reduced[self.driver_index[i] * nr + self.driver_index[j]] += mass[i * n + j] * r;
+                reduced[rank[i] * nr + rank[j]] += mass[i * n + j] * r;
             }
         }
-        reduced
     }
 
     /// The first independent joint (model index) at which the LDLᵀ factorisation of the
-    /// reduced mass matrix at `q` meets a pivot below `1e-12` of that joint's diagonal
+    /// reduced mass matrix `Gᵀ M(q) G` meets a pivot below `1e-12` of that joint's diagonal
     /// entry (or a non-positive one): the dynamics is singular there (a joint moving no
     /// inertia about its axis). `None`: positive definite.
     pub fn singular_joint(&self, q: &[f64]) -> Option<usize> {
-        let nr = self.ndof();
-        let mut m = self.reduced_mass_matrix(q);
+        let (n, nr) = (self.nq(), self.ndof());
+        let mut mass = vec![0.0; n * n];
+        self.crba_in(&mut Data::new(self), q, &mut mass);
+        let mut m = Vec::new();
+        self.reduce_mass_into(&mass, &mut m);
         let diagonal: Vec<f64> = (0..nr).map(|k| m[k * nr + k]).collect();
-        for j in 0..nr {
-            for k in 0..j {
-                let t = m[j * nr + k] * (m[j * nr + k] * m[k * nr + k]);
-                m[j * nr + j] -= t;
-            }
-            let pivot = m[j * nr + j];
+        ldl_factor_flat(&mut m, nr);
+        // The pivots in order: a bad one spoils only those after it.
+        let bad = (0..nr).find(|&j| {
             // (NaN fails both comparisons: singular too.)
-            let positive = pivot > 1e-12 * diagonal[j] && diagonal[j] > 0.0;
-            if !positive {
-                return (0..self.nq())
-                    .find(|&i| self.follows[i].is_none() && self.driver_index[i] == j);
-            }
-            for i in j + 1..nr {
-                let mut s = m[i * nr + j];
-                for k in 0..j {
-                    s -= m[i * nr + k] * (m[j * nr + k] * m[k * nr + k]);
-                }
-                m[i * nr + j] = s / pivot;
-            }
-        }
-        None
+            let positive = m[j * nr + j] > 1e-12 * diagonal[j] && diagonal[j] > 0.0;
+            !positive
+        })?;
+        (0..n).find(|&i| self.follows[i].is_none() && self.driver_index[i] == bad)
     }
 
     /// Kinetic energy `½ Σ v_iᵀ I_i v_i`.
@@ -769,11 +752,11 @@ impl Model {
     }
 }
 
-/// Solves `m x = b` in place (`x` holds b; `m`, n × n row-major, symmetric positive
-/// definite, is overwritten by its LDLᵀ factors), without pivoting or branches, so that
-/// dual numbers and the tracer go through it.
+/// LDLᵀ of `m` (n × n row-major, symmetric positive definite) in place, without pivoting
+/// or branches, so that dual numbers and the tracer go through it: its strict lower
+/// triangle becomes L (unit diagonal implied), its diagonal D.
 #[allow(clippy::needless_range_loop)] // triangular index arithmetic reads best as indices
-pub fn ldl_solve_flat<S: Scalar>(m: &mut [S], n: usize, x: &mut [S]) {
+pub fn ldl_factor_flat<S: Scalar>(m: &mut [S], n: usize) {
     for j in 0..n {
         for k in 0..j {
             let t = m[j * n + k] * (m[j * n + k] * m[k * n + k]);
@@ -788,6 +771,11 @@ pub fn ldl_solve_flat<S: Scalar>(m: &mut [S], n: usize, x: &mut [S]) {
             m[i * n + j] = s * inv;
         }
     }
+}
+
+/// Solves `L D Lᵀ x = b` in place (`x` holds b), with the factors of [`ldl_factor_flat`].
+#[allow(clippy::needless_range_loop)]
+pub fn ldl_substitute_flat<S: Scalar>(m: &[S], n: usize, x: &mut [S]) {
     for i in 0..n {
         for k in 0..i {
             let t = m[i * n + k] * x[k];
