@@ -24,7 +24,8 @@ sys.path.insert(0, str(REPO / "tests" / "python"))
 
 import fmu_support as fs  # noqa: E402
 from test_real_robots import (  # noqa: E402
-    NO_END_STOPS, REFUSED, PinocchioMimic, build, coordinate_damping, every_urdf, urdf_joints,
+    NO_END_STOPS, REFUSED, PinocchioMimic, build, coordinate_damping, every_urdf, initialised_at,
+    urdf_joints,
 )
 from test_multibody_pinocchio import robots_dir  # noqa: E402
 
@@ -43,13 +44,7 @@ def qdd_error(model: fs.Model, urdf: pathlib.Path) -> float:
             q = rng.uniform(-np.pi, np.pi, n)
             q[prismatic] = rng.uniform(-0.05, 0.05, prismatic.sum())
             qd = rng.uniform(-2, 2, n)
-            if k:
-                inst.ok("fmi2Reset")
-            values = {j: x for j, x in zip(ours, q)}
-            values.update({f"{j}_dot": x for j, x in zip(ours, qd)})
-            values.update({f"tau_{j}": 0.0 for j in ours})
-            values["limit_events"] = 0.0
-            inst.initialize(values, tol=1e-10)
+            initialised_at(inst, ours, q, qd, np.zeros(n), reset=k > 0)
             want = ref.qdd(q, qd, -d * qd)
             got = np.array(inst.get_reals([f"der({j}_dot)" for j in ours]))
             worst = max(worst, (np.abs(got - want) / np.maximum(1.0, np.abs(want))).max())

@@ -125,6 +125,18 @@ def urdf_files(tmp: pathlib.Path) -> dict[str, pathlib.Path]:
     }
 
 
+def configuration(model, joints, q) -> np.ndarray:
+    """Positions of `joints` (Pinocchio joint models, one coordinate each of ours) as
+    `model`'s configuration, the rest neutral ((cos, sin) for a continuous joint)."""
+    out = pin.neutral(model)
+    for j, x in zip(joints, q):
+        if j.nq == 2:
+            out[j.idx_q : j.idx_q + 2] = [np.cos(x), np.sin(x)]
+        else:
+            out[j.idx_q] = x
+    return out
+
+
 class Reference:
     """Pinocchio's model of a URDF, addressed by our joint order."""
 
@@ -139,13 +151,7 @@ class Reference:
 
     def q(self, q: np.ndarray) -> np.ndarray:
         """Our joint positions as Pinocchio's configuration ((cos, sin) for continuous)."""
-        out = pin.neutral(self.model)
-        for j, x in zip(self.joints, q):
-            if j.nq == 2:
-                out[j.idx_q : j.idx_q + 2] = [np.cos(x), np.sin(x)]
-            else:
-                out[j.idx_q] = x
-        return out
+        return configuration(self.model, self.joints, q)
 
     def v(self, v: np.ndarray) -> np.ndarray:
         out = np.zeros(self.model.nv)

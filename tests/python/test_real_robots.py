@@ -34,7 +34,7 @@ from fmpy.validation import validate_fmu
 import fmu_support as fs
 from test_linearization import cli
 from test_urdf_fmu import build_env
-from test_multibody_pinocchio import robots_dir
+from test_multibody_pinocchio import configuration, robots_dir
 
 
 def build(urdf: pathlib.Path, out: pathlib.Path, *extra: str) -> subprocess.CompletedProcess:
@@ -116,18 +116,8 @@ class PinocchioMimic:
         self.joints = [self.model.joints[self.model.getJointId(j)] for j in ours]
         self.idx = np.array([j.idx_v for j in self.joints])
 
-    @staticmethod
-    def configuration(model, joints, q) -> np.ndarray:
-        out = pin.neutral(model)
-        for j, x in zip(joints, q):
-            if j.nq == 2:
-                out[j.idx_q : j.idx_q + 2] = [np.cos(x), np.sin(x)]
-            else:
-                out[j.idx_q] = x
-        return out
-
     def q(self, q: np.ndarray) -> np.ndarray:
-        return self.configuration(self.model, self.joints, q)
+        return configuration(self.model, self.joints, q)
 
     def v(self, v: np.ndarray) -> np.ndarray:
         out = np.zeros(self.model.nv)
@@ -154,7 +144,7 @@ class PinocchioMimic:
             qs.append(r * q[i] + o)
             vs.append(r * qd[i])
         joints = [self.free.joints[self.free.getJointId(j)] for j in names]
-        pq = self.configuration(self.free, joints, qs)
+        pq = configuration(self.free, joints, qs)
         pv = np.zeros(self.free.nv)
         idx = [j.idx_v for j in joints]
         pv[idx] = vs
