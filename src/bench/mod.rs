@@ -269,7 +269,8 @@ fn start<M: System>(
         let vr = layout
             .vr_of(name)
             .ok_or_else(|| format!("scene {}: unknown variable {name}", scene.name))?;
-        fmu.set_real(&[vr], &[*value])?;
+        // An Integer or Enumeration through fmi2SetInteger's path, as an importer sets it.
+        fmu.set_value(vr, *value)?;
     }
     let solver = layout.vr_of("solver").expect("every FMU has solver");
     let solver_step = layout

@@ -91,7 +91,7 @@ fn started<M: System>() -> Instance<M> {
     if let Some(scene) = M::scenes().first() {
         for (name, value) in &scene.start_values {
             let vr = info.layout.vr_of(name).expect("scene variable");
-            inst.set_real(&[vr], &[*value]).expect("scene value");
+            inst.set_value(vr, *value).expect("scene value");
         }
     }
     let step = info.layout.vr_of("solver_step").expect("solver_step");
@@ -109,9 +109,10 @@ fn values<M: System>(inst: &Instance<M>, kind: VarKind) -> Vec<f64> {
     let vrs: Vec<u32> = (0..layout.vars.len() as u32)
         .filter(|&vr| layout.slot(vr).is_some_and(|s| s.kind == kind))
         .collect();
-    let mut v = vec![0.0; vrs.len()];
-    inst.get_real(&vrs, &mut v).expect("values");
-    v
+    // Each with the getter of its type (a parameter may be an Integer or Enumeration).
+    vrs.iter()
+        .map(|&vr| inst.get_value(vr).expect("values"))
+        .collect()
 }
 
 /// A floor's measurement: (start state, parameters, repetitions) → (doStep, RHS) in ns.

@@ -398,9 +398,11 @@ pub fn page<M: System>(
         } else {
             written(var.start)
         };
-        let range = match (var.min, var.max) {
-            (None, None) => String::new(),
-            (min, max) => format!(
+        // An enumeration's range is its items (code = name).
+        let range = match (var.items_text(), var.min, var.max) {
+            (Some(items), ..) => escape(&items),
+            (None, None, None) => String::new(),
+            (None, min, max) => format!(
                 "[{}, {}]",
                 min.map_or("−∞".into(), written),
                 max.map_or("∞".into(), written)

@@ -73,7 +73,8 @@ pub fn simulate<M: System>(
         let vr = layout
             .vr_of(name)
             .ok_or_else(|| format!("{}: no variable {name}", M::NAME))?;
-        fmu.set_real(&[vr], &[*value])?;
+        // An Integer or Enumeration through fmi2SetInteger's path, as an importer sets it.
+        fmu.set_value(vr, *value)?;
     }
     let vr = |name: &str| {
         layout

@@ -6,7 +6,7 @@
 //! added (`solver_max_steps`, `me_projection`). A new variable goes at the end, never in between: every
 //! existing value reference stays what it was, since tools outside script them.
 
-use super::{System, Var};
+use super::{System, Var, VarType};
 use crate::integrators::Method;
 
 /// What a variable is for the FMI layer.
@@ -102,6 +102,7 @@ impl Layout {
                 max: None,
                 nominal: None,
                 dependent: false,
+                ty: VarType::Real,
             })
             .collect();
         push(VarKind::Derivative, &derivs);
@@ -130,6 +131,7 @@ impl Layout {
             .min(0.0)
             .max(1.0)],
         );
+        check_types(&vars);
         Layout {
             vars,
             n_params: params.len(),
@@ -164,6 +166,50 @@ impl Layout {
     pub fn fmi3_extra_vrs(&self, event_indicators: usize) -> (u32, Option<u32>) {
         let time = self.vars.len() as u32;
         (time, (event_indicators > 0).then_some(time + 1))
+    }
+}
+
+/// The declaration rules of the Integer and Enumeration parameters (a system that breaks
+/// one is a programming error: it panics, naming the variable). Only a parameter may be
+/// one; an Integer's start value passes its own check; an enumeration has no unit, min,
+/// max or nominal, item names that are distinct and not empty, a start value that is one
+/// of its codes, and a type name ([`Var::type_name`]) that no other type (`Solver`, another
+/// enumeration's) and no variable has (FMI 2.0, section 2.2.3).
+fn check_types(vars: &[(Slot, Var)]) {
+    let mut type_names = vec!["Solver".to_string()];
+    for (slot, var) in vars {
+        let name = &var.name;
+        if var.ty == VarType::Real {
+            continue;
+        }
+        assert!(
+            slot.kind == VarKind::Parameter,
+            "{name}: only a parameter may be an Integer or an Enumeration"
+        );
+        if let Err(e) = var.check(var.start) {
+            panic!("{name}: the start value is not legal: {e}");
+        }
+        let VarType::Enumeration(items) = var.ty else {
+            continue;
+        };
+        assert!(
+            var.unit.is_none() && var.min.is_none() && var.max.is_none() && var.nominal.is_none(),
+            "{name}: an enumeration has no unit, min, max or nominal (its items are its range)"
+        );
+        for (i, (item, _)) in items.iter().enumerate() {
+            assert!(
+                !item.trim().is_empty() && !items[..i].iter().any(|(other, _)| other == item),
+                "{name}: the item names must be distinct and not empty ({item:?})"
+            );
+        }
+        let type_name = var.type_name().expect("an enumeration");
+        assert!(
+            !type_name.is_empty()
+                && !type_names.contains(&type_name)
+                && !vars.iter().any(|(_, v)| v.name == type_name),
+            "{name}: its type name {type_name:?} is empty or taken by another type or a variable; rename the variable"
+        );
+        type_names.push(type_name);
     }
 }
 

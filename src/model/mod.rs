@@ -44,6 +44,27 @@ pub struct Var {
     /// initialisation solves for it, and its start value is only the guess that picks
     /// the root (FMI `initial="approx"`).
     pub dependent: bool,
+    /// The FMI type: Real, unless a parameter was declared [`Var::integer`] or
+    /// [`Var::enumeration`].
+    pub ty: VarType,
+}
+
+/// One item of an enumeration parameter: (name, description). Its value (code) is its
+/// position in the list: 0, 1, 2, …
+pub type Item = (&'static str, &'static str);
+
+/// The FMI type of a variable. Only a parameter may be other than [`VarType::Real`]; such a
+/// parameter still lives in the model's `p` as an `f64` (its code: 0.0, 1.0, …), and the FMU
+/// reads and writes it with fmi2Get/SetInteger (FMI 3.0: fmi3Get/SetInt32 for an Integer,
+/// fmi3Get/SetInt64 for an Enumeration), never with fmi2Get/SetReal.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VarType {
+    Real,
+    /// FMI 2.0 `Integer`, FMI 3.0 `Int32`.
+    Integer,
+    /// FMI `Enumeration` of these items, values 0, 1, 2, … in order. Its type in the
+    /// modelDescription is named [`Var::type_name`].
+    Enumeration(&'static [Item]),
 }
 
 impl Var {
@@ -66,6 +87,7 @@ impl Var {
             max: None,
             nominal: None,
             dependent: false,
+            ty: VarType::Real,
         }
     }
 
@@ -91,12 +113,96 @@ impl Var {
         self
     }
 
+    /// Makes a parameter an FMI Integer (FMI 3.0: Int32): set and read with
+    /// fmi2Set/GetInteger, its values whole numbers (inside `[min, max]` when given, and in
+    /// the range of an i32). The model still reads it from `p` as an `f64`.
+    pub const fn integer(mut self) -> Self {
+        self.ty = VarType::Integer;
+        self
+    }
+
+    /// Makes a parameter an FMI Enumeration of `items` (name, description), whose values
+    /// are 0, 1, 2, … in order: only those codes are accepted (the range is the items'; no
+    /// `min`/`max` is needed). The start value is a code (`Var::new(…, 1.0, …)`: the second
+    /// item). Set and read with fmi2Set/GetInteger (FMI 3.0: fmi3Set/GetInt64); the model reads the code
+    /// from `p` as an `f64` (0.0, 1.0, …). The modelDescription declares its type under the
+    /// name [`Var::type_name`].
+    pub const fn enumeration(mut self, items: &'static [Item]) -> Self {
+        assert!(!items.is_empty(), "an enumeration has at least one item");
+        self.ty = VarType::Enumeration(items);
+        self
+    }
+
+    /// Whether the FMU reads and writes this variable as an FMI Integer or Enumeration
+    /// (fmi2Get/SetInteger) rather than a Real.
+    pub fn is_integer(&self) -> bool {
+        self.ty != VarType::Real
+    }
+
+    /// The name of an enumeration's type in the modelDescription (FMI 2.0 `SimpleType`,
+    /// FMI 3.0 `EnumerationType`): the variable's name in UpperCamelCase, each part between
+    /// underscores (or other characters not letters or digits) capitalised and joined:
+    /// `limit_events` → `LimitEvents`, `mode` → `Mode`. (FMI 2.0 forbids a type named as a
+    /// variable, so it cannot be the name itself; [`Layout::of`] refuses a name that
+    /// collides.) `None` for a variable of another type.
+    pub fn type_name(&self) -> Option<String> {
+        let VarType::Enumeration(_) = self.ty else {
+            return None;
+        };
+        let mut out = String::new();
+        for part in self.name.split(|c: char| !c.is_ascii_alphanumeric()) {
+            let mut chars = part.chars();
+            if let Some(first) = chars.next() {
+                out.extend(first.to_uppercase());
+                out.push_str(chars.as_str());
+            }
+        }
+        Some(out)
+    }
+
+    /// The codes and names of an enumeration, as its messages list them: `0 = off, 1 = on`.
+    pub fn items_text(&self) -> Option<String> {
+        let VarType::Enumeration(items) = self.ty else {
+            return None;
+        };
+        Some(
+            items
+                .iter()
+                .enumerate()
+                .map(|(code, (name, _))| format!("{code} = {name}"))
+                .collect::<Vec<_>>()
+                .join(", "),
+        )
+    }
+
     /// Whether `value` is a legal value of this variable: finite and inside
-    /// `[min, max]`. The message names the variable and is the same wherever a value
-    /// comes in (fmi2SetReal, a restored FMU state, `mbfmu linearize --set`).
+    /// `[min, max]`; for an Integer a whole number an i32 holds, for an Enumeration one of
+    /// its codes. The message names the variable and is the same wherever a value comes in
+    /// (fmi2SetReal, fmi2SetInteger, a restored FMU state, `mbfmu linearize --set`, a
+    /// scene).
     pub fn check(&self, value: f64) -> Result<(), String> {
         if !value.is_finite() {
             return Err(format!("value {value} for {} is not finite", self.name));
+        }
+        if let VarType::Enumeration(items) = self.ty {
+            if value < 0.0 || value.fract() != 0.0 || value >= items.len() as f64 {
+                return Err(format!(
+                    "value {value} for {} is not one of its codes ({})",
+                    self.name,
+                    self.items_text().expect("an enumeration")
+                ));
+            }
+            return Ok(());
+        }
+        if self.ty == VarType::Integer
+            && (value.fract() != 0.0 || value < i32::MIN as f64 || value > i32::MAX as f64)
+        {
+            return Err(format!(
+                "value {value} for {} is not an Integer (a whole number in [{}, {}])",
+                self.name,
+                i32::MIN,
+                i32::MAX
+            ));
         }
         if self.min.is_some_and(|min| value < min) || self.max.is_some_and(|max| value > max) {
             return Err(format!(

@@ -6,10 +6,12 @@
 //! and the event indicator (a model with one) at the next, referenced by `<EventIndicator>`
 //! ([`Layout::fmi3_extra_vrs`]). The instantiationToken is the FMI 2.0 GUID: one binary,
 //! one model.
-//! Enumerations are FMI 3.0's `<Enumeration>` (read with fmi3GetInt64).
+//! Enumerations (`solver`, a system's enumeration parameters: each its `EnumerationType`,
+//! named as in FMI 2.0) are FMI 3.0's `<Enumeration>` (read with fmi3GetInt64).
 
 use super::{close, default_experiment, empty, integer_attrs, log_categories, open, s, units, W};
 use super::{dependencies, real_attrs, solver_items, variable_head, GENERATION_TOOL};
+use super::{is_integer, parameter_enumerations, parameter_items};
 use super::{state_and_derivatives, Version};
 use crate::model::{Layout, Probe, System, VarKind};
 use quick_xml::events::{BytesDecl, Event};
@@ -116,6 +118,11 @@ pub fn model_description3<M: System>() -> String {
     open(&mut w, "EnumerationType", &[("name", s("Solver"))]);
     solver_items(&mut w, fmi3_words);
     close(&mut w, "EnumerationType");
+    for (name, items) in parameter_enumerations(&layout) {
+        open(&mut w, "EnumerationType", &[("name", name)]);
+        parameter_items(&mut w, items, fmi3_words);
+        close(&mut w, "EnumerationType");
+    }
     close(&mut w, "TypeDefinitions");
 
     log_categories(&mut w, CATEGORIES3);
@@ -141,7 +148,11 @@ pub fn model_description3<M: System>() -> String {
             attrs.push(("declaredType", s("Solver")));
             attrs.push(("start", s(var.start as i32)));
             empty(&mut w, "Enumeration", &attrs);
-        } else if matches!(slot.kind, VarKind::SolverMaxSteps | VarKind::MeProjection) {
+        } else if let Some(type_name) = var.type_name() {
+            attrs.push(("declaredType", type_name));
+            attrs.push(("start", s(var.start as i32)));
+            empty(&mut w, "Enumeration", &attrs);
+        } else if is_integer(*slot, var) {
             attrs.extend(integer_attrs(var));
             empty(&mut w, "Int32", &attrs);
         } else {

@@ -13,7 +13,7 @@ pub use fmi3::model_description3;
 pub use structure::{dependencies, Dependencies};
 
 use crate::integrators::Method;
-use crate::model::{Layout, Probe, Slot, System, Var, VarKind};
+use crate::model::{Item, Layout, Probe, Slot, System, Var, VarKind, VarType};
 use quick_xml::events::{BytesDecl, BytesEnd, BytesStart, Event};
 use quick_xml::Writer;
 use std::io::Cursor;
@@ -160,6 +160,32 @@ fn solver_items(w: &mut W, words: Words) {
     }
 }
 
+/// The enumeration types of a system's parameters, in value-reference order: (type name,
+/// items). Declared after `Solver`, one per enumeration parameter
+/// ([`Var::type_name`]).
+fn parameter_enumerations(layout: &Layout) -> Vec<(String, &'static [Item])> {
+    layout
+        .vars
+        .iter()
+        .filter_map(|(_, var)| match var.ty {
+            VarType::Enumeration(items) => Some((var.type_name().expect("an enumeration"), items)),
+            _ => None,
+        })
+        .collect()
+}
+
+/// The `Item`s of an enumeration parameter: values 0, 1, 2, … in order (a description only
+/// when the item has one).
+fn parameter_items(w: &mut W, items: &[Item], words: Words) {
+    for (code, (name, description)) in items.iter().enumerate() {
+        let mut attrs = vec![("name", s(name)), ("value", s(code))];
+        if !description.is_empty() {
+            attrs.push(("description", words(description)));
+        }
+        empty(w, "Item", &attrs);
+    }
+}
+
 fn log_categories(w: &mut W, categories: &[(&str, &str)]) {
     open(w, "LogCategories", &[]);
     for (name, description) in categories {
@@ -205,6 +231,13 @@ fn variable_head(vr: usize, slot: Slot, var: &Var, words: Words) -> Vec<(&'stati
         attrs.push(("initial", s(initial)));
     }
     attrs
+}
+
+/// Whether a variable is an FMI 2.0 Integer (FMI 3.0: Int32): `solver_max_steps`,
+/// `me_projection`, or a parameter declared [`Var::integer`].
+fn is_integer(slot: Slot, var: &Var) -> bool {
+    matches!(slot.kind, VarKind::SolverMaxSteps | VarKind::MeProjection)
+        || var.ty == VarType::Integer
 }
 
 /// An Integer variable's (FMI 3.0: Int32) min, max and start.
@@ -326,6 +359,13 @@ fn render<M: System>(guid: &str) -> String {
     solver_items(&mut w, fmi2_words);
     close(&mut w, "Enumeration");
     close(&mut w, "SimpleType");
+    for (name, items) in parameter_enumerations(&layout) {
+        open(&mut w, "SimpleType", &[("name", name)]);
+        open(&mut w, "Enumeration", &[]);
+        parameter_items(&mut w, items, fmi2_words);
+        close(&mut w, "Enumeration");
+        close(&mut w, "SimpleType");
+    }
     close(&mut w, "TypeDefinitions");
 
     log_categories(&mut w, LOG_CATEGORIES);
@@ -347,7 +387,13 @@ fn render<M: System>(guid: &str) -> String {
                     ("start", s(var.start as i32)),
                 ],
             );
-        } else if matches!(slot.kind, VarKind::SolverMaxSteps | VarKind::MeProjection) {
+        } else if let Some(type_name) = var.type_name() {
+            empty(
+                &mut w,
+                "Enumeration",
+                &[("declaredType", type_name), ("start", s(var.start as i32))],
+            );
+        } else if is_integer(*slot, var) {
             empty(&mut w, "Integer", &integer_attrs(var));
         } else {
             let real = real_attrs(&layout, &probe, *slot, var, |vr| vr + 1);

@@ -5,7 +5,7 @@
 
 use crate::model::consistent;
 use crate::model::jacobian::{directional, Direction};
-use crate::model::{Layout, System, VarKind};
+use crate::model::{Layout, System, Var, VarKind, VarType};
 use num_dual::Dual64;
 
 /// `(ScalarVariable index, indices it depends on)`, 1-based as in the XML.
@@ -51,12 +51,20 @@ fn sparsity<M: System>(layout: &Layout) -> Sparsity {
     let n_known = n + m + np;
     let mut nonzero = vec![vec![false; n_known]; n + ny];
     let mut constrained = vec![false; n_known];
+    let params: Vec<&Var> = (0..np)
+        .map(|i| &layout.vars[layout.vr_of_slot(VarKind::Parameter, i) as usize].1)
+        .collect();
     let mut rng = SplitMix(0x5EED);
     for _point in 0..3 {
         let t = rng.uniform(0.1, 10.0);
         let x: Vec<f64> = (0..n).map(|_| rng.uniform(-1.0, 1.0)).collect();
         let u: Vec<f64> = (0..m).map(|_| rng.uniform(-1.0, 1.0)).collect();
-        let p: Vec<f64> = (0..np).map(|_| rng.uniform(0.5, 2.0)).collect();
+        // An Integer or Enumeration parameter takes a legal value (drawn alike: the other
+        // parameters' draws do not move).
+        let p: Vec<f64> = params
+            .iter()
+            .map(|var| legal(var, rng.uniform(0.5, 2.0)))
+            .collect();
         for j in 0..n_known {
             let mut e = vec![0.0; n_known];
             e[j] = 1.0;
@@ -86,9 +94,40 @@ fn sparsity<M: System>(layout: &Layout) -> Sparsity {
             }
         }
     }
+    // A derivative cannot see what a discrete parameter switches: every unknown, and the
+    // constraints of a constrained system, are declared to depend on it (a superset of the
+    // dependencies, which FMI allows; the XML of a system without one is unchanged).
+    for (i, var) in params.iter().enumerate() {
+        if var.is_integer() {
+            for row in nonzero.iter_mut() {
+                row[n + m + i] = true;
+            }
+            constrained[n + m + i] = M::STATE_CONSTRAINTS > 0;
+        }
+    }
     Sparsity {
         nonzero,
         constrained,
+    }
+}
+
+/// A legal value of `var` near the draw `r` ∈ [0.5, 2): `r` itself for a Real; for an
+/// Enumeration the code at that fraction of its items; for an Integer `r` rounded, inside
+/// its [min, max] (the start value when that fails).
+fn legal(var: &Var, r: f64) -> f64 {
+    let v = match var.ty {
+        VarType::Real => return r,
+        VarType::Enumeration(items) => {
+            (((r - 0.5) / 1.5 * items.len() as f64) as usize).min(items.len() - 1) as f64
+        }
+        VarType::Integer => r
+            .round()
+            .clamp(var.min.unwrap_or(f64::MIN), var.max.unwrap_or(f64::MAX)),
+    };
+    if var.check(v).is_ok() {
+        v
+    } else {
+        var.start
     }
 }
 

@@ -21,7 +21,7 @@ use crate::integrators::problem::Problem;
 use crate::integrators::{self, finite, zeroed, Memory, Method, Settings, Workspace};
 use crate::model::consistent;
 use crate::model::jacobian::{Direction, Duals};
-use crate::model::{Slot, System, Var, VarKind};
+use crate::model::{Slot, System, Var, VarKind, VarType};
 use info::{ModelInfo, Status};
 use logger::Logger;
 use mode::{Interface, Mode};
@@ -278,10 +278,48 @@ impl<M: System> Instance<M> {
         &self.info.layout.vars[vr as usize].1.name
     }
 
+    /// The declaration of a value reference already checked ([`Instance::slot`]).
+    fn var(&self, vr: u32) -> &Var {
+        &self.info.layout.vars[vr as usize].1
+    }
+
+    /// Sets one variable from an `f64`, whatever its FMI type: an Integer or Enumeration
+    /// (`solver`, `solver_max_steps`, `me_projection`, a parameter declared
+    /// [`Var::integer`] or [`Var::enumeration`]) through [`Instance::set_integer`], every
+    /// other through [`Instance::set_real`], so that it meets that setter's checks. What a
+    /// scene's start values and the Rust callers that hold numbers use.
+    pub fn set_value(&mut self, vr: u32, value: f64) -> Res {
+        let slot = self.slot(vr)?;
+        if integer_kind(slot, self.var(vr)).is_none() {
+            return self.set_real(&[vr], &[value]);
+        }
+        if value.fract() != 0.0 || !(i32::MIN as f64..=i32::MAX as f64).contains(&value) {
+            return Err(format!(
+                "{} (value reference {vr}) is an Integer or Enumeration: {value} is not one of its values",
+                self.name(vr)
+            ));
+        }
+        self.set_integer(&[vr], &[value as i32])
+    }
+
+    /// Reads one variable as an `f64`, whatever its FMI type ([`Instance::set_value`]'s
+    /// twin).
+    pub fn get_value(&self, vr: u32) -> Res<f64> {
+        let slot = self.slot(vr)?;
+        if integer_kind(slot, self.var(vr)).is_none() {
+            let mut v = [0.0];
+            self.get_real(&[vr], &mut v)?;
+            return Ok(v[0]);
+        }
+        let mut v = [0];
+        self.get_integer(&[vr], &mut v)?;
+        Ok(v[0] as f64)
+    }
+
     pub fn get_real(&self, vrs: &[u32], values: &mut [f64]) -> Res {
         for &vr in vrs {
             let s = self.slot(vr)?;
-            if let Some(kind) = integer_kind(s.kind) {
+            if let Some(kind) = integer_kind(s, self.var(vr)) {
                 return Err(format!(
                     "value reference {vr} ({}) is an {kind}, read it with {}",
                     self.name(vr),
@@ -353,6 +391,12 @@ impl<M: System> Instance<M> {
             let slot = self.slot(vr)?;
             let (_, var) = &self.info.layout.vars[vr as usize];
             let name = &var.name;
+            if let Some(kind) = integer_kind(slot, var) {
+                return Err(format!(
+                    "{name} (value reference {vr}) is an {kind}, set it with {}",
+                    self.logger.words.set_integer
+                ));
+            }
             match slot.kind {
                 VarKind::Derivative | VarKind::Output => {
                     return Err(format!(
@@ -360,11 +404,7 @@ impl<M: System> Instance<M> {
                     ))
                 }
                 VarKind::SolverMethod | VarKind::SolverMaxSteps | VarKind::MeProjection => {
-                    let kind = integer_kind(slot.kind).expect("an Integer");
-                    return Err(format!(
-                        "{name} (value reference {vr}) is an {kind}, set it with {}",
-                        self.logger.words.set_integer
-                    ));
+                    unreachable!("an Integer, refused above")
                 }
                 VarKind::State if var.dependent => {
                     if self.data.mode != Mode::Instantiated {
@@ -419,6 +459,8 @@ impl<M: System> Instance<M> {
             *value = match slot.kind {
                 VarKind::SolverMethod => self.data.method.code(),
                 VarKind::MeProjection => self.data.me_projection as i32,
+                // A whole number an i32 holds: the setter's check (and a restored state's).
+                VarKind::Parameter => self.data.params[slot.index] as i32,
                 // At most i32::MAX: the setter's range (and a restored state's).
                 _ => self.data.max_steps as i32,
             };
@@ -429,6 +471,10 @@ impl<M: System> Instance<M> {
     pub fn set_integer(&mut self, vrs: &[u32], values: &[i32]) -> Res {
         let (mut method, mut max_steps) = (self.data.method, self.data.max_steps);
         let mut me_projection = self.data.me_projection;
+        // The Integer and Enumeration parameters set (index, value): written after every
+        // check passed. Empty (no allocation) when the call sets none.
+        let mut params = Vec::new();
+        let mut sets_method = false;
         for (&vr, &value) in vrs.iter().zip(values) {
             let slot = self.integer_slot(vr)?;
             let (_, var) = &self.info.layout.vars[vr as usize];
@@ -449,6 +495,12 @@ impl<M: System> Instance<M> {
                 me_projection = value != 0;
                 continue;
             }
+            if slot.kind == VarKind::Parameter {
+                check_real(var, vr, value as f64)?;
+                params.push((slot.index, value as f64));
+                continue;
+            }
+            sets_method = true;
             method = Method::from_code(value).ok_or_else(|| {
                 format!(
                     "{value} is not a method code for {name} (value reference {vr}); valid: {}",
@@ -456,8 +508,22 @@ impl<M: System> Instance<M> {
                 )
             })?;
         }
+        // A call that sets parameters checks the method with them only when it sets the
+        // method too: a parameter set alone is not refused for the method's sake (as one set
+        // with fmi2SetReal: fmi2ExitInitializationMode checks the pair).
         let d = &self.data;
-        check_method::<M>(method, &d.u, &d.params, true)?;
+        if params.is_empty() {
+            check_method::<M>(method, &d.u, &d.params, true)?;
+        } else {
+            let mut p = d.params.clone();
+            for &(i, v) in &params {
+                p[i] = v;
+            }
+            if sets_method {
+                check_method::<M>(method, &d.u, &p, true)?;
+            }
+            self.data.params = p;
+        }
         self.data.method = method;
         self.data.max_steps = max_steps;
         self.data.me_projection = me_projection;
@@ -466,7 +532,7 @@ impl<M: System> Instance<M> {
 
     fn integer_slot(&self, vr: u32) -> Res<Slot> {
         let slot = self.slot(vr)?;
-        if integer_kind(slot.kind).is_none() {
+        if integer_kind(slot, self.var(vr)).is_none() {
             return Err(format!(
                 "value reference {vr} ({}) is a Real, not an Integer/Enumeration",
                 self.name(vr)
@@ -605,7 +671,8 @@ impl<M: System> Instance<M> {
 
     /// Whether an FMU state (of this model's counts) is one this instance could have been
     /// in: every value passes the check of its setter (fmi2SetReal: finite and inside its
-    /// [min, max]; fmi2SetInteger: a method this system accepts; fmi2SetupExperiment: the
+    /// [min, max]; fmi2SetInteger: a method this system accepts, an Enumeration parameter
+    /// one of its codes, an Integer one a whole number; fmi2SetupExperiment: the
     /// tolerance and times), the time fits the mode and the experiment, and an
     /// integrator state ahead of the communication time belongs to the method and agrees
     /// with the state (see [`Instance::check_ahead`]). A state made by fmi2GetFMUstate always
@@ -771,11 +838,16 @@ impl<M: System> Instance<M> {
     }
 }
 
-/// The FMI type of the variables of `kind` read with fmi2GetInteger (None: a Real).
-fn integer_kind(kind: VarKind) -> Option<&'static str> {
-    match kind {
-        VarKind::SolverMethod => Some("Enumeration"),
-        VarKind::SolverMaxSteps | VarKind::MeProjection => Some("Integer"),
+/// The FMI type of a variable read with fmi2GetInteger (None: a Real): the FMU's own
+/// `solver` (Enumeration), `solver_max_steps` and `me_projection` (Integer), and a
+/// parameter its system declared an Integer or an Enumeration.
+fn integer_kind(slot: Slot, var: &Var) -> Option<&'static str> {
+    match (slot.kind, var.ty) {
+        (VarKind::SolverMethod, _) | (VarKind::Parameter, VarType::Enumeration(_)) => {
+            Some("Enumeration")
+        }
+        (VarKind::SolverMaxSteps | VarKind::MeProjection, _)
+        | (VarKind::Parameter, VarType::Integer) => Some("Integer"),
         _ => None,
     }
 }

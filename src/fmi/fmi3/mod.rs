@@ -11,9 +11,9 @@
 //! Variables: the value references of FMI 2.0, plus `time` (the independent variable) at
 //! the first free value reference and, for a model with an event indicator, the indicator
 //! at the next one ([`Layout::fmi3_extra_vrs`](crate::model::Layout::fmi3_extra_vrs)).
-//! Types: Float64 (FMI 2.0's Real), Int32 (Integer) and Int64 (the Enumeration `solver`:
-//! FMI 3.0 reads enumerations as Int64); every other type answers fmi3Error for any value
-//! reference.
+//! Types: Float64 (FMI 2.0's Real), Int32 (Integer) and Int64 (the Enumerations, `solver`
+//! and a system's enumeration parameters: FMI 3.0 reads enumerations as Int64); every other
+//! type answers fmi3Error for any value reference.
 
 mod cs;
 mod me;
@@ -25,7 +25,7 @@ use super::boundary::{guard, ok, slice, slice_mut, Component, FmuState, Guarded}
 use super::core::mode::states;
 use super::gate::{self, gates, Gate, Table};
 use crate::fmi::{Export, Instance, Interface, Logger, Mode, ResourceLocation, Status};
-use crate::model::{System, VarKind};
+use crate::model::{System, VarKind, VarType};
 use std::ffi::{c_char, c_void, CStr};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
@@ -211,9 +211,11 @@ fn var3<E: Export>(f: &Inst3<E>, vr: u32) -> Result<Var3, String> {
         let last = indicator.unwrap_or(time);
         format!("unknown value reference {vr} (this model has 0 … {last})")
     })?;
-    Ok(Var3::Core(match slot.kind {
-        VarKind::SolverMethod => Type3::Int64,
-        VarKind::SolverMaxSteps | VarKind::MeProjection => Type3::Int32,
+    let var = &info.layout.vars[vr as usize].1;
+    Ok(Var3::Core(match (slot.kind, var.ty) {
+        (VarKind::SolverMethod, _) | (VarKind::Parameter, VarType::Enumeration(_)) => Type3::Int64,
+        (VarKind::SolverMaxSteps | VarKind::MeProjection, _)
+        | (VarKind::Parameter, VarType::Integer) => Type3::Int32,
         _ => Type3::Float64,
     }))
 }
@@ -596,7 +598,8 @@ pub unsafe fn set_int32<E: Export>(
     )
 }
 
-/// The Enumeration `solver`, which FMI 3.0 reads as Int64.
+/// The Enumerations (`solver`, a system's enumeration parameters), which FMI 3.0 reads as
+/// Int64.
 ///
 /// # Safety
 /// As [`get_float64`].
@@ -641,9 +644,17 @@ pub unsafe fn set_int64<E: Export>(
         (vr, nvr),
         (value, n_values),
         |f, vr, value| {
-            let v32 = value
+            let v32 = vr
                 .iter()
-                .map(|&v| i32::try_from(v).map_err(|_| format!("{v} is not a solver (1 … 12)")))
+                .zip(value)
+                .map(|(&r, &v)| {
+                    i32::try_from(v).map_err(|_| {
+                        format!(
+                            "{v} is not a value of {} (value reference {r})",
+                            var_name::<E>(f, r)
+                        )
+                    })
+                })
                 .collect::<Result<Vec<i32>, String>>()?;
             f.core.set_integer(vr, &v32)
         },
