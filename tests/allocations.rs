@@ -539,7 +539,7 @@ fn mechanism_runtime_steps_without_allocating_per_step() {
     mbfmu::multibody::runtime::load("arm", ARM).unwrap();
     type R = mbfmu::multibody::fmu::Robot<mbfmu::multibody::runtime::Runtime>;
     let x = [0.8, -0.5, 0.3, 0.0, 0.1, 0.2];
-    let (u, p) = ([0.0; 3], [1.0]);
+    let (u, p) = ([0.0; 3], [2.0]);
     let mut dx = [0.0; 6];
     assert_eq!(<R as System>::parameters().len(), p.len());
     <R as System>::derivatives(0.0, &x, &u, &p, &mut dx);

@@ -41,7 +41,7 @@ impl System for BouncingBall {
         // Falling through the floor; after the bounce (v > 0) the indicator stays positive.
         Some(if x[1] > 0.0 { 1.0 } else { x[0] })
     }
-    fn on_event(_t: f64, x: &mut [f64], _p: &[f64]) -> Result<(), String> {
+    fn on_event(_t: f64, x: &mut [f64], _u: &[f64], _p: &[f64]) -> Result<(), String> {
         x[1] *= -E;
         Ok(())
     }

@@ -112,7 +112,7 @@ impl Sim {
             if !self.locate {
                 self.events.push((t_end, x1.clone()));
                 (self.t, self.x, self.memory) = (t_end, x1, m1);
-                SphereSlide::on_event(self.t, &mut self.x, &self.p)
+                SphereSlide::on_event(self.t, &mut self.x, &[], &self.p)
                     .expect("SphereSlide always continues");
                 break;
             }
@@ -133,7 +133,7 @@ impl Sim {
             let (xe, me) = self.integrate(t0, &x0, &m0, hi);
             self.events.push((hi, xe.clone()));
             (self.t, self.x, self.memory) = (hi, xe, me);
-            SphereSlide::on_event(self.t, &mut self.x, &self.p)
+            SphereSlide::on_event(self.t, &mut self.x, &[], &self.p)
                 .expect("SphereSlide always continues");
             if self.t >= t_end {
                 break;

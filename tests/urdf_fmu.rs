@@ -1,7 +1,8 @@
 //! A mechanism declared as a user's crate declares it (`mechanism_fmu!`), run through the
-//! FMU's own Instance: a joint reaching its position limit ends the doStep at that instant
-//! with fmi2Discard and a line naming the joint, the limit and the time (`limit_events = 0`:
-//! through it); and `mbfmu build --urdf` refuses every bad URDF with one line and writes
+//! FMU's own Instance: with `limit_events = 1` (discard) a joint reaching its position limit
+//! ends the doStep at that instant with fmi2Discard and a line naming the joint, the limit
+//! and the time (`limit_events = 0`: through it; the default, end stops, in
+//! tests/end_stops.rs); and `mbfmu build --urdf` refuses every bad URDF with one line and writes
 //! no file.
 
 use mbfmu::fmi::{Instance, Logger, ModelInfo, StepOutcome};
@@ -93,7 +94,7 @@ fn instance(values: &[(&str, f64)]) -> (Instance<R>, &'static ModelInfo) {
     let mut inst = Instance::<R>::new(info, Logger::silent("lift"));
     for (name, v) in values {
         let vr = info.layout.vr_of(name).expect(name);
-        inst.set_real(&[vr], &[*v]).unwrap();
+        inst.set_value(vr, *v).unwrap();
     }
     inst.setup_experiment(Some(1e-10), 0.0, None).unwrap();
     inst.enter_initialization_mode().unwrap();
@@ -109,7 +110,7 @@ fn instance(values: &[(&str, f64)]) -> (Instance<R>, &'static ModelInfo) {
 fn a_joint_reaching_its_limit_ends_the_do_step_there() {
     let a = 20.0 - 9.81;
     let t_star = (0.4f64 / a).sqrt();
-    let (mut inst, info) = instance(&[("tau_lift", 20.0)]);
+    let (mut inst, info) = instance(&[("tau_lift", 20.0), ("limit_events", 1.0)]);
     let why = match inst.do_step(0.0, 1.0).unwrap() {
         StepOutcome::Discarded(why) => why,
         other => panic!("not stopped at the limit: {other:?}"),
@@ -119,7 +120,7 @@ fn a_joint_reaching_its_limit_ends_the_do_step_there() {
         why.contains("joint lift reached its upper limit 0.2 m at t = 0.1981"),
         "{why}"
     );
-    assert!(why.contains("no end stops") && why.contains("limit_events = 0"));
+    assert!(why.contains("limit_events = 1, discard"), "{why}");
     assert!(
         (inst.time() - t_star).abs() < 1e-9,
         "{} vs {t_star}",

@@ -149,8 +149,19 @@ pub trait Lagrangian: 'static {
     }
 
     /// At an event, as [`System::on_event`]: `Err(why)` stops the integration there.
-    fn on_event(_t: f64, _q: &mut [f64], _qd: &mut [f64], _p: &[f64]) -> Result<(), String> {
+    fn on_event(
+        _t: f64,
+        _q: &mut [f64],
+        _qd: &mut [f64],
+        _u: &[f64],
+        _p: &[f64],
+    ) -> Result<(), String> {
         Ok(())
+    }
+
+    /// [`System::impacts`].
+    fn impacts() -> bool {
+        false
     }
 
     /// `(q̈, λ)` by the equations generated from this Lagrangian (`mbfmu symbolic`, under
@@ -278,8 +289,12 @@ impl<L: Lagrangian> Lagrangian for AutoDiff<L> {
     fn event_indicator(t: f64, q: &[f64], qd: &[f64], u: &[f64], p: &[f64]) -> Option<f64> {
         <L as Lagrangian>::event_indicator(t, q, qd, u, p)
     }
-    fn on_event(t: f64, q: &mut [f64], qd: &mut [f64], p: &[f64]) -> Result<(), String> {
-        <L as Lagrangian>::on_event(t, q, qd, p)
+    fn on_event(t: f64, q: &mut [f64], qd: &mut [f64], u: &[f64], p: &[f64]) -> Result<(), String> {
+        <L as Lagrangian>::on_event(t, q, qd, u, p)
+    }
+
+    fn impacts() -> bool {
+        <L as Lagrangian>::impacts()
     }
 }
 
@@ -786,10 +801,14 @@ impl<L: Lagrangian> System for L {
         <L as Lagrangian>::event_indicator(t, q, qd, u, p)
     }
 
-    fn on_event(t: f64, x: &mut [f64], p: &[f64]) -> Result<(), String> {
+    fn on_event(t: f64, x: &mut [f64], u: &[f64], p: &[f64]) -> Result<(), String> {
         let n = x.len() / 2;
         let (q, qd) = x.split_at_mut(n);
-        <L as Lagrangian>::on_event(t, q, qd, p)
+        <L as Lagrangian>::on_event(t, q, qd, u, p)
+    }
+
+    fn impacts() -> bool {
+        <L as Lagrangian>::impacts()
     }
 
     fn project(t: f64, p: &[f64], x: &mut [f64]) {

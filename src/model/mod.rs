@@ -335,11 +335,19 @@ pub trait System: 'static {
         None
     }
 
-    /// Applies an event at time `t`: changes the discrete part of the state (a mode
+    /// Applies an event at time `t` (inputs `u` as they are there): changes the discrete part of the state (a mode
     /// variable the dynamics hold constant) or the state itself (an impact), and returns
     /// `Ok`; or returns `Err(why)` where the model stops holding (a bicycle that has
     /// fallen): the integration stops at the event and doStep answers fmi2Discard there.
-    fn on_event(_t: f64, _x: &mut [f64], _p: &[f64]) -> Result<(), String> {
+    fn on_event(_t: f64, _x: &mut [f64], _u: &[f64], _p: &[f64]) -> Result<(), String> {
         Ok(())
+    }
+
+    /// Whether [`System::on_event`] may change every state (an impact: a position put on
+    /// its stop, every velocity changed by the impulse), which probing it at the start
+    /// values would not show: Model Exchange then declares every state `reinit`. Default:
+    /// no (what the probe finds).
+    fn impacts() -> bool {
+        false
     }
 }

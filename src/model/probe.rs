@@ -64,12 +64,15 @@ impl Probe {
         if has_indicator {
             for x in [&x0, &x1] {
                 let mut y = x.to_vec();
-                if M::on_event(0.0, &mut y, &p).is_ok() {
+                if M::on_event(0.0, &mut y, &u, &p).is_ok() {
                     for i in 0..n {
                         reinit[i] |= y[i].to_bits() != x[i].to_bits();
                     }
                 }
             }
+        }
+        if has_indicator && M::impacts() {
+            reinit.fill(true);
         }
         Probe {
             event_indicators: has_indicator as usize,

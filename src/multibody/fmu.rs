@@ -19,15 +19,19 @@
 //! - outputs `E = T + V` and, for every end of a branch (a link with no child, fixed
 //!   children merged), `LINK_x`, `LINK_y`, `LINK_z` and the quaternion `LINK_q0`…`LINK_q3`
 //!   in the base frame;
-//! - joint position limits: an event indicator (the signed distance to the nearest limit)
-//!   whose zero ends the doStep with fmi2Discard (the model has no end stops), switched off
-//!   by the parameter `limit_events = 0`.
+//! - joint position limits, as the Enumeration parameter `limit_events` says
+//!   ([`LimitMode`]): end stops by default ([`stops`](super::stops): an impact located as
+//!   an event, restitution the parameter `restitution`; a joint rests on its stop while the
+//!   load pushes into it, with its reaction as the output `tau_stop_J`, and leaves when it
+//!   pulls); or fmi2Discard at the limit (the signed distance to the nearest limit as the
+//!   event indicator); or ignored. A mechanism with loop closures has no end stops.
 //!
 //! Not modelled, and said so ([`unmodelled`], the page): Coulomb friction and velocity
 //! limits. A model layer: nothing here knows FMI, packaging or the CLI.
 
 use super::dynamics::{Axis, Model};
 use super::mechanism::{Error, JointKind, Mechanism};
+use super::stops;
 use crate::model::lagrangian::Lagrangian;
 use crate::model::{Scalar, Scene, Var};
 use num_dual::{Dual, Dual64};
@@ -50,8 +54,9 @@ macro_rules! mechanism_equations {
             "Generalised forces: Q = τ − d q̇, with τ the joint's input (a torque, or a force for a prismatic joint) and d its viscous damping",
             "M(q) q̈ = Q + ∂L/∂q − (∂²L/∂q̇∂q) q̇, solved by the articulated-body algorithm (Featherstone, Rigid Body Dynamics Algorithms, table 7.1): O(n), no mass matrix formed",
             "E = T + V; for the end of each branch, its position and orientation quaternion (w, x, y, z) in the base frame",
-            "Joint position limits: the model has no end stops; a joint reaching one ends the doStep with fmi2Discard at that instant, saying which joint and limit (a parameter switches this off)",
-            "Not modelled: Coulomb friction, velocity limits, end stops; a floating base is refused; effort limits are the ranges of the inputs; a mimic joint follows the joint it names (q = r q_joint + o, no coordinate or input of its own: its position and velocity are outputs), q̈ then from the mass matrix reduced to the independent joints",
+            "Joint position limits are end stops (parameter limit_events = stops, the default): a joint reaching one moving into it is an impact, located as an event: its velocity becomes −e times what it was (e = restitution) and every other joint's changes by the same impulse through M (Δq̇ = M⁻¹ e_k Λ); a rebound that would rise less than 1e-9 rad (m) rests instead",
+            "A joint resting on its stop (on it, q̇ = 0) stays there while the load pushes into it: q̈_k = 0 by a reaction λ_k (output tau_stop_J) with M q̈ = Q + … + e_k λ_k; where λ would have to pull, the joint leaves. limit_events = discard ends the doStep with fmi2Discard at a limit instead; ignore runs through",
+            "Not modelled: Coulomb friction, velocity limits; a floating base is refused; effort limits are the ranges of the inputs; a mimic joint follows the joint it names (q = r q_joint + o, no coordinate or input of its own: its position and velocity are outputs), q̈ then from the mass matrix reduced to the independent joints",
             $($note,)*
         ]
     };
@@ -232,16 +237,54 @@ pub struct Built {
     pub fingerprint: u64,
 }
 
-/// Index of the `limit_events` parameter.
+/// Index of the `limit_events` parameter ([`LimitMode`]'s code).
 pub const LIMIT_EVENTS: usize = 0;
+/// Index of the `restitution` parameter (a mechanism with end stops only).
+pub const RESTITUTION: usize = 1;
+
+/// What a joint reaching a position limit does: the `limit_events` parameter's codes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LimitMode {
+    /// Limits are ignored: the joint moves through them.
+    Ignore = 0,
+    /// The doStep ends with fmi2Discard at the limit (the behaviour before end stops).
+    Discard = 1,
+    /// End stops ([`stops`](super::stops)): impact, rest, release.
+    Stops = 2,
+}
+
+impl LimitMode {
+    /// The items of the `limit_events` enumeration: name and description, code = index.
+    pub const ITEMS: &'static [crate::model::Item] = &[
+        ("ignore", "Limits are ignored: a joint moves through them"),
+        (
+            "discard",
+            "A joint reaching a limit ends the doStep with fmi2Discard there, naming the joint",
+        ),
+        (
+            "stops",
+            "End stops: a joint reaching a limit hits a stop (restitution e), rests on it while the load pushes into it and leaves when it pulls away",
+        ),
+    ];
+
+    /// The mode of the parameter's value (set values are checked against its range).
+    pub fn of(code: f64) -> LimitMode {
+        match code as i64 {
+            0 => LimitMode::Ignore,
+            1 => LimitMode::Discard,
+            _ => LimitMode::Stops,
+        }
+    }
+}
 
 /// Names the FMU gives its own variables, which no joint or link may take.
-const RESERVED: [&str; 5] = [
+const RESERVED: [&str; 6] = [
     "time",
     "solver",
     "solver_step",
     "solver_max_steps",
     "limit_events",
+    "restitution",
 ];
 
 fn leak(s: String) -> &'static str {
@@ -603,6 +646,21 @@ impl Built {
             outputs.push(q);
             outputs.push(qd);
         }
+        let mimic_outputs = outputs.len();
+        if m == 0 {
+            for l in &limits {
+                let i = order[l.coordinate];
+                let (_, _, f, what) = unit(i);
+                let name = &joint_of(i).name;
+                let mut v = Var::new("", Some(f), 0.0, "");
+                v.name = format!("tau_stop_{name}").into();
+                v.description = format!(
+                    "Generalised {what} of joint {name}'s end stops on it ({f}): not 0 only while it rests on a stop (limit_events = stops)"
+                )
+                .into();
+                outputs.push(v);
+            }
+        }
         // Every name once, none of the FMU's own.
         let mut seen: std::collections::HashMap<String, String> = RESERVED
             .iter()
@@ -641,7 +699,12 @@ impl Built {
                 ));
             }
         }
-        for (k, v) in outputs.iter().enumerate().skip(closure_outputs) {
+        for (k, v) in outputs
+            .iter()
+            .enumerate()
+            .take(mimic_outputs)
+            .skip(closure_outputs)
+        {
             let joint = &model.joints[mimics[(k - closure_outputs) / 2]];
             let what = format!("an output of mimic joint \"{joint}\"");
             if let Some(other) = seen.insert(v.name.to_string(), what) {
@@ -649,6 +712,17 @@ impl Built {
                     joint,
                     format!(
                         "its output \"{}\" would also be {other}: rename the joint",
+                        v.name
+                    ),
+                ));
+            }
+        }
+        for v in outputs.iter().skip(mimic_outputs) {
+            if let Some(other) = seen.insert(v.name.to_string(), "an end-stop output".into()) {
+                return Err(Error::new(
+                    robot(),
+                    format!(
+                        "the end-stop output \"{}\" would also be {other}: rename the joint",
                         v.name
                     ),
                 ));
@@ -665,14 +739,7 @@ impl Built {
                 ));
             }
         }
-        let parameters = vec![Var::new(
-            "limit_events",
-            None,
-            1.0,
-            "1: a joint reaching a position limit ends the doStep with fmi2Discard there (the model has no end stops); 0: limits are ignored",
-        )
-        .min(0.0)
-        .max(1.0)];
+        let parameters = limit_parameters(m > 0, !limits.is_empty());
         let scenes = scenes(
             &start,
             &hold,
@@ -743,14 +810,14 @@ impl Built {
     pub fn limit_distance(&self, q: &[f64]) -> Option<f64> {
         self.limits
             .iter()
-            .map(|l| (q[l.coordinate] - l.lower).min(l.upper - q[l.coordinate]))
+            .map(|l| l.distance(q[l.coordinate]))
             .min_by(f64::total_cmp)
     }
 
     /// The joint at its nearest limit, and which one, as a log line.
     pub fn limit_reached(&self, t: f64, q: &[f64]) -> String {
         let nearest = self.limits.iter().min_by(|a, b| {
-            let d = |l: &PositionLimit| (q[l.coordinate] - l.lower).min(l.upper - q[l.coordinate]);
+            let d = |l: &PositionLimit| l.distance(q[l.coordinate]);
             d(a).total_cmp(&d(b))
         });
         let Some(l) = nearest else {
@@ -764,10 +831,40 @@ impl Built {
         };
         let unit = self.coordinates[i].unit.as_deref().unwrap_or("");
         format!(
-            "joint {} reached its {side} limit {value:?} {unit} at t = {t} s (the model has no end stops; set limit_events = 0 to run through its limits)",
+            "joint {} reached its {side} limit {value:?} {unit} at t = {t} s (limit_events = 1, discard: set it to 2 for end stops, 0 to run through the limits)",
             self.coordinates[i].name
         )
     }
+}
+
+/// The parameters of a mechanism: `limit_events` (end stops by default; a mechanism with
+/// loop closures has none, and discards at a limit) and, where there are end stops (a tree
+/// with limits), `restitution`.
+fn limit_parameters(closures: bool, limited: bool) -> Vec<Var> {
+    let (default, last) = if closures {
+        (LimitMode::Discard, LimitMode::Discard)
+    } else {
+        (LimitMode::Stops, LimitMode::Stops)
+    };
+    let mode = Var::new(
+        "limit_events",
+        None,
+        default as i32 as f64,
+        "What a joint reaching a position limit does",
+    )
+    .enumeration(&LimitMode::ITEMS[..=last as usize]);
+    let restitution = Var::new(
+        "restitution",
+        None,
+        0.0,
+        "Coefficient of restitution e of the end stops: a joint hitting one rebounds with −e times its velocity (0: it stays on the stop; 1: elastic)",
+    )
+    .min(0.0)
+    .max(1.0);
+    if closures || !limited {
+        return vec![mode];
+    }
+    vec![mode, restitution]
 }
 
 /// The scenes: released at rest from the start configuration with no torque (it falls);
@@ -971,6 +1068,37 @@ fn without_start_values(xml: &str) -> String {
     out
 }
 
+/// q̈ of a tree mechanism without end stops: by the articulated-body algorithm
+/// ([`Declared::generated_aba`]'s straight-line code where current), springs as joint
+/// forces `τ − ∂V_springs/∂q`.
+fn free_accelerations<D: Declared, S: Scalar>(q: &[S], qd: &[S], u: &[S], qdd: &mut [S]) {
+    let b = D::built();
+    let generated = generated_is_current::<D>();
+    if b.natural_order && b.model.springs.is_empty() {
+        if !(generated && D::generated_aba(q, qd, u, qdd)) {
+            aba_reusing(&b.model, q, qd, u, qdd);
+        }
+        return;
+    }
+    let (q, qd, u) = (
+        b.positions_to_model(q),
+        b.velocities_to_model(qd),
+        b.forces_to_model(u),
+    );
+    let tau: Vec<S> = u
+        .iter()
+        .zip(spring_gradient(&b.model, &q))
+        .map(|(&t, g)| t - g)
+        .collect();
+    let mut a = vec![S::zero(); q.len()];
+    if !(generated && D::generated_aba(&q, &qd, &tau, &mut a)) {
+        a = b.model.aba(&q, &qd, &tau);
+    }
+    for (k, &i) in b.order.iter().enumerate() {
+        qdd[k] = a[i];
+    }
+}
+
 /// A declared mechanism as a [`Lagrangian`] (hence a `System` and an FMU).
 pub struct Robot<D>(PhantomData<D>);
 
@@ -1066,37 +1194,18 @@ impl<D: Declared> Lagrangian for Robot<D> {
         q: &[S],
         qd: &[S],
         u: &[S],
-        _p: &[S],
+        p: &[S],
         qdd: &mut [S],
         _lambda: &mut [S],
     ) -> bool {
         if D::CONSTRAINTS > 0 {
             return false;
         }
-        let b = D::built();
-        let generated = !matches!(D::GENERATED_FROM, Some(f) if f != b.fingerprint);
-        if b.natural_order && b.model.springs.is_empty() {
-            if !(generated && D::generated_aba(q, qd, u, qdd)) {
-                aba_reusing(&b.model, q, qd, u, qdd);
-            }
-            return true;
-        }
-        let (q, qd, u) = (
-            b.positions_to_model(q),
-            b.velocities_to_model(qd),
-            b.forces_to_model(u),
-        );
-        let tau: Vec<S> = u
-            .iter()
-            .zip(spring_gradient(&b.model, &q))
-            .map(|(&t, g)| t - g)
-            .collect();
-        let mut a = vec![S::zero(); q.len()];
-        if !(generated && D::generated_aba(&q, &qd, &tau, &mut a)) {
-            a = b.model.aba(&q, &qd, &tau);
-        }
-        for (k, &i) in b.order.iter().enumerate() {
-            qdd[k] = a[i];
+        free_accelerations::<D, S>(q, qd, u, qdd);
+        if LimitMode::of(p[LIMIT_EVENTS].re()) == LimitMode::Stops {
+            let free =
+                |v: &[S], tau: &[S], out: &mut [S]| free_accelerations::<D, S>(q, v, tau, out);
+            stops::hold(&D::built().limits, (q, qd), qdd, None, free);
         }
         true
     }
@@ -1131,13 +1240,27 @@ impl<D: Declared> Lagrangian for Robot<D> {
             );
             y[at + m..at + 2 * m].copy_from_slice(&lambda);
         }
-        // The mimic joints' positions and velocities, last.
+        // The mimic joints' positions and velocities.
         let mut at = 1 + 7 * tips + 2 * m;
         for (i, f) in model.follows.iter().enumerate() {
             if f.is_some() {
                 y[at] = qm[i];
                 y[at + 1] = qdm[i];
                 at += 2;
+            }
+        }
+        // The end stops' reactions, last (a tree's only).
+        if m == 0 && !b.limits.is_empty() {
+            let reaction = &mut y[at..at + b.limits.len()];
+            reaction.fill(S::zero());
+            if LimitMode::of(p[LIMIT_EVENTS].re()) == LimitMode::Stops
+                && stops::any_resting(&b.limits, q, qd)
+            {
+                let mut qdd = vec![S::zero(); q.len()];
+                free_accelerations::<D, S>(q, qd, u, &mut qdd);
+                let free =
+                    |v: &[S], tau: &[S], out: &mut [S]| free_accelerations::<D, S>(q, v, tau, out);
+                stops::hold(&b.limits, (q, qd), &mut qdd, Some(reaction), free);
             }
         }
     }
@@ -1152,15 +1275,33 @@ impl<D: Declared> Lagrangian for Robot<D> {
         D::DEFAULT_EXPERIMENT
     }
 
-    fn event_indicator(_t: f64, q: &[f64], _qd: &[f64], _u: &[f64], p: &[f64]) -> Option<f64> {
-        if p[LIMIT_EVENTS] == 0.0 {
-            return None;
+    /// The distance to the nearest limit ([`LimitMode::Discard`]), or to the nearest
+    /// stop a joint is not on ([`stops::indicator`]).
+    fn event_indicator(_t: f64, q: &[f64], qd: &[f64], _u: &[f64], p: &[f64]) -> Option<f64> {
+        let b = D::built();
+        match LimitMode::of(p[LIMIT_EVENTS]) {
+            LimitMode::Ignore => None,
+            LimitMode::Discard => b.limit_distance(q),
+            LimitMode::Stops => stops::indicator(&b.limits, q, qd),
         }
-        D::built().limit_distance(q)
     }
 
-    fn on_event(t: f64, q: &mut [f64], _qd: &mut [f64], _p: &[f64]) -> Result<(), String> {
-        Err(D::built().limit_reached(t, q))
+    /// A tree with limits has end stops, whose impacts change every state.
+    fn impacts() -> bool {
+        D::CONSTRAINTS == 0 && !D::built().limits.is_empty()
+    }
+
+    /// End stops: the impact ([`stops::impact`]); else the doStep ends at the limit.
+    fn on_event(t: f64, q: &mut [f64], qd: &mut [f64], u: &[f64], p: &[f64]) -> Result<(), String> {
+        if LimitMode::of(p[LIMIT_EVENTS]) != LimitMode::Stops {
+            return Err(D::built().limit_reached(t, q));
+        }
+        let free = |q: &[f64], v: &[f64], tau: &[f64], out: &mut [f64]| {
+            free_accelerations::<D, f64>(q, v, tau, out)
+        };
+        let restitution = p.get(RESTITUTION).copied().unwrap_or(0.0);
+        stops::impact(&D::built().limits, (q, qd, u), restitution, free);
+        Ok(())
     }
 }
 

@@ -18,6 +18,7 @@ pub mod mechanism;
 pub mod runtime;
 pub mod source;
 pub mod spatial;
+pub mod stops;
 pub mod urdf;
 
 pub use dynamics::{Data, Model};

@@ -1165,8 +1165,13 @@ fn the_adapters_variables_are_named_after_joints_and_links() {
             outputs.push(format!("{link}_{s}"));
         }
     }
+    // The end stops' reactions, in coordinate order: the slide, then the hip.
+    outputs.extend(["tau_stop_slide".into(), "tau_stop_hip".into()]);
     assert_eq!(names(<R as Lagrangian>::outputs()), outputs);
-    assert_eq!(names(<R as Lagrangian>::parameters()), ["limit_events"]);
+    assert_eq!(
+        names(<R as Lagrangian>::parameters()),
+        ["limit_events", "restitution"]
+    );
     assert!(!<R as System>::explicit_time(&[1.0]).0);
     assert_eq!(
         <R as Lagrangian>::EQUATIONS.last(),
@@ -1181,8 +1186,8 @@ fn the_adapters_variables_are_named_after_joints_and_links() {
     // Outputs: E = T + V and the tips' poses as Model::tip_poses.
     let mut rng = Rng(42);
     let (q, qd) = (rng.vec(5, -1.0, 1.0), rng.vec(5, -1.0, 1.0));
-    let mut y = vec![0.0; 15];
-    <R as Lagrangian>::extra_outputs(0.0, &q, &qd, &[0.0; 5], &[1.0], &mut y);
+    let mut y = vec![0.0; 17];
+    <R as Lagrangian>::extra_outputs(0.0, &q, &qd, &[0.0; 5], &[2.0, 0.0], &mut y);
     let model = Tree::model();
     assert_eq!(
         y[0],

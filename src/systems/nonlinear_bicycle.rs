@@ -440,7 +440,13 @@ impl Lagrangian for NonlinearBicycle {
 
     /// The lean reached `roll_max`: the bicycle has fallen, and the model (no frame or
     /// rider touching the ground) no longer holds.
-    fn on_event(t: f64, _q: &mut [f64], _qd: &mut [f64], p: &[f64]) -> Result<(), String> {
+    fn on_event(
+        t: f64,
+        _q: &mut [f64],
+        _qd: &mut [f64],
+        _u: &[f64],
+        p: &[f64],
+    ) -> Result<(), String> {
         Err(format!(
             "the bicycle has fallen: |roll| reached roll_max = {} rad at t = {t} s, where the frame and rider would touch the ground (not modelled)",
             p[ROLL_MAX]

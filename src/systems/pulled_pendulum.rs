@@ -140,7 +140,13 @@ impl Lagrangian for PulledPendulum {
         Some(length(t, p) - L_MIN_FRACTION * p[L0])
     }
 
-    fn on_event(t: f64, _q: &mut [f64], _qd: &mut [f64], p: &[f64]) -> Result<(), String> {
+    fn on_event(
+        t: f64,
+        _q: &mut [f64],
+        _qd: &mut [f64],
+        _u: &[f64],
+        p: &[f64],
+    ) -> Result<(), String> {
         Err(format!(
             "PulledPendulum: the string length l = l0 + l_rate t reaches {} m ({} l0) at t = {t} s; stopped there",
             L_MIN_FRACTION * p[L0],

@@ -225,7 +225,7 @@ impl System for SphereSlide {
 
     /// The particle leaves the sphere: free flight from here, position and velocity
     /// unchanged.
-    fn on_event(_t: f64, x: &mut [f64], _p: &[f64]) -> Result<(), String> {
+    fn on_event(_t: f64, x: &mut [f64], _u: &[f64], _p: &[f64]) -> Result<(), String> {
         x[ON] = 0.0;
         Ok(())
     }

@@ -522,7 +522,15 @@ fn advance_locating_events<M: System>(
     (x0, work): (&mut Vec<f64>, &mut Workspace),
 ) -> Result<(), Stop> {
     let mut indicator = |t: f64, x: &[f64]| M::event_indicator(t, x, inputs.at(t, u_buf), p);
-    for _ in 0..MAX_EVENTS_PER_STEP {
+    // The pieces below are single steps: the doStep's step limit is checked on the whole
+    // (a fixed-step plan before any work, as one call would; adaptive attempts as counted).
+    if !settings.method.is_adaptive() {
+        integrators::fixed_plan(settings.step, settings.max_steps, *t, t_end)?;
+    }
+    let attempts = |m: &Memory| m.stats.steps + m.stats.rejected;
+    let attempts_before = attempts(memory);
+    let mut events = 0;
+    while events < MAX_EVENTS_PER_STEP {
         let g0 = indicator(*t, x);
         if g0.is_none() {
             // No indicator here, so no crossing to look for (the common case).
@@ -530,12 +538,27 @@ fn advance_locating_events<M: System>(
                 problem, t, x, t_end, settings, memory, work,
             )?);
         }
+        // The indicator is read about every step (a piece of the step the method proposes,
+        // or of its fixed step), not only at t_end: a crossing and back (a pendulum
+        // bouncing on a stop) inside one long doStep is not stepped over.
+        let piece_end = sampled_end(*t, t_end, settings, memory);
         // (No point ahead is kept here: the memory's clone is its counters and step.)
         let (t0, x0, m0) = (*t, copied(x0, x), memory.clone());
         // A failure (not a step limit) may be the singularity the event guards against (a
         // string pulled to zero length): look for a crossing before it, failing as past it.
-        let failed = match integrators::advance_in(problem, t, x, t_end, settings, memory, work) {
-            Ok(()) if !crossed(g0, indicator(*t, x)) => return Ok(()),
+        let failed = match integrators::advance_in(problem, t, x, piece_end, settings, memory, work)
+        {
+            Ok(()) if !crossed(g0, indicator(*t, x)) => {
+                if *t >= t_end {
+                    return Ok(());
+                }
+                let used = attempts(memory) - attempts_before;
+                if settings.method.is_adaptive() && used >= settings.max_steps {
+                    let steps = used;
+                    return Err(integrators::Failure::TooManySteps { t: *t, steps }.into());
+                }
+                continue;
+            }
             Ok(()) => None,
             Err(e) => {
                 let stop = Stop::from(e);
@@ -563,7 +586,8 @@ fn advance_locating_events<M: System>(
             result.map(|()| (xx, mm)).map_err(Stop::from)
         };
         // The event lies in (lo, hi]: bisect on re-integrations from (t0, x0).
-        let (mut lo, mut hi) = (t0, if failed.is_some() { t_end } else { *t });
+        let (mut lo, mut hi) = (t0, if failed.is_some() { piece_end } else { *t });
+        events += 1;
         for _ in 0..MAX_BISECTIONS {
             let mid = 0.5 * (lo + hi);
             if mid <= lo || mid >= hi {
@@ -589,7 +613,8 @@ fn advance_locating_events<M: System>(
         };
         mm.stats.rhs_evals += extra_evals;
         *memory = mm;
-        let applied = M::on_event(hi, &mut xx, p);
+        // The inputs at the event (an allocation per event only: the indicator holds `u_buf`).
+        let applied = M::on_event(hi, &mut xx, inputs.at(hi, &mut Vec::new()), p);
         *t = hi;
         x.copy_from_slice(&xx);
         if let Err(reason) = applied {
@@ -608,6 +633,31 @@ fn advance_locating_events<M: System>(
         step_limit: false,
         work_limit: false,
     })
+}
+
+/// Where the next piece of an integration that watches an event indicator ends: one step
+/// ahead (the adaptive method's proposal, or the fixed step; `t_end` without one); never
+/// past `t_end`.
+fn sampled_end(t: f64, t_end: f64, settings: &Settings, memory: &Memory) -> f64 {
+    if !settings.method.is_adaptive() {
+        // The fixed grid's next point (its last step takes a sliver in, as the plan does;
+        // no step: one over the whole interval).
+        let h = settings.step;
+        let steps = crate::integrators::problem::step_count(t_end - t, h);
+        return if steps > 1.0 { t + h } else { t_end };
+    }
+    // No proposal yet (the first call, or a method that keeps none): to t_end, as before.
+    let step = memory.h;
+    if step.is_nan() || step <= 0.0 {
+        return t_end;
+    }
+    let end = t + step;
+    // A last sliver shorter than a tenth of a step joins this piece.
+    if end >= t_end || t_end - end < 0.1 * step {
+        t_end
+    } else {
+        end
+    }
 }
 
 /// Why fmi2DoStep refuses a step of `h` from `current` ([`Instance::check_step`]) when the

@@ -183,7 +183,7 @@ impl<M: System> Instance<M> {
         let mut x = d.x.clone();
         let now = M::event_indicator(d.time, &x, &d.u, &d.params);
         if crossed(d.event_reference, now) {
-            if let Err(why) = M::on_event(d.time, &mut x, &d.params) {
+            if let Err(why) = M::on_event(d.time, &mut x, &d.u, &d.params) {
                 x.copy_from_slice(&d.x);
                 info.terminate_simulation = true;
                 self.logger.failure(
