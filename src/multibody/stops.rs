@@ -28,6 +28,15 @@ use crate::model::Scalar;
 /// the impact, `(e v)² / (2 |q̈|)`, rests instead: far below any tolerance a user sets.
 pub const REST_HEIGHT: f64 = 1e-9;
 
+/// A stop lets go only where holding the joint would take a pull that accelerates it by
+/// more than this (rad/s², or m/s²; at an impact, rad/s or m/s): far above the rounding of
+/// a reaction that is ~0, far below anything a tolerance would resolve.
+pub const RELEASE: f64 = 1e-9;
+
+/// A joint this close to its stop (rad, or m) when an impulse drives it in takes part in
+/// the impact ([`impact`]) instead of hitting the stop a moment later on its own.
+pub const CONTACT: f64 = 1e-9;
+
 /// Which of its two stops a joint is on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Side {
@@ -152,13 +161,16 @@ fn reactions<S: Scalar>(
             .collect();
         let mut lambda: Vec<S> = set.iter().map(|&(c, _)| change(c)).collect();
         crate::model::lagrangian::solve(&mut a, &mut lambda);
-        // A stop pushes: λ against the side it is on (λ · into ≤ 0).
+        // A stop pushes: λ against the side it is on (λ · into ≤ 0). A pull is judged by
+        // the acceleration (or velocity change) it makes, (M⁻¹)_kk λ: one below RELEASE is
+        // rounding of a reaction that is ~0 (a limb resting on its stop unloaded), and
+        // letting go on rounding would make the joint chatter on and off its stop.
         let pulling = set
             .iter()
             .zip(&lambda)
             .enumerate()
-            .map(|(k, (&(_, side), l))| (k, l.re() * side.into()))
-            .filter(|&(_, pull)| pull > 0.0)
+            .map(|(k, (&(c, side), l))| (k, l.re() * side.into() * w[k][c].re()))
+            .filter(|&(_, pull)| pull > RELEASE)
             .max_by(|a, b| a.1.total_cmp(&b.1));
         match pulling {
             Some((k, _)) => {
@@ -214,10 +226,13 @@ pub fn hold<S: Scalar>(
 
 /// At an event with end stops: every joint on or beyond a stop and moving into it (or
 /// resting beyond it) is put on the stop and rebounds with `−e` times its velocity (or
-/// rests, when the rebound would rise less than [`REST_HEIGHT`] under `qdd_free`, the
-/// unconstrained q̈ there), the joints already resting stay at rest, and every other
-/// velocity changes by the impulses. Returns whether anything changed. `free(q, q̇, τ,
-/// q̈)`: the unconstrained q̈; `u` the inputs.
+/// rests, when the rebound would rise less than [`REST_HEIGHT`] under the load there), the
+/// joints already resting stay at rest, and every other velocity changes by the impulses.
+/// A joint within [`CONTACT`] of its stop that the impulse drives into it joins the same
+/// impact (put on its stop, coming to rest): impacts through the mass matrix are
+/// simultaneous, else two coupled joints would knock each other into their stops in turn,
+/// a geometric series of events. Returns whether anything changed. `free(q, q̇, τ, q̈)`:
+/// the unconstrained q̈; `u` the inputs.
 pub fn impact(
     limits: &[PositionLimit],
     (q, qd, u): (&mut [f64], &mut [f64], &[f64]),
@@ -237,41 +252,77 @@ pub fn impact(
         return false;
     }
     let n = q.len();
+    let before = qd.to_vec();
     let mut loaded = vec![0.0; n];
     free(q, qd, u, &mut loaded);
     let target = |c: usize, side: Side| -> f64 {
-        let rebound = -restitution * qd[c];
+        let rebound = -restitution * before[c];
         let push = loaded[c] * side.into();
-        if push > 0.0 && rebound * rebound < 2.0 * push * REST_HEIGHT {
+        if before[c] * side.into() <= 0.0
+            || push > 0.0 && rebound * rebound < 2.0 * push * REST_HEIGHT
+        {
             0.0
         } else {
             rebound
         }
     };
-    let mut set: Vec<(usize, Side)> = resting(limits, q, qd)
+    let resting_set: Vec<(usize, Side)> = resting(limits, q, &before)
         .into_iter()
         .map(|(k, side)| (limits[k].coordinate, side))
-        .filter(|&(c, _)| !hits.iter().any(|&(h, _)| h == c))
         .collect();
-    let targets: Vec<(usize, f64)> = hits
-        .iter()
-        .map(|&(c, side)| (c, target(c, side)))
-        .chain(set.iter().map(|&(c, _)| (c, 0.0)))
-        .collect();
-    set.splice(0..0, hits.iter().copied());
-    let at: Vec<usize> = set.iter().map(|&(c, _)| c).collect();
-    let qf = q.to_vec();
-    let w = inverse_mass_columns(n, &at, &|v: &[f64], tau: &[f64], out: &mut [f64]| {
-        free(&qf, v, tau, out)
-    });
-    let goal = |c: usize| targets.iter().find(|t| t.0 == c).expect("a target").1;
-    let (kept, lambda) = reactions(set, w.clone(), |c| goal(c) - qd[c]);
-    for (&(c, _), &l) in kept.iter().zip(&lambda) {
-        let col = &w[at.iter().position(|&a| a == c).expect("kept from at")];
-        qd.iter_mut().zip(col).for_each(|(v, &wc)| *v += wc * l);
-    }
-    for &(c, _) in &kept {
-        qd[c] = goal(c);
+    for _ in 0..=limits.len() {
+        let mut set: Vec<(usize, Side)> = hits.clone();
+        set.extend(
+            resting_set
+                .iter()
+                .filter(|&&(c, _)| !hits.iter().any(|&(h, _)| h == c)),
+        );
+        let goals: Vec<f64> = set
+            .iter()
+            .map(|&(c, side)| {
+                if hits.iter().any(|&(h, _)| h == c) {
+                    target(c, side)
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let at: Vec<usize> = set.iter().map(|&(c, _)| c).collect();
+        let qf = q.to_vec();
+        let w = inverse_mass_columns(n, &at, &|v: &[f64], tau: &[f64], out: &mut [f64]| {
+            free(&qf, v, tau, out)
+        });
+        let goal = |c: usize| goals[at.iter().position(|&a| a == c).expect("in the set")];
+        let (kept, lambda) = reactions(set, w.clone(), |c| goal(c) - before[c]);
+        qd.copy_from_slice(&before);
+        for (&(c, _), &l) in kept.iter().zip(&lambda) {
+            let col = &w[at.iter().position(|&a| a == c).expect("kept from at")];
+            qd.iter_mut().zip(col).for_each(|(v, &wc)| *v += wc * l);
+        }
+        for &(c, _) in &kept {
+            qd[c] = goal(c);
+        }
+        // Joints at their stop that the impulse drives into it: part of this impact.
+        let mut more = false;
+        for l in limits {
+            let i = l.coordinate;
+            if at.contains(&i) {
+                continue;
+            }
+            let side = if q[i] - l.lower <= l.upper - q[i] {
+                Side::Lower
+            } else {
+                Side::Upper
+            };
+            if (q[i] - l.stop(side)).abs() <= CONTACT && qd[i] * side.into() > 0.0 {
+                q[i] = l.stop(side);
+                hits.push((i, side));
+                more = true;
+            }
+        }
+        if !more {
+            break;
+        }
     }
     true
 }

@@ -243,20 +243,6 @@ REFUSED = {
                                                  "a single rigid body: nothing moves without a floating base"),
 }
 
-# Builds that stop where the project falls short (issue 32's end stops: a joint limit
-# reached in the reference run ends it, as there are no end stops yet); strict xfails, so
-# that each one fixed must be moved out of here.
-NO_END_STOPS = {
-    "baxter_description/urdf/baxter.urdf",
-    "centauro_description/urdf/centauro.urdf",
-    "pr2_description/urdf/pr2.urdf",
-    "g1_description/urdf/g1_29dof_with_hand_rev_1_0.urdf",
-    "simple_humanoid_description/urdf/simple_humanoid.urdf",
-    "simple_humanoid_description/urdf/simple_humanoid_classical.urdf",
-    "tiago_description/robots/tiago_dual.urdf",
-}
-
-
 def every_urdf() -> list[str]:
     root = robots_dir()
     return sorted(str(p.relative_to(root)) for p in root.rglob("*.urdf"))
@@ -266,13 +252,7 @@ def test_example_robot_data_has_the_69_files_of_its_version_6():
     assert len(every_urdf()) == 69
 
 
-def marked(rel: str):
-    if rel in NO_END_STOPS:
-        return pytest.param(rel, marks=pytest.mark.xfail(strict=True, reason="a joint limit ends the reference run: no end stops yet (issue 32)"))
-    return rel
-
-
-@pytest.mark.parametrize("rel", [marked(r) for r in every_urdf()])
+@pytest.mark.parametrize("rel", every_urdf())
 def test_every_urdf_builds_and_runs_or_is_refused_for_its_own_fault(rel, tmp_path, instances):
     """`mbfmu build --urdf FILE` (the runtime, this machine's binary): either an FMU whose
     default experiment fmpy runs to its stop time and whose der(J_dot) and E equal
