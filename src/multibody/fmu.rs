@@ -894,7 +894,7 @@ fn scenes(
     };
     let mut released = at_rest(Scene::new(
         "released",
-        "Released at rest from the start configuration with no joint torques: it falls under gravity (a joint reaching a position limit ends the run)",
+        "Released at rest from the start configuration with no joint torques: it falls under gravity (a joint reaching a position limit meets its end stop)",
         2.0,
     ));
     for input in inputs {

@@ -383,7 +383,8 @@ def test_names_units_and_ranges_are_the_urdfs(robot):
     # The build said what it does not model.
     doc = zipfile.ZipFile(b.fmu).read("documentation/index.html").decode()
     assert "<li>Velocity limits of <math><mrow><mn>6</mn></mrow></math> joints are not enforced" in doc
-    assert "Not modelled: Coulomb friction, velocity limits, end stops" in doc
+    assert "Not modelled: Coulomb friction, velocity limits;" in doc
+    assert "Joint position limits are end stops" in doc
     # The crate it wrote builds as a crate of one's own, and says what it runs.
     crate = cli().parent.parent / "urdf" / "ur5"
     env = {**build_env(), "CARGO_TARGET_DIR": str(cli().parent.parent / "urdf-target")}
