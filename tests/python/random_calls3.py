@@ -107,6 +107,7 @@ def load(spec: Spec, fmu: pathlib.Path):
         "fmi3SetFloat64": (c_int, [P, P, c_size_t, P, c_size_t]),
         "fmi3GetInt32": (c_int, [P, P, c_size_t, P, c_size_t]),
         "fmi3GetInt64": (c_int, [P, P, c_size_t, P, c_size_t]),
+        "fmi3SetInt64": (c_int, [P, P, c_size_t, P, c_size_t]),
         "fmi3GetBoolean": (c_int, [P, P, c_size_t, P, c_size_t]),
         "fmi3GetClock": (c_int, [P, P, c_size_t, P]),
         "fmi3SetTime": (c_int, [P, c_double]),
@@ -305,12 +306,12 @@ class Sequence:
         elif kind < 0.6:
             vr = s.time
             v, valid = 1.0, False
-        elif kind < 0.8:
+        elif kind < 0.8 and s.params:
             vr = r.choice(s.params)
             v = float(s.floats[vr].get("start", 1.0))
             valid = self.state in ("Instantiated", "Init")
         else:
-            vr = r.choice(s.inputs or s.params)
+            vr = r.choice(s.inputs or s.params or [s.time])
             v, valid = r.choice([float("nan"), float("inf"), -float("inf")]), False
         self.call("fmi3SetFloat64", self.c, arr(c_uint32, [vr]), 1, arr(c_double, [v]), 1,
                   expect={OK} if valid else {ERROR})
@@ -331,6 +332,26 @@ class Sequence:
             valid = readable and vr in s.enums
             self.call("fmi3GetInt64", self.c, arr(c_uint32, [vr]), 1, out, 1,
                       expect={OK} if valid else {ERROR})
+
+    def do_set_enum(self):
+        """An Enumeration parameter set to its start (valid before initialization ends), to a
+        code no item has, or an Int64 set on a Float64 variable (both refused)."""
+        r = self.rng
+        s = self.spec
+        params = [vr for vr, v in s.enums.items() if v["causality"] == "parameter"]
+        if not params:
+            return
+        kind = r.random()
+        vr = r.choice(params)
+        if kind < 0.6:
+            v = int(s.enums[vr]["start"])
+            valid = self.state in ("Instantiated", "Init")
+        elif kind < 0.8:
+            v, valid = -7, False
+        else:
+            vr, v, valid = r.choice(list(s.floats)), 0, False
+        self.call("fmi3SetInt64", self.c, arr(c_uint32, [vr]), 1, arr(c_int64, [v]), 1,
+                  expect={OK} if valid else {ERROR})
 
     def do_unsupported(self):
         r = self.rng
@@ -527,9 +548,9 @@ class Sequence:
 
     ACTIONS = [do_free, do_enter_init, do_exit_init, do_step, do_get_float, do_set_float,
                do_get_int, do_unsupported, do_terminate, do_reset, do_modes, do_me,
-               do_derivative, do_state]
+               do_derivative, do_state, do_set_enum]
     WEIGHTS = [(1, 0), (8, 0), (8, 0), (25, 0), (12, 0), (8, 0), (4, 0), (3, 0), (2, 0),
-               (1, 0), (10, 0), (14, 0), (6, 0), (8, 0)]
+               (1, 0), (10, 0), (14, 0), (6, 0), (8, 0), (3, 0)]
 
 
 Sequence.PROGRESS = {

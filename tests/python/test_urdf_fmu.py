@@ -440,7 +440,8 @@ def test_a_limit_ends_the_step_with_discard(robot, instances, logs):
     b = robot("panda")
     inst = instances(b.model, "panda_limit", logging_on=True)
     mark = logs.mark()
-    inst.initialize({**{f"tau_{j}": 0.0 for j in b.joints}}, tol=1e-8)
+    # limit_events = 1: discard (the default, 2, makes the limit an end stop).
+    inst.initialize({"limit_events": 1, **{f"tau_{j}": 0.0 for j in b.joints}}, tol=1e-8)
     status = inst.do_step(2.0)
     assert status == fs.fmi2Discard
     st, t = inst.real_status()
