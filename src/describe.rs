@@ -371,7 +371,11 @@ pub fn respond_mechanism<R: crate::multibody::fmu::OfMechanism>(request: &str) -
                 );
             }
             let m = D::<R>::CONSTRAINTS;
-            let runs = if m > 0 {
+            let runs = if model.free_base.is_some() {
+                format!(
+                    "runs the articulated-body algorithm with a floating base (the base solved from its articulated inertia) on its model: {joints} and 6 of the base (the generated straight-line code covers fixed bases only)"
+                )
+            } else if m > 0 {
                 format!(
                     "runs the λ-method on automatic differentiation of its energies: {joints}, {m} loop-closure residuals by forward kinematics, projected after every step"
                 )
@@ -449,7 +453,12 @@ pub fn respond_runtime<R: crate::multibody::fmu::OfMechanism>(request: &str) -> 
     ) else {
         return refuse("the mechanism runtime answers for a robot given with the request (model_identifier, urdf)");
     };
-    if let Err(e) = runtime::load(name, urdf) {
+    let floating = match protocol::value(&records, "base") {
+        None | Some("fixed") => false,
+        Some("floating") => true,
+        Some(other) => return refuse(&format!("base {other:?} is neither fixed nor floating")),
+    };
+    if let Err(e) = runtime::load(name, urdf, floating) {
         return refuse(&e);
     }
     let answer = respond_mechanism::<R>(request);
@@ -463,6 +472,12 @@ pub fn respond_runtime<R: crate::multibody::fmu::OfMechanism>(request: &str) -> 
                 format!("resource:{}", runtime::URDF_RESOURCE),
                 urdf.to_string(),
             ));
+            if floating {
+                out.push((
+                    format!("resource:{}", runtime::BASE_RESOURCE),
+                    runtime::base_text(true).to_string(),
+                ));
+            }
             protocol::encode(&out)
         }
         _ => answer,

@@ -536,7 +536,7 @@ const ARM: &str = r#"<robot name="arm">
 /// the energy, once per doStep): counted and printed.
 #[test]
 fn mechanism_runtime_steps_without_allocating_per_step() {
-    mbfmu::multibody::runtime::load("arm", ARM).unwrap();
+    mbfmu::multibody::runtime::load("arm", ARM, false).unwrap();
     type R = mbfmu::multibody::fmu::Robot<mbfmu::multibody::runtime::Runtime>;
     let x = [0.8, -0.5, 0.3, 0.0, 0.1, 0.2];
     let (u, p) = ([0.0; 3], [2.0]);

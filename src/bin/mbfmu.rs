@@ -125,6 +125,12 @@ struct BuildArgs {
     /// FMU's resources: no compiler, about a second
     #[arg(long, requires = "urdf")]
     compile: bool,
+    /// With --urdf: the robot's root link floats (legged robots, humanoids, flying arms):
+    /// six more degrees of freedom, states base_x base_y base_z, base_q0 … base_q3 (unit
+    /// quaternion world ← base), base_vx … base_wz (its velocity in the base frame). No
+    /// ground: it falls, flies or floats in space
+    #[arg(long, requires = "urdf")]
+    floating_base: bool,
     /// Where to write the .fmu files [default: target/fmu, of this tree (in-tree models,
     /// --urdf) or of the crate (--manifest-path)]
     #[arg(long, value_name = "DIR")]
@@ -245,6 +251,9 @@ struct NewArgs {
     /// builder calls in src/lib.rs for you to edit
     #[arg(long, value_name = "FILE")]
     from_urdf: Option<PathBuf>,
+    /// With --from-urdf: the robot's root link floats (as `build --urdf --floating-base`)
+    #[arg(long, requires = "from_urdf")]
+    floating_base: bool,
 }
 
 fn positive(text: &str) -> Result<usize, String> {
@@ -309,10 +318,11 @@ fn build(args: BuildArgs) -> Result<(), String> {
     // Each path checks the toolchains after its own input (a bad file is its own error).
     let chosen = platforms::parse(&args.platforms)?;
     if let Some(urdf) = &args.urdf {
+        let robot = (urdf.as_path(), args.name.as_deref(), args.floating_base);
         return if args.compile {
-            build_urdf(urdf, args.name.as_deref(), args.out, &chosen)
+            build_urdf(robot, args.out, &chosen)
         } else {
-            build_urdf_runtime(urdf, args.name.as_deref(), args.out, &chosen)
+            build_urdf_runtime(robot, args.out, &chosen)
         };
     }
     if let Some(path) = args.manifest_path {
@@ -413,10 +423,12 @@ fn build(args: BuildArgs) -> Result<(), String> {
 fn read_urdf(
     urdf: &Path,
     name: Option<&str>,
+    floating: bool,
 ) -> Result<(mbfmu::multibody::Mechanism, String), String> {
     use mbfmu::multibody::{fmu::Built, urdf as reader};
     let file = urdf.display().to_string();
-    let mechanism = reader::load(urdf).map_err(|e| e.to_string())?;
+    let mut mechanism = reader::load(urdf).map_err(|e| e.to_string())?;
+    mechanism.floating_base = floating;
     // What the FMU needs beyond a valid tree: variable names that do not clash.
     Built::new(mechanism.clone()).map_err(|e| e.in_file(&file).to_string())?;
     let name = match name {
@@ -447,20 +459,25 @@ fn absolute(path: &Path) -> String {
 /// crate declaring its bodies and joints under target/urdf/NAME, compiles it into the
 /// shared target/urdf-target, checks that the compiled mechanism is the URDF's, and
 /// packages NAME.fmu (written under a temporary name, then renamed: never a partial file).
+/// A URDF to build: its file, the FMU's name if given, whether its root link floats.
+type Robot<'a> = (&'a Path, Option<&'a str>, bool);
+
 fn build_urdf(
-    urdf: &Path,
-    name: Option<&str>,
+    (urdf, name, floating): Robot,
     out: Option<PathBuf>,
     chosen: &[&'static Platform],
 ) -> Result<(), String> {
     use mbfmu::own_model::{self, MechanismSource};
     let started = std::time::Instant::now();
     let file = urdf.display().to_string();
-    let (mechanism, name) = read_urdf(urdf, name)?;
+    let (mechanism, name) = read_urdf(urdf, name, floating)?;
     platforms::ensure_toolchains(chosen)?;
     let dir = target_dir().join("urdf").join(&name);
     let absolute = absolute(urdf);
-    let command = format!("build --urdf {absolute}");
+    let command = format!(
+        "build --urdf {absolute}{}",
+        if floating { " --floating-base" } else { "" }
+    );
     let from = MechanismSource {
         source: &absolute,
         command: &command,
@@ -485,7 +502,9 @@ fn build_urdf(
         .unwrap_or_default()
         .to_string();
     let generated = runs.starts_with("runs straight-line code generated");
+    // (A floating base runs the interpreted algorithm: the generated code is fixed-base.)
     let tree = mechanism.closures.is_empty()
+        && !floating
         && mbfmu::multibody::Model::new(&mechanism).is_ok_and(|m| m.nq() > 0);
     if tree && !generated {
         return Err(format!(
@@ -506,14 +525,13 @@ const RUNTIME_CRATE: &str = "mechanism_runtime";
 /// the URDF and packages NAME.fmu from the prebuilt mechanism runtime (a binary per
 /// platform, built by `build --all`), the URDF and NAME as its resources: no compiler.
 fn build_urdf_runtime(
-    urdf: &Path,
-    name: Option<&str>,
+    (urdf, name, floating): Robot,
     out: Option<PathBuf>,
     chosen: &[&'static Platform],
 ) -> Result<(), String> {
     let started = std::time::Instant::now();
     let file = urdf.display().to_string();
-    let (mechanism, name) = read_urdf(urdf, name)?;
+    let (mechanism, name) = read_urdf(urdf, name, floating)?;
     if !mechanism.closures.is_empty() {
         return Err(format!("{file}: loop closures need --compile"));
     }
@@ -544,7 +562,12 @@ fn build_urdf_runtime(
     ));
     std::fs::copy(&binaries[0].1, &copy).map_err(|e| format!("{}: {e}", copy.display()))?;
     binaries[0].1 = copy.clone();
-    let request = [("model_identifier", name.as_str()), ("urdf", text.as_str())];
+    let base = mbfmu::multibody::runtime::base_text(floating);
+    let request = [
+        ("model_identifier", name.as_str()),
+        ("urdf", text.as_str()),
+        ("base", base),
+    ];
     let packaged = package_robot(&binaries, &request, out, &name);
     let _ = std::fs::remove_file(&copy);
     let fmu = packaged?;
@@ -552,7 +575,9 @@ fn build_urdf_runtime(
         &fmu,
         &mechanism,
         started,
-        if mbfmu::multibody::Model::new(&mechanism).is_ok_and(|m| m.has_mimics()) {
+        if floating {
+            "runs the articulated-body algorithm with a floating base (the base solved from its articulated inertia), interpreted by the prebuilt mechanism runtime, which reads the robot from the FMU's resources (no compiler)"
+        } else if mbfmu::multibody::Model::new(&mechanism).is_ok_and(|m| m.has_mimics()) {
             "runs the mass matrix reduced to the independent joints (mimic joints follow them), interpreted by the prebuilt mechanism runtime, which reads the robot from the FMU's resources (no compiler; --compile generates straight-line code for this robot: faster, needs cargo)"
         } else {
             "runs the articulated-body algorithm interpreted by the prebuilt mechanism runtime, which reads the robot from the FMU's resources (no compiler; --compile generates straight-line code for this robot: faster, needs cargo)"
@@ -995,9 +1020,16 @@ fn new(args: NewArgs) -> Result<(), String> {
     let dir = args.dir.unwrap_or_else(|| PathBuf::from(&args.name));
     match &args.from_urdf {
         Some(urdf) => {
-            let (mechanism, name) = read_urdf(urdf, Some(&args.name))?;
+            let (mechanism, name) = read_urdf(urdf, Some(&args.name), args.floating_base)?;
             let source = absolute(urdf);
-            let command = format!("new {name} --from-urdf {source}");
+            let command = format!(
+                "new {name} --from-urdf {source}{}",
+                if args.floating_base {
+                    " --floating-base"
+                } else {
+                    ""
+                }
+            );
             let from = mbfmu::own_model::MechanismSource {
                 source: &source,
                 command: &command,

@@ -96,6 +96,28 @@ pub trait Lagrangian: 'static {
     /// See [`System::EVALUATION_WEIGHT`].
     const EVALUATION_WEIGHT: u64 = 1;
 
+    /// How many coordinates more than velocities there are: 1 for a free-flying base,
+    /// whose orientation is a unit quaternion (4 coordinates) but whose angular velocity
+    /// has 3 components; 0 (the default) when `dq/dt = q̇`. With surplus coordinates the
+    /// states are `(q, v)`, `dq/dt` comes from [`coordinate_rates`](Self::coordinate_rates),
+    /// the symplectic methods and RATTLE (which need `dq/dt = q̇`) refuse the system, and
+    /// the energies and accelerations must be given by the system itself
+    /// ([`generated_eom`](Self::generated_eom)): the automatic differentiation of T and V
+    /// here assumes as many velocities as coordinates.
+    fn surplus_coordinates() -> usize {
+        0
+    }
+
+    /// `dq/dt` from `(q, v)` when there are [`surplus_coordinates`](Self::surplus_coordinates)
+    /// (`dq` has q's length); the default copies v.
+    fn coordinate_rates<S: Scalar>(_q: &[S], v: &[S], dq: &mut [S]) {
+        dq.copy_from_slice(v);
+    }
+
+    /// Puts the coordinates back on their manifold after a step (a quaternion back on the
+    /// unit sphere); the default does nothing.
+    fn normalize(_q: &mut [f64]) {}
+
     /// Kinetic energy `T(t, q, q̇, p)`. `t` is a scalar (not `f64`) so that the dual
     /// numbers carry ∂/∂t through it (rheonomic systems); most systems ignore it.
     fn kinetic<S: Scalar>(t: S, q: &[S], qd: &[S], p: &[S]) -> S;
@@ -296,6 +318,21 @@ impl<L: Lagrangian> Lagrangian for AutoDiff<L> {
     fn impacts() -> bool {
         <L as Lagrangian>::impacts()
     }
+    fn surplus_coordinates() -> usize {
+        L::surplus_coordinates()
+    }
+    fn coordinate_rates<S: Scalar>(q: &[S], v: &[S], dq: &mut [S]) {
+        L::coordinate_rates(q, v, dq)
+    }
+    fn normalize(q: &mut [f64]) {
+        L::normalize(q)
+    }
+}
+
+/// Where the states `(q, v)` split: after the coordinates, `(len + surplus) / 2`.
+#[inline(always)]
+fn split<L: Lagrangian>(len: usize) -> usize {
+    (len + L::surplus_coordinates()) / 2
 }
 
 /// `L = T − V` at a point of any scalar type.
@@ -721,8 +758,12 @@ impl<L: Lagrangian> System for L {
     const NAME: &'static str = <L as Lagrangian>::NAME;
     const DESCRIPTION: &'static str = <L as Lagrangian>::DESCRIPTION;
     const EQUATIONS: &'static [&'static str] = <L as Lagrangian>::EQUATIONS;
-    const SECOND_ORDER: bool = true;
     const EVALUATION_WEIGHT: u64 = L::EVALUATION_WEIGHT;
+
+    /// `(q, q̇)` halves unless there are surplus coordinates.
+    fn second_order() -> bool {
+        L::surplus_coordinates() == 0
+    }
 
     fn name() -> &'static str {
         <L as Lagrangian>::name()
@@ -748,8 +789,8 @@ impl<L: Lagrangian> System for L {
         let (q, qd) = (L::coordinates(), L::velocities());
         assert_eq!(
             q.len(),
-            qd.len(),
-            "{}: as many velocities as coordinates",
+            qd.len() + L::surplus_coordinates(),
+            "{}: as many velocities as coordinates (less the surplus ones)",
             <L as Lagrangian>::NAME
         );
         q.into_iter().chain(qd).collect()
@@ -762,16 +803,20 @@ impl<L: Lagrangian> System for L {
     // (Always inlined: the fixed-step doStep then has the equations in its stages.)
     #[inline(always)]
     fn derivatives<S: Scalar>(t: f64, x: &[S], u: &[S], p: &[S], dx: &mut [S]) {
-        let n = x.len() / 2;
+        let n = split::<L>(x.len());
         let (q, qd) = x.split_at(n);
         let (velocities, qdd) = dx.split_at_mut(n);
-        velocities.copy_from_slice(qd);
+        if L::surplus_coordinates() == 0 {
+            velocities.copy_from_slice(qd);
+        } else {
+            L::coordinate_rates(q, qd, velocities);
+        }
         accelerations_into::<L, S>(t, q, qd, u, p, qdd);
     }
 
     #[inline(always)]
     fn extra_outputs<S: Scalar>(t: f64, x: &[S], u: &[S], p: &[S], y: &mut [S]) {
-        let (q, qd) = x.split_at(x.len() / 2);
+        let (q, qd) = x.split_at(split::<L>(x.len()));
         <L as Lagrangian>::extra_outputs(t, q, qd, u, p, y);
     }
 
@@ -792,17 +837,17 @@ impl<L: Lagrangian> System for L {
 
     /// RATTLE handles holonomic, time-independent constraints only.
     fn mechanics<'a>(u: &'a [f64], p: &'a [f64]) -> Option<Box<dyn Mechanics + 'a>> {
-        (L::VELOCITY_CONSTRAINTS == 0 && !L::RHEONOMIC)
+        (L::VELOCITY_CONSTRAINTS == 0 && !L::RHEONOMIC && L::surplus_coordinates() == 0)
             .then(|| Box::new(LagrangianMechanics::<L>::new(u, p)) as Box<dyn Mechanics + 'a>)
     }
 
     fn event_indicator(t: f64, x: &[f64], u: &[f64], p: &[f64]) -> Option<f64> {
-        let (q, qd) = x.split_at(x.len() / 2);
+        let (q, qd) = x.split_at(split::<L>(x.len()));
         <L as Lagrangian>::event_indicator(t, q, qd, u, p)
     }
 
     fn on_event(t: f64, x: &mut [f64], u: &[f64], p: &[f64]) -> Result<(), String> {
-        let n = x.len() / 2;
+        let n = split::<L>(x.len());
         let (q, qd) = x.split_at_mut(n);
         <L as Lagrangian>::on_event(t, q, qd, u, p)
     }
@@ -812,6 +857,10 @@ impl<L: Lagrangian> System for L {
     }
 
     fn project(t: f64, p: &[f64], x: &mut [f64]) {
+        if L::surplus_coordinates() > 0 {
+            let n = split::<L>(x.len());
+            L::normalize(&mut x[..n]);
+        }
         if L::CONSTRAINTS + L::VELOCITY_CONSTRAINTS > 0
             && (L::RHEONOMIC || !L::generated_projection(p, x))
         {
@@ -825,7 +874,7 @@ impl<L: Lagrangian> System for L {
     const STATE_CONSTRAINTS: usize = 2 * L::CONSTRAINTS + L::VELOCITY_CONSTRAINTS;
 
     fn state_constraints<S: Scalar>(t: f64, x: &[S], p: &[S], residual: &mut [S]) -> bool {
-        let (q, qd) = x.split_at(x.len() / 2);
+        let (q, qd) = x.split_at(split::<L>(x.len()));
         let m = L::CONSTRAINTS;
         L::constraints(S::from(t), q, p, &mut residual[..m]);
         residual[m..].copy_from_slice(&velocity_residuals::<L, S>(t, q, qd, p));

@@ -277,8 +277,11 @@ pub trait System: 'static {
     }
 
     /// True when the states are (q, q̇) halves with dq/dt = q̇: the symplectic fixed-step
-    /// methods (symplectic Euler, Verlet) need that split.
-    const SECOND_ORDER: bool = false;
+    /// methods (symplectic Euler, Verlet) need that split. (A function, not a constant: a
+    /// mechanism loaded at run time may have a floating base, whose quaternion breaks it.)
+    fn second_order() -> bool {
+        false
+    }
 
     /// What one evaluation of f costs per state, relative to the systems doStep's work bound
     /// was measured on (≤ 0.2 µs per state: `mbfmu speed`): the bound on one doStep's work

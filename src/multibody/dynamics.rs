@@ -17,8 +17,8 @@
 
 use super::mechanism::{Error, JointKind, Mechanism};
 use super::spatial::{
-    add, axis_angle, lift3, lift33, mat_mul, mat_vec, quat_from_matrix, quat_mul, scale, transpose,
-    ArticulatedInertia, Force, Motion, RigidInertia, Transform, M3, V3,
+    add, axis_angle, lift3, lift33, mat_mul, mat_t_vec, mat_vec, quat_from_matrix, quat_mul, scale,
+    transpose, ArticulatedInertia, Force, Motion, RigidInertia, Transform, M3, V3,
 };
 use crate::model::Scalar;
 
@@ -92,6 +92,29 @@ pub struct Model {
     /// Per joint: the index of the joint that drives it (itself, or the one it follows)
     /// among the independent joints, in model order.
     pub driver_index: Vec<usize>,
+    /// The root link when it floats ([`Mechanism::floating_base`]): it moves freely in
+    /// the world, its joints' frames placed from it; `None`: the root is bolted to the world
+    /// (the base frame is the world frame).
+    pub free_base: Option<FreeBase>,
+}
+
+/// A floating root link: its name and its spatial inertia in its frame (the links fixed
+/// joints fold into it included).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FreeBase {
+    pub body: String,
+    pub inertia: RigidInertia<f64>,
+}
+
+/// Where a floating base is and how it moves: `rotation` world ← base (the base frame's
+/// axes in world coordinates), `position` its origin in the world, `velocity` its spatial
+/// velocity in base coordinates, `(ω, v)` (Pinocchio's free-flyer velocity, angular first
+/// here as every [`Motion`] is).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BaseState<S> {
+    pub rotation: M3<S>,
+    pub position: V3<S>,
+    pub velocity: Motion<S>,
 }
 
 /// Two points fixed in bodies of the model (`None`: the base), in those bodies' frames: a
@@ -183,6 +206,7 @@ impl Model {
             springs: Vec::new(),
             follows: Vec::new(),
             driver_index: Vec::new(),
+            free_base: None,
         };
         // Pre-order walk from the root, children in declaration order: (joint, parent).
         let mut order: Vec<(usize, Option<usize>)> = Vec::new();
@@ -290,6 +314,13 @@ impl Model {
             .collect();
         let rank = |i: usize| model.follows[..i].iter().filter(|f| f.is_none()).count();
         model.driver_index = (0..model.nq()).map(|i| rank(model.driver(i).0)).collect();
+        if mechanism.floating_base {
+            let root = &m.bodies[tree.root];
+            model.free_base = Some(FreeBase {
+                body: root.name.clone(),
+                inertia: RigidInertia::from_com(root.mass, &root.com, &root.inertia),
+            });
+        }
         Ok(model)
     }
 
@@ -475,23 +506,36 @@ impl Model {
             .collect()
     }
 
-    /// Body velocities `v_i` (body coordinates) and the transforms.
-    fn velocities<S: Scalar>(&self, q: &[S], qd: &[S]) -> (Vec<Transform<S>>, Vec<Motion<S>>) {
+    /// Body velocities `v_i` (body coordinates) and the transforms; `v0` the base's
+    /// velocity in base coordinates (`None`: a fixed base).
+    fn velocities<S: Scalar>(
+        &self,
+        v0: Option<&Motion<S>>,
+        q: &[S],
+        qd: &[S],
+    ) -> (Vec<Transform<S>>, Vec<Motion<S>>) {
         let mut d = Data::new(self);
-        self.velocities_into(q, qd, &mut d);
+        self.velocities_into(v0, q, qd, &mut d);
         (d.xs, d.v)
     }
 
     /// Body velocities `v_i` (body coordinates) and the transforms, into `d.xs` and `d.v`.
-    fn velocities_into<S: Scalar>(&self, q: &[S], qd: &[S], d: &mut Data<S>) {
+    fn velocities_into<S: Scalar>(
+        &self,
+        v0: Option<&Motion<S>>,
+        q: &[S],
+        qd: &[S],
+        d: &mut Data<S>,
+    ) {
         self.transforms_into(q, &mut d.xs);
         let (xs, v) = (&d.xs, &mut d.v);
         v.clear();
         for i in 0..self.nq() {
             let vj = Motion::from_axis(&self.subspace[i], qd[i]);
-            let vi = match self.parent[i] {
-                None => vj,
-                Some(p) => xs[i].motion(&v[p]).add(&vj),
+            let vi = match (self.parent[i], v0) {
+                (None, None) => vj,
+                (None, Some(v0)) => xs[i].motion(v0).add(&vj),
+                (Some(p), _) => xs[i].motion(&v[p]).add(&vj),
             };
             v.push(vi);
         }
@@ -508,7 +552,7 @@ impl Model {
     /// [`Model::rnea`] into `tau`, with the workspace `d`: no allocation.
     pub fn rnea_in<S: Scalar>(&self, d: &mut Data<S>, q: &[S], qd: &[S], qdd: &[S], tau: &mut [S]) {
         let n = self.nq();
-        self.velocities_into(q, qd, d);
+        self.velocities_into(None, q, qd, d);
         let a0 = self.base_acceleration::<S>();
         let Data {
             xs, v, a, pa: f, ..
@@ -597,7 +641,206 @@ impl Model {
             self.reduced_in(d, q, qd, tau, qdd);
             return;
         }
-        self.velocities_into(q, qd, d);
+        self.aba_tree(d, None, q, qd, tau, qdd);
+    }
+
+    /// Forward dynamics of a floating-base model ([`Model::free_base`]): `q̈` into `qdd`,
+    /// and the base's acceleration returned, `d/dt` of its velocity's base-frame
+    /// components (`(ω̇, v̇)`: Pinocchio's free-flyer `a`), under gravity, with no force on
+    /// the base but its joints'. The base's orientation `rotation` (world ← base) places
+    /// gravity; its position plays no part. The articulated-body algorithm (Featherstone
+    /// 2008, §9.3: the base solved from its articulated inertia, a 6 × 6 LDLᵀ); with mimic
+    /// joints, the mass matrix reduced to the base and the independent joints
+    /// ([`Model::reduced_free_in`]).
+    #[allow(clippy::too_many_arguments)] // the base's state beside the joints'
+    pub fn aba_free_in<S: Scalar>(
+        &self,
+        d: &mut Data<S>,
+        rotation: &M3<S>,
+        velocity: &Motion<S>,
+        q: &[S],
+        qd: &[S],
+        tau: &[S],
+        qdd: &mut [S],
+    ) -> Motion<S> {
+        assert!(self.free_base.is_some(), "{}: no floating base", self.name);
+        assert_eq!(
+            tau.len(),
+            self.nq(),
+            "tau has {} entries, not nq",
+            tau.len()
+        );
+        if self.has_mimics() {
+            return self.reduced_free_in(d, rotation, velocity, q, qd, tau, qdd);
+        }
+        self.aba_tree(d, Some((rotation, velocity)), q, qd, tau, qdd)
+    }
+
+    /// Inverse dynamics of a floating-base model: the joint forces into `tau` and the
+    /// wrench on the base returned (base frame, about its origin) that give the base the
+    /// acceleration `a0` (as [`Model::aba_free_in`] returns it) and the joints `qdd`, at
+    /// the base velocity `velocity` and `(q, q̇)`; under gravity when `gravity`, else
+    /// without (the mass matrix's columns). Damping is not included.
+    #[allow(clippy::too_many_arguments)] // the base's state beside the joints'
+    pub fn rnea_free_in<S: Scalar>(
+        &self,
+        d: &mut Data<S>,
+        (rotation, velocity, a0): (&M3<S>, &Motion<S>, &Motion<S>),
+        q: &[S],
+        qd: &[S],
+        qdd: &[S],
+        gravity: bool,
+        tau: &mut [S],
+    ) -> Force<S> {
+        let n = self.nq();
+        let fb = self.free_base.as_ref().expect("a floating base");
+        self.velocities_into(Some(velocity), q, qd, d);
+        // The fictitious acceleration of gravity (see `aba_tree`): â₀ = a₀ − (0, Rᵀ g).
+        let down = if gravity {
+            mat_t_vec(rotation, &lift3(&self.gravity))
+        } else {
+            [S::zero(); 3]
+        };
+        let a0 = Motion {
+            ang: a0.ang,
+            lin: [
+                a0.lin[0] - down[0],
+                a0.lin[1] - down[1],
+                a0.lin[2] - down[2],
+            ],
+        };
+        let Data {
+            xs, v, a, pa: f, ..
+        } = d;
+        a.clear();
+        f.clear();
+        for i in 0..n {
+            let ai = match self.parent[i] {
+                None => xs[i].motion(&a0),
+                Some(p) => xs[i].motion(&a[p]),
+            }
+            .add(&Motion::from_axis(&self.subspace[i], qdd[i]))
+            .add(&v[i].cross_motion(&Motion::from_axis(&self.subspace[i], qd[i])));
+            let inertia = RigidInertia::<S>::lift(&self.inertia[i]);
+            f.push(
+                inertia
+                    .apply(&ai)
+                    .add(&v[i].cross_force(&inertia.apply(&v[i]))),
+            );
+            a.push(ai);
+        }
+        let inertia = RigidInertia::<S>::lift(&fb.inertia);
+        let mut f0 = inertia
+            .apply(&a0)
+            .add(&velocity.cross_force(&inertia.apply(velocity)));
+        for i in (0..n).rev() {
+            tau[i] = f[i].along(&self.subspace[i]);
+            let back = xs[i].force_back(&f[i]);
+            match self.parent[i] {
+                Some(p) => f[p] = f[p].add(&back),
+                None => f0 = f0.add(&back),
+            }
+        }
+        f0
+    }
+
+    /// [`Model::aba_free_in`] with mimic joints: the dynamics reduced to the base and the
+    /// independent joints, `Gᵀ M G [a₀; q̈ᵣ] = Gᵀ ([0; τ − d q̇] − b)`, as
+    /// [`Model::reduced_in`] for a fixed base. Each column of `Gᵀ M G` is one inverse
+    /// dynamics ([`Model::rnea_free_in`]) without gravity or velocity, at a unit
+    /// acceleration of the base or of an independent joint (with its mimics); b is the
+    /// inverse dynamics at zero acceleration. O(n²), solved by LDLᵀ.
+    #[allow(clippy::too_many_arguments)]
+    fn reduced_free_in<S: Scalar>(
+        &self,
+        d: &mut Data<S>,
+        rotation: &M3<S>,
+        velocity: &Motion<S>,
+        q: &[S],
+        qd: &[S],
+        tau: &[S],
+        qdd: &mut [S],
+    ) -> Motion<S> {
+        let (n, nr, rank) = (self.nq(), self.ndof(), &self.driver_index);
+        let size = 6 + nr;
+        let unit = |k: usize| -> Motion<S> {
+            let mut m = Motion::zero();
+            if k < 3 {
+                m.ang[k] = S::one();
+            } else if k < 6 {
+                m.lin[k - 3] = S::one();
+            }
+            m
+        };
+        // Gᵀ of a base wrench and joint forces: (wrench; Σ r τ per independent joint).
+        let reduce = |f0: &Force<S>, t: &[S], out: &mut [S]| {
+            out[..3].copy_from_slice(&f0.ang);
+            out[3..6].copy_from_slice(&f0.lin);
+            out[6..].fill(S::zero());
+            for i in 0..n {
+                out[6 + rank[i]] += t[i] * self.driver(i).1;
+            }
+        };
+        let mut mass = std::mem::take(&mut d.reduced);
+        mass.clear();
+        mass.resize(size * size, S::zero());
+        let mut column = vec![S::zero(); size];
+        let mut t = vec![S::zero(); n];
+        let zero_v = vec![S::zero(); n];
+        let still = Motion::zero();
+        for c in 0..size {
+            let a0 = unit(c);
+            for (i, a) in qdd.iter_mut().enumerate() {
+                *a = if c >= 6 && rank[i] == c - 6 {
+                    S::from(self.driver(i).1)
+                } else {
+                    S::zero()
+                };
+            }
+            let f0 = self.rnea_free_in(d, (rotation, &still, &a0), q, &zero_v, qdd, false, &mut t);
+            reduce(&f0, &t, &mut column);
+            for (r, &x) in column.iter().enumerate() {
+                mass[r * size + c] = x;
+            }
+        }
+        qdd.fill(S::zero());
+        let f0 = self.rnea_free_in(d, (rotation, velocity, &still), q, qd, qdd, true, &mut t);
+        let mut rhs = vec![S::zero(); size];
+        for i in 0..n {
+            t[i] = tau[i] - qd[i] * self.damping[i] - t[i];
+        }
+        reduce(&Force::zero().sub(&f0), &t, &mut rhs);
+        ldl_factor_flat(&mut mass, size);
+        ldl_substitute_flat(&mass, size, &mut rhs);
+        for i in 0..n {
+            qdd[i] = rhs[6 + rank[i]] * self.driver(i).1;
+        }
+        d.reduced = mass;
+        Motion {
+            ang: [rhs[0], rhs[1], rhs[2]],
+            lin: [rhs[3], rhs[4], rhs[5]],
+        }
+    }
+
+    /// The articulated-body algorithm on the tree from a fixed base (`base = None`) or a
+    /// floating one (its rotation world ← base and velocity): `q̈` into `qdd`, and the
+    /// floating base's acceleration (zero for a fixed base).
+    ///
+    /// Gravity is the fictitious acceleration `(0, −g)` of the world (Featherstone's
+    /// trick): every body's acceleration here is its own plus `X (0, −g)`. A fixed base's
+    /// is then `(0, −g)`; a floating base's, `â₀ = −I₀ᴬ⁻¹ p₀ᴬ` (no force on it but its
+    /// joints'), and its own is `â₀ − (0, −Rᵀg)`.
+    fn aba_tree<S: Scalar>(
+        &self,
+        d: &mut Data<S>,
+        base: Option<(&M3<S>, &Motion<S>)>,
+        q: &[S],
+        qd: &[S],
+        tau: &[S],
+        qdd: &mut [S],
+    ) -> Motion<S> {
+        let n = self.nq();
+        self.velocities_into(base.map(|b| b.1), q, qd, d);
         let Data {
             xs,
             v,
@@ -619,6 +862,17 @@ impl Model {
             ia.push(ArticulatedInertia::from_rigid(&inertia));
             pa.push(v[i].cross_force(&inertia.apply(&v[i])));
         }
+        // The floating base's articulated inertia and bias force, its joints' added below.
+        let mut root = match (base, &self.free_base) {
+            (Some((_, v0)), Some(fb)) => {
+                let inertia = RigidInertia::<S>::lift(&fb.inertia);
+                Some((
+                    ArticulatedInertia::from_rigid(&inertia),
+                    v0.cross_force(&inertia.apply(v0)),
+                ))
+            }
+            _ => None,
+        };
         u_vec.clear();
         u_vec.resize(n, Force::zero());
         d_inv.clear();
@@ -631,18 +885,35 @@ impl Model {
             let di_inv = ui.along(s).recip();
             let force = tau[i] - qd[i] * self.damping[i];
             u[i] = force - pa[i].along(s);
-            if let Some(p) = self.parent[i] {
+            if self.parent[i].is_some() || root.is_some() {
                 let ia_child = ia[i].minus_outer(&ui, di_inv);
                 let pa_child = pa[i]
                     .add(&ia_child.apply(&c[i]))
                     .add(&ui.scale(u[i] * di_inv));
-                ia[p] = ia[p].add(&ia_child.back(&xs[i]));
-                pa[p] = pa[p].add(&xs[i].force_back(&pa_child));
+                let (ia_back, pa_back) = (ia_child.back(&xs[i]), xs[i].force_back(&pa_child));
+                let (ia_p, pa_p) = match (self.parent[i], root.as_mut()) {
+                    (Some(p), _) => (&mut ia[p], &mut pa[p]),
+                    (None, Some((ia0, pa0))) => (ia0, pa0),
+                    (None, None) => unreachable!("tested above"),
+                };
+                *ia_p = ia_p.add(&ia_back);
+                *pa_p = pa_p.add(&pa_back);
             }
             u_vec[i] = ui;
             d_inv[i] = di_inv;
         }
-        let a0 = self.base_acceleration::<S>();
+        let (a0, own) = match (root, base) {
+            (Some((ia0, pa0)), Some((r, _))) => {
+                let a0 = solve_articulated(&ia0, &pa0.scale(-S::one()));
+                let up = mat_t_vec(r, &lift3(&self.gravity));
+                let own = Motion {
+                    ang: a0.ang,
+                    lin: add(&a0.lin, &up),
+                };
+                (a0, own)
+            }
+            _ => (self.base_acceleration::<S>(), Motion::zero()),
+        };
         a.clear();
         for i in 0..n {
             let ap = match self.parent[i] {
@@ -653,6 +924,7 @@ impl Model {
             qdd[i] = (u[i] - ap.dot(&u_vec[i])) * d_inv[i];
             a.push(ap.add(&Motion::from_axis(&self.subspace[i], qdd[i])));
         }
+        own
     }
 
     /// q̈ of a model with mimic joints: the mass matrix (CRBA) and the bias forces
@@ -725,12 +997,39 @@ impl Model {
 
     /// Kinetic energy `½ Σ v_iᵀ I_i v_i`.
     pub fn kinetic_energy<S: Scalar>(&self, q: &[S], qd: &[S]) -> S {
-        let (_, v) = self.velocities(q, qd);
+        self.kinetic(None, q, qd)
+    }
+
+    /// Kinetic energy of a floating-base model, the base's `½ v₀ᵀ I₀ v₀` included
+    /// (`velocity` the base's, in base coordinates).
+    pub fn kinetic_energy_free<S: Scalar>(&self, velocity: &Motion<S>, q: &[S], qd: &[S]) -> S {
+        let fb = self.free_base.as_ref().expect("a floating base");
+        let inertia = RigidInertia::<S>::lift(&fb.inertia);
+        velocity.dot(&inertia.apply(velocity)) * 0.5 + self.kinetic(Some(velocity), q, qd)
+    }
+
+    fn kinetic<S: Scalar>(&self, v0: Option<&Motion<S>>, q: &[S], qd: &[S]) -> S {
+        let (_, v) = self.velocities(v0, q, qd);
         let mut t = S::zero();
         for (vi, inertia) in v.iter().zip(&self.inertia) {
             t += vi.dot(&RigidInertia::<S>::lift(inertia).apply(vi)) * 0.5;
         }
         t
+    }
+
+    /// `Σ m_i c_i` of the moving bodies in the base frame (c_i the centre of mass).
+    fn first_moment<S: Scalar>(&self, q: &[S]) -> V3<S> {
+        let poses = self.forward_kinematics(q);
+        let mut sum = [S::zero(); 3];
+        for ((r, p), inertia) in poses.iter().zip(&self.inertia) {
+            // m c_base = R h + m p.
+            let mc = add(
+                &mat_vec(r, &lift3(&inertia.h)),
+                &scale(p, S::from(inertia.m)),
+            );
+            sum = add(&sum, &mc);
+        }
+        sum
     }
 
     /// Potential energy `−Σ m_i g · c_i` of the moving bodies (c_i the centre of mass in
@@ -749,6 +1048,46 @@ impl Model {
             v -= mc[0] * g[0] + mc[1] * g[1] + mc[2] * g[2];
         }
         v
+    }
+
+    /// Potential energy of a floating-base model, `−Σ m_i g · c_i` over every body, the
+    /// base's included, with the centres of mass in the world (`rotation` world ← base,
+    /// `position` the base's origin): zero with them all at the world origin.
+    pub fn potential_energy_free<S: Scalar>(
+        &self,
+        rotation: &M3<S>,
+        position: &V3<S>,
+        q: &[S],
+    ) -> S {
+        let fb = self.free_base.as_ref().expect("a floating base");
+        let m = self.inertia.iter().map(|i| i.m).sum::<f64>() + fb.inertia.m;
+        let local = add(&self.first_moment(q), &lift3(&fb.inertia.h));
+        let mc = add(&scale(position, S::from(m)), &mat_vec(rotation, &local));
+        let g: V3<S> = lift3(&self.gravity);
+        -(mc[0] * g[0] + mc[1] * g[1] + mc[2] * g[2])
+    }
+}
+
+/// `x` with `I x = f` for a symmetric positive definite 6 × 6 inertia (a floating base's
+/// articulated inertia), by LDLᵀ without pivoting (no branch on values: dual numbers and
+/// the tracer go through it).
+pub fn solve_articulated<S: Scalar>(inertia: &ArticulatedInertia<S>, f: &Force<S>) -> Motion<S> {
+    let (a, b, c) = (&inertia.a, &inertia.b, &inertia.c);
+    let mut m = [S::zero(); 36];
+    for r in 0..3 {
+        for k in 0..3 {
+            m[r * 6 + k] = a[r][k];
+            m[r * 6 + 3 + k] = b[r][k];
+            m[(3 + r) * 6 + k] = b[k][r];
+            m[(3 + r) * 6 + 3 + k] = c[r][k];
+        }
+    }
+    let mut x = [f.ang[0], f.ang[1], f.ang[2], f.lin[0], f.lin[1], f.lin[2]];
+    ldl_factor_flat(&mut m, 6);
+    ldl_substitute_flat(&m, 6, &mut x);
+    Motion {
+        ang: [x[0], x[1], x[2]],
+        lin: [x[3], x[4], x[5]],
     }
 }
 

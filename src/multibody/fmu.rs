@@ -49,14 +49,14 @@ macro_rules! mechanism_equations {
     ($($note:expr),* $(,)?) => {
         &[
             "q: one coordinate per moving joint, named as the joint (rad, or m for a prismatic joint; a continuous joint's is a plain angle, not wrapped), and its velocity q̇",
-            "Bodies in a tree from a fixed base; fixed joints fold their child into the parent (mass, centre of mass and inertia combined)",
+            "Bodies in a tree from a fixed base, or from a floating one (--floating-base: the root link free, states base_x … base_z in the world, base_q0 … base_q3 a unit quaternion world ← base, base_vx … base_wz its velocity in the base frame; no ground); fixed joints fold their child into the parent (mass, centre of mass and inertia combined)",
             "T = ½ Σ vᵢᵀ Iᵢ vᵢ (spatial velocities and inertias), V = −Σ mᵢ g·cᵢ over the moving bodies, L = T − V",
             "Generalised forces: Q = τ − d q̇, with τ the joint's input (a torque, or a force for a prismatic joint) and d its viscous damping",
             "M(q) q̈ = Q + ∂L/∂q − (∂²L/∂q̇∂q) q̇, solved by the articulated-body algorithm (Featherstone, Rigid Body Dynamics Algorithms, table 7.1): O(n), no mass matrix formed",
             "E = T + V; for the end of each branch, its position and orientation quaternion (w, x, y, z) in the base frame",
             "Joint position limits are end stops (parameter limit_events = stops, the default): a joint reaching one moving into it is an impact, located as an event: its velocity becomes −e times what it was (e = restitution) and every other joint's changes by the same impulse through M (Δq̇ = M⁻¹ e_k Λ); a rebound that would rise less than 1e-9 rad (m) rests instead",
             "A joint resting on its stop (on it, q̇ = 0) stays there while the load pushes into it: q̈_k = 0 by a reaction λ_k (output tau_stop_J) with M q̈ = Q + … + e_k λ_k; where λ would have to pull, the joint leaves. limit_events = discard ends the doStep with fmi2Discard at a limit instead; ignore runs through",
-            "Not modelled: Coulomb friction, velocity limits; a floating base is refused; effort limits are the ranges of the inputs; a mimic joint follows the joint it names (q = r q_joint + o, no coordinate or input of its own: its position and velocity are outputs), q̈ then from the mass matrix reduced to the independent joints",
+            "Not modelled: Coulomb friction, velocity limits; effort limits are the ranges of the inputs; a mimic joint follows the joint it names (q = r q_joint + o, no coordinate or input of its own: its position and velocity are outputs), q̈ then from the mass matrix reduced to the independent joints",
             $($note,)*
         ]
     };
@@ -375,7 +375,14 @@ impl Built {
         };
         let natural_order = order.len() == n && order.iter().enumerate().all(|(k, &i)| k == i);
         let mimics: Vec<usize> = (0..n).filter(|&i| model.follows[i].is_some()).collect();
-        if order.is_empty() {
+        let floating = model.free_base.is_some();
+        if floating && !mechanism.closures.is_empty() {
+            return Err(Error::new(
+                robot(),
+                "has loop closures and a floating base: closures are for mechanisms bolted to the world".into(),
+            ));
+        }
+        if order.is_empty() && !floating {
             return Err(Error::new(
                 robot(),
                 "has no moving joint: its FMU would have no state, nothing to simulate (every joint is fixed, or there is none)".into(),
@@ -411,6 +418,12 @@ impl Built {
         for &i in &mimics {
             let (d, r) = model.driver(i);
             start[i] = r * start[d] + model.follows[i].map_or(0.0, |f| f.offset);
+        }
+        if floating && !base_moves(&model, &start) {
+            return Err(Error::new(
+                robot(),
+                "cannot float: its bodies together have no mass or no rotational inertia (the base's 6 × 6 articulated inertia is singular)".into(),
+            ));
         }
         if let Some(i) = model.singular_joint(&start) {
             return Err(Error::joint(
@@ -456,8 +469,14 @@ impl Built {
         // The torques that hold the start at rest: τ = g(q) (gravity by RNEA, springs by
         // their gradient); with closures, τ − g = Gᵀλ with τ = 0 on the dependent joints
         // (virtual work): G_depᵀ λ = −g_dep, τ = g + Gᵀλ.
+        // A floating robot at rest with no joint torques falls as one rigid body (uniform
+        // gravity accelerates every body alike): nothing to hold.
+        let gravity_held = if floating { 0.0 } else { 1.0 };
         let mut hold: Vec<f64> = model
             .rnea(&start, &vec![0.0; n], &vec![0.0; n])
+            .iter()
+            .map(|g| g * gravity_held)
+            .collect::<Vec<f64>>()
             .iter()
             .zip(spring_gradient(&model, &start))
             .map(|(g, s)| g + s)
@@ -560,6 +579,8 @@ impl Built {
             };
             let started = if mechanism.torques.iter().any(|(t, _)| t == name) {
                 "its start value is the declared drive"
+            } else if floating {
+                "its start value 0: released, the floating robot falls as one rigid body"
             } else if m > 0 {
                 "its start value holds the start configuration against gravity and springs (by virtual work, the dependent joints unactuated)"
             } else {
@@ -571,6 +592,11 @@ impl Built {
             velocities.push(qd);
             inputs.push(tau);
         }
+        if floating {
+            let base = &model.free_base.as_ref().expect("floating").body;
+            base_variables(base, &mut coordinates, &mut velocities);
+        }
+        let frame = if floating { "world" } else { "base" };
         let mut outputs = vec![Var::new(
             "E",
             Some("J"),
@@ -582,9 +608,10 @@ impl Built {
             for c in ["x", "y", "z"] {
                 let mut v = Var::new("", Some("m"), 0.0, "");
                 v.name = format!("{link}_{c}").into();
-                v.description =
-                    format!("Position of link {link} (an end of a branch), {c} in the base frame")
-                        .into();
+                v.description = format!(
+                    "Position of link {link} (an end of a branch), {c} in the {frame} frame"
+                )
+                .into();
                 outputs.push(v);
             }
             for k in 0..4 {
@@ -592,7 +619,7 @@ impl Built {
                 v.name = format!("{link}_q{k}").into();
                 let part = ["w", "x", "y", "z"][k];
                 v.description = format!(
-                    "Orientation of link {link} in the base frame: unit quaternion, {part} part"
+                    "Orientation of link {link} in the {frame} frame: unit quaternion, {part} part"
                 )
                 .into();
                 outputs.push(v);
@@ -667,8 +694,16 @@ impl Built {
             .map(|r| (r.to_string(), "a variable of the FMU itself".to_string()))
             .collect();
         seen.insert("E".into(), "the energy output".into());
+        let joints = order.len();
+        for v in coordinates
+            .iter()
+            .skip(joints)
+            .chain(velocities.iter().skip(joints))
+        {
+            seen.insert(v.name.to_string(), "a state of the floating base".into());
+        }
         for (i, vars) in [&coordinates, &velocities, &inputs].iter().enumerate() {
-            for (k, v) in vars.iter().enumerate() {
+            for (k, v) in vars.iter().enumerate().take(joints) {
                 let joint = &joint_of(order[k]).name;
                 let what = ["position", "velocity", "input"][i];
                 if let Some(other) = seen.insert(
@@ -745,9 +780,10 @@ impl Built {
             &hold,
             &effort,
             &dependent,
-            &coordinates,
-            &velocities,
+            &coordinates[..joints],
+            &velocities[..joints],
             &inputs,
+            floating,
         );
         Ok(Built {
             damping,
@@ -837,6 +873,69 @@ impl Built {
     }
 }
 
+/// The floating base's states, after the joints': its origin `base_x base_y base_z` (m,
+/// world frame), its orientation `base_q0 … base_q3` (unit quaternion world ← base, scalar
+/// first), then its velocity `base_vx base_vy base_vz` and `base_wx base_wy base_wz`
+/// (linear and angular, in the base frame: Pinocchio's free-flyer velocity).
+fn base_variables(body: &str, coordinates: &mut Vec<Var>, velocities: &mut Vec<Var>) {
+    for c in ["x", "y", "z"] {
+        let mut v = Var::new("", Some("m"), 0.0, "").nominal(1.0);
+        v.name = format!("base_{c}").into();
+        v.description =
+            format!("Position of the floating base (link {body}'s origin), {c} in the world frame")
+                .into();
+        coordinates.push(v);
+    }
+    for (k, part) in ["w", "x", "y", "z"].iter().enumerate() {
+        let mut v = Var::new("", None, if k == 0 { 1.0 } else { 0.0 }, "").nominal(1.0);
+        v.name = format!("base_q{k}").into();
+        v.description = format!(
+            "Orientation of the floating base (world ← link {body}): unit quaternion, {part} part (normalised after every step; a set value of any non-zero norm means the same rotation)"
+        )
+        .into();
+        coordinates.push(v);
+    }
+    for (c, what, unit) in [
+        ("vx", "Linear", "m/s"),
+        ("vy", "Linear", "m/s"),
+        ("vz", "Linear", "m/s"),
+        ("wx", "Angular", "rad/s"),
+        ("wy", "Angular", "rad/s"),
+        ("wz", "Angular", "rad/s"),
+    ] {
+        let mut v = Var::new("", Some(unit), 0.0, "").nominal(1.0);
+        v.name = format!("base_{c}").into();
+        v.description = format!(
+            "{what} velocity of the floating base (link {body}'s origin), {} in the base frame",
+            &c[1..]
+        )
+        .into();
+        velocities.push(v);
+    }
+}
+
+/// Whether a floating base can move at `q`: the forward dynamics from rest gives finite
+/// accelerations (its articulated inertia, the whole robot's, is positive definite).
+fn base_moves(model: &Model, q: &[f64]) -> bool {
+    let n = model.nq();
+    let mut qdd = vec![0.0; n];
+    let identity = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let a0 = model.aba_free_in(
+        &mut super::dynamics::Data::new(model),
+        &identity,
+        &super::spatial::Motion::zero(),
+        q,
+        &vec![0.0; n],
+        &vec![0.0; n],
+        &mut qdd,
+    );
+    a0.ang
+        .iter()
+        .chain(&a0.lin)
+        .chain(&qdd)
+        .all(|v| v.is_finite())
+}
+
 /// The parameters of a mechanism: `limit_events` (end stops by default; a mechanism with
 /// loop closures has none, and discards at a limit) and, where there are end stops (a tree
 /// with limits), `restitution`.
@@ -870,6 +969,7 @@ fn limit_parameters(closures: bool, limited: bool) -> Vec<Var> {
 /// The scenes: released at rest from the start configuration with no torque (it falls);
 /// held by the gravity torques, the first joint's stepped by a tenth of its effort limit
 /// (1 N.m or 1 N without one).
+#[allow(clippy::too_many_arguments)]
 fn scenes(
     start: &[f64],
     hold: &[f64],
@@ -878,6 +978,7 @@ fn scenes(
     coordinates: &[Var],
     velocities: &[Var],
     inputs: &[Var],
+    floating: bool,
 ) -> Vec<Scene> {
     let n = coordinates.len();
     if n == 0 {
@@ -894,7 +995,11 @@ fn scenes(
     };
     let mut released = at_rest(Scene::new(
         "released",
-        "Released at rest from the start configuration with no joint torques: it falls under gravity (a joint reaching a position limit meets its end stop)",
+        if floating {
+            "Released at rest from the start configuration with no joint torques: the floating robot falls freely as one rigid body (there is no ground)"
+        } else {
+            "Released at rest from the start configuration with no joint torques: it falls under gravity (a joint reaching a position limit meets its end stop)"
+        },
         2.0,
     ));
     for input in inputs {
@@ -905,10 +1010,17 @@ fn scenes(
     let unit = inputs[first].unit.as_deref().unwrap_or("");
     let mut stepped = at_rest(Scene::new(
         "step",
-        leak(format!(
-            "Held at rest by the gravity torques, joint {}'s input stepped by {step:?} {unit} at t = 0",
-            coordinates[first].name
-        )),
+        leak(if floating {
+            format!(
+                "Released falling at rest, joint {}'s input stepped by {step:?} {unit} at t = 0: the limbs move against the floating base, its momentum about the centre of mass kept",
+                coordinates[first].name
+            )
+        } else {
+            format!(
+                "Held at rest by the gravity torques, joint {}'s input stepped by {step:?} {unit} at t = 0",
+                coordinates[first].name
+            )
+        }),
         2.0,
     ));
     for (i, input) in inputs.iter().enumerate() {
@@ -1032,6 +1144,14 @@ pub fn generated_is_current<D: Declared>() -> bool {
 /// [`Model::aba_in`] with a workspace kept per thread and scalar type (f64, and each dual
 /// number the Jacobians use): after the first call on a thread, q̈ allocates nothing.
 fn aba_reusing<S: Scalar + 'static>(model: &Model, q: &[S], qd: &[S], tau: &[S], qdd: &mut [S]) {
+    with_workspace(model, |data| model.aba_in(data, q, qd, tau, qdd));
+}
+
+/// `f` with this thread's workspace for `model` and the scalar type `S`.
+fn with_workspace<S: Scalar + 'static, R>(
+    model: &Model,
+    f: impl FnOnce(&mut super::dynamics::Data<S>) -> R,
+) -> R {
     use super::dynamics::Data;
     use std::any::Any;
     use std::cell::RefCell;
@@ -1048,8 +1168,8 @@ fn aba_reusing<S: Scalar + 'static>(model: &Model, q: &[S], qd: &[S], tau: &[S],
             }
         };
         let data = w[at].downcast_mut::<Data<S>>().expect("found by its type");
-        model.aba_in(data, q, qd, tau, qdd);
-    });
+        f(data)
+    })
 }
 
 /// `xml` with every ` start="…"` attribute left out.
@@ -1073,6 +1193,10 @@ fn without_start_values(xml: &str) -> String {
 /// forces `τ − ∂V_springs/∂q`.
 fn free_accelerations<D: Declared, S: Scalar>(q: &[S], qd: &[S], u: &[S], qdd: &mut [S]) {
     let b = D::built();
+    if b.model.free_base.is_some() {
+        floating_accelerations(b, q, qd, u, qdd);
+        return;
+    }
     let generated = generated_is_current::<D>();
     if b.natural_order && b.model.springs.is_empty() {
         if !(generated && D::generated_aba(q, qd, u, qdd)) {
@@ -1097,6 +1221,60 @@ fn free_accelerations<D: Declared, S: Scalar>(q: &[S], qd: &[S], u: &[S], qdd: &
     for (k, &i) in b.order.iter().enumerate() {
         qdd[k] = a[i];
     }
+}
+
+/// The floating base's pose and velocity from the states after the joints' (`q`: position
+/// then quaternion, `v`: linear then angular velocity): `(R world ← base, p, (ω, v))`.
+fn base_state<S: Scalar>(q: &[S], v: &[S]) -> super::dynamics::BaseState<S> {
+    use super::spatial::{quat_to_matrix, Motion};
+    super::dynamics::BaseState {
+        rotation: quat_to_matrix(&[q[3], q[4], q[5], q[6]]),
+        position: [q[0], q[1], q[2]],
+        velocity: Motion {
+            ang: [v[3], v[4], v[5]],
+            lin: [v[0], v[1], v[2]],
+        },
+    }
+}
+
+/// `(q̈, base acceleration)` of a floating-base robot into `a` (joints', then the base's
+/// `v̇` and `ω̇`), by the articulated-body algorithm with the base solved from its
+/// articulated inertia ([`Model::aba_free_in`]); springs as joint forces. `u` may be longer
+/// than the joints (a generalised force on every velocity, as the end stops pass it): the
+/// base's part is 0 and left out.
+fn floating_accelerations<S: Scalar>(b: &Built, q: &[S], v: &[S], u: &[S], a: &mut [S]) {
+    let n = b.order.len();
+    let base = base_state(&q[n..], &v[n..]);
+    let (qm, vm, um) = (
+        b.positions_to_model(&q[..n]),
+        b.velocities_to_model(&v[..n]),
+        b.forces_to_model(&u[..n]),
+    );
+    let tau: Vec<S> = if b.model.springs.is_empty() {
+        um.into_owned()
+    } else {
+        um.iter()
+            .zip(spring_gradient(&b.model, &qm))
+            .map(|(&t, g)| t - g)
+            .collect()
+    };
+    let mut am = vec![S::zero(); n];
+    let a0 = with_workspace(&b.model, |data| {
+        b.model.aba_free_in(
+            data,
+            &base.rotation,
+            &base.velocity,
+            &qm,
+            &vm,
+            &tau,
+            &mut am,
+        )
+    });
+    for (k, &i) in b.order.iter().enumerate() {
+        a[k] = am[i];
+    }
+    a[n..n + 3].copy_from_slice(&a0.lin);
+    a[n + 3..n + 6].copy_from_slice(&a0.ang);
 }
 
 /// A declared mechanism as a [`Lagrangian`] (hence a `System` and an FMU).
@@ -1138,6 +1316,38 @@ impl<D: Declared> Lagrangian for Robot<D> {
     /// ≤ 0.2 µs for the systems the doStep work bound was set on.
     const EVALUATION_WEIGHT: u64 = if D::CONSTRAINTS > 0 { 50 } else { 1 };
 
+    /// A floating base's quaternion: 7 coordinates, 6 velocities.
+    fn surplus_coordinates() -> usize {
+        D::built().model.free_base.is_some() as usize
+    }
+
+    /// The joints' `dq/dt = q̇`; the base's `ṗ = R v`, `dq/dt = ½ q ⊗ (0, ω)` (which keeps
+    /// |q| in exact arithmetic; [`normalize`](Lagrangian::normalize) takes off the drift).
+    fn coordinate_rates<S: Scalar>(q: &[S], v: &[S], dq: &mut [S]) {
+        let n = D::built().order.len();
+        dq[..n].copy_from_slice(&v[..n]);
+        let base = base_state(&q[n..], &v[n..]);
+        let rate = super::spatial::mat_vec(&base.rotation, &base.velocity.lin);
+        dq[n..n + 3].copy_from_slice(&rate);
+        let quat = [q[n + 3], q[n + 4], q[n + 5], q[n + 6]];
+        let w = base.velocity.ang;
+        let spin = super::spatial::quat_mul(&quat, &[S::zero(), w[0], w[1], w[2]]);
+        for k in 0..4 {
+            dq[n + 3 + k] = spin[k] * 0.5;
+        }
+    }
+
+    /// The base's quaternion back on the unit sphere.
+    fn normalize(q: &mut [f64]) {
+        let n = D::built().order.len();
+        if let Some(quat) = q.get_mut(n + 3..n + 7) {
+            let norm = quat.iter().map(|v| v * v).sum::<f64>().sqrt();
+            if norm.is_finite() && norm > 0.0 {
+                quat.iter_mut().for_each(|v| *v /= norm);
+            }
+        }
+    }
+
     fn parameters() -> Vec<Var> {
         D::built().parameters.clone()
     }
@@ -1160,17 +1370,37 @@ impl<D: Declared> Lagrangian for Robot<D> {
 
     fn kinetic<S: Scalar>(_t: S, q: &[S], qd: &[S], _p: &[S]) -> S {
         let b = D::built();
-        b.model
-            .kinetic_energy(&b.positions_to_model(q), &b.velocities_to_model(qd))
+        let n = b.order.len();
+        let (qm, qdm) = (
+            b.positions_to_model(&q[..n]),
+            b.velocities_to_model(&qd[..n]),
+        );
+        match b.model.free_base {
+            None => b.model.kinetic_energy(&qm, &qdm),
+            Some(_) => {
+                let base = base_state(&q[n..], &qd[n..]);
+                b.model.kinetic_energy_free(&base.velocity, &qm, &qdm)
+            }
+        }
     }
 
     fn potential<S: Scalar>(_t: S, q: &[S], _p: &[S]) -> S {
         let b = D::built();
-        let q = b.positions_to_model(q);
-        b.model.potential_energy(&q) + b.model.spring_energy(&q)
+        let n = b.order.len();
+        let qm = b.positions_to_model(&q[..n]);
+        let gravity = match b.model.free_base {
+            None => b.model.potential_energy(&qm),
+            Some(_) => {
+                let base = base_state(&q[n..], &[S::zero(); 6]);
+                b.model
+                    .potential_energy_free(&base.rotation, &base.position, &qm)
+            }
+        };
+        gravity + b.model.spring_energy(&qm)
     }
 
     fn forces<S: Scalar>(_t: f64, _q: &[S], qd: &[S], u: &[S], _p: &[S], out: &mut [S]) {
+        out.fill(S::zero());
         for ((o, (&tau, &v)), &d) in out
             .iter_mut()
             .zip(u.iter().zip(qd))
@@ -1183,7 +1413,11 @@ impl<D: Declared> Lagrangian for Robot<D> {
     /// The loop closures by forward kinematics ([`Model::closure_residuals_at`]).
     fn constraints<S: Scalar>(_t: S, q: &[S], _p: &[S], phi: &mut [S]) {
         let b = D::built();
-        b.model.closure_residuals_at(&b.positions_to_model(q), phi);
+        if !phi.is_empty() {
+            let n = b.order.len();
+            b.model
+                .closure_residuals_at(&b.positions_to_model(&q[..n]), phi);
+        }
     }
 
     /// A tree: q̈ by the articulated-body algorithm (springs as joint forces
@@ -1213,13 +1447,34 @@ impl<D: Declared> Lagrangian for Robot<D> {
     fn extra_outputs<S: Scalar>(t: f64, q: &[S], qd: &[S], u: &[S], p: &[S], y: &mut [S]) {
         let b = D::built();
         let model = &b.model;
-        let (qm, qdm) = (b.positions_to_model(q), b.velocities_to_model(qd));
-        y[0] = model.kinetic_energy(&qm, &qdm)
-            + model.potential_energy(&qm)
-            + model.spring_energy(&qm);
+        let n = b.order.len();
+        let (qm, qdm) = (
+            b.positions_to_model(&q[..n]),
+            b.velocities_to_model(&qd[..n]),
+        );
+        y[0] = Self::kinetic(S::zero(), q, qd, p) + Self::potential(S::zero(), q, p);
         let tips = model.tips.len();
+        // A floating robot's tips in the world: the base's pose composed with theirs.
+        let world = model.free_base.as_ref().map(|_| {
+            let base = base_state(&q[n..], &qd[n..]);
+            let quat = [q[n + 3], q[n + 4], q[n + 5], q[n + 6]];
+            let norm =
+                (quat[0] * quat[0] + quat[1] * quat[1] + quat[2] * quat[2] + quat[3] * quat[3])
+                    .sqrt();
+            (base, quat.map(|c| c / norm))
+        });
         for (k, (p, quat)) in model.tip_poses(&qm).into_iter().enumerate() {
             let out = &mut y[1 + 7 * k..8 + 7 * k];
+            let (p, quat) = match &world {
+                None => (p, quat),
+                Some((base, q0)) => (
+                    super::spatial::add(
+                        &base.position,
+                        &super::spatial::mat_vec(&base.rotation, &p),
+                    ),
+                    super::spatial::quat_mul(q0, &quat),
+                ),
+            };
             out[..3].copy_from_slice(&p);
             out[3..].copy_from_slice(&quat);
         }
@@ -1256,7 +1511,7 @@ impl<D: Declared> Lagrangian for Robot<D> {
             if LimitMode::of(p[LIMIT_EVENTS].re()) == LimitMode::Stops
                 && stops::any_resting(&b.limits, q, qd)
             {
-                let mut qdd = vec![S::zero(); q.len()];
+                let mut qdd = vec![S::zero(); qd.len()];
                 free_accelerations::<D, S>(q, qd, u, &mut qdd);
                 let free =
                     |v: &[S], tau: &[S], out: &mut [S]| free_accelerations::<D, S>(q, v, tau, out);

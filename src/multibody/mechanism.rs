@@ -334,6 +334,10 @@ pub struct Mechanism {
     /// The order of the coordinates, by joint name (empty: depth first from the root, the
     /// order of the dynamics).
     pub order: Vec<String>,
+    /// Whether the root link floats (`mbfmu build --floating-base`): it moves freely in
+    /// the world (six more degrees of freedom: a position and a unit quaternion, a linear
+    /// and an angular velocity); otherwise it is bolted to the world.
+    pub floating_base: bool,
 }
 
 /// A loop closure: the point `point_a` fixed in body `body_a` coincides with the point
@@ -437,7 +441,14 @@ impl Mechanism {
             start: Vec::new(),
             torques: Vec::new(),
             order: Vec::new(),
+            floating_base: false,
         }
+    }
+
+    /// The root link floats ([`Mechanism::floating_base`]).
+    pub fn floating_base(mut self) -> Self {
+        self.floating_base = true;
+        self
     }
 
     pub fn gravity(mut self, g: [f64; 3]) -> Self {
@@ -1132,6 +1143,7 @@ impl Mechanism {
                 dependent: self.dependent.clone(),
                 start: self.start.clone(),
                 torques: self.torques.clone(),
+                floating_base: self.floating_base,
                 order: self.order.clone(),
             },
             frames,

@@ -27,11 +27,25 @@ use std::sync::OnceLock;
 pub const URDF_RESOURCE: &str = "mechanism.urdf";
 /// The FMU's modelIdentifier, in the FMU's `resources/`.
 pub const NAME_RESOURCE: &str = "model_identifier.txt";
+/// How the robot's root link is held, in the FMU's `resources/`: `fixed` (bolted to the
+/// world) or `floating` (`mbfmu build --urdf FILE --floating-base`). An FMU written before
+/// it existed has none: fixed.
+pub const BASE_RESOURCE: &str = "base.txt";
+
+/// The [`BASE_RESOURCE`] text of a floating or a fixed base.
+pub fn base_text(floating: bool) -> &'static str {
+    if floating {
+        "floating"
+    } else {
+        "fixed"
+    }
+}
 
 /// The robot this process runs.
 struct Loaded {
     name: &'static str,
     urdf: String,
+    floating: bool,
     mechanism: Mechanism,
     equations: &'static [&'static str],
 }
@@ -39,10 +53,11 @@ struct Loaded {
 static LOADED: OnceLock<Loaded> = OnceLock::new();
 
 /// Loads the robot named `name` from URDF text `urdf` (checked as `mbfmu build --urdf`
-/// checks it), once per process; again only with the same texts.
-pub fn load(name: &str, urdf: &str) -> Result<(), String> {
+/// checks it), its root link floating or fixed, once per process; again only with the
+/// same texts and base.
+pub fn load(name: &str, urdf: &str, floating: bool) -> Result<(), String> {
     if let Some(loaded) = LOADED.get() {
-        return if loaded.name == name && loaded.urdf == urdf {
+        return if loaded.name == name && loaded.urdf == urdf && loaded.floating == floating {
             Ok(())
         } else {
             Err(format!(
@@ -57,8 +72,9 @@ pub fn load(name: &str, urdf: &str) -> Result<(), String> {
         ));
     }
     let file = format!("resources/{URDF_RESOURCE}");
-    let mechanism = super::urdf::parse(urdf, &file)
+    let mut mechanism = super::urdf::parse(urdf, &file)
         .map_err(|e| format!("{e} (the FMU's resources were edited or damaged)"))?;
+    mechanism.floating_base = floating;
     super::fmu::Built::new(mechanism.clone()).map_err(|e| e.in_file(&file).to_string())?;
     if !mechanism.closures.is_empty() {
         return Err(format!("{file}: loop closures are for compiled mechanisms"));
@@ -70,12 +86,13 @@ pub fn load(name: &str, urdf: &str) -> Result<(), String> {
     let loaded = Loaded {
         name: Box::leak(name.to_string().into_boxed_str()),
         urdf: urdf.to_string(),
+        floating,
         mechanism,
         equations: Box::leak(lines.into_boxed_slice()),
     };
     // Two threads instantiating at once: the second finds the first's, and compares.
     if LOADED.set(loaded).is_err() {
-        return load(name, urdf);
+        return load(name, urdf, floating);
     }
     Ok(())
 }
@@ -87,7 +104,19 @@ pub fn load_from(folder: &Path) -> Result<(), String> {
             .map_err(|e| format!("cannot read resources/{file} ({}): {e}", folder.display()))
     };
     let name = read(NAME_RESOURCE)?;
-    load(name.trim(), &read(URDF_RESOURCE)?)
+    let floating = match folder.join(BASE_RESOURCE).exists() {
+        false => false,
+        true => match read(BASE_RESOURCE)?.trim() {
+            "floating" => true,
+            "fixed" => false,
+            other => {
+                return Err(format!(
+                    "resources/{BASE_RESOURCE}: {other:?} is neither \"fixed\" nor \"floating\""
+                ))
+            }
+        },
+    };
+    load(name.trim(), &read(URDF_RESOURCE)?, floating)
 }
 
 fn loaded() -> &'static Loaded {
@@ -123,6 +152,10 @@ impl Declared for Runtime {
             loaded.name,
             loaded.urdf
         );
+        // (Only a floating base adds a line: a fixed robot's token stays what it was.)
+        if loaded.floating {
+            text += "base floating\n";
+        }
         let groups = [
             ("parameter", R::parameters()),
             ("input", R::inputs()),
@@ -161,19 +194,24 @@ mod tests {
     /// damaged file or a bad identifier is one line naming the resource.
     #[test]
     fn a_robot_loads_once_and_bad_resources_are_one_line() {
-        let truncated = load("one", &ONE[..ONE.len() / 2]).unwrap_err();
+        let truncated = load("one", &ONE[..ONE.len() / 2], false).unwrap_err();
         assert!(
             truncated.starts_with("resources/mechanism.urdf"),
             "{truncated}"
         );
         assert!(!truncated.contains('\n'), "{truncated}");
-        let named = load("1one", ONE).unwrap_err();
+        let named = load("1one", ONE, false).unwrap_err();
         assert!(named.contains("no modelIdentifier"), "{named}");
-        load("one", ONE).unwrap();
-        load("one", ONE).unwrap();
+        load("one", ONE, false).unwrap();
+        load("one", ONE, false).unwrap();
+        assert!(load("one", ONE, true)
+            .unwrap_err()
+            .contains("runs one already"));
         assert_eq!(Runtime::name(), "one");
-        assert!(load("two", ONE).unwrap_err().contains("runs one already"));
+        assert!(load("two", ONE, false)
+            .unwrap_err()
+            .contains("runs one already"));
         let heavier = ONE.replace("mass value=\"1\"", "mass value=\"2\"");
-        assert!(load("one", &heavier).is_err());
+        assert!(load("one", &heavier, false).is_err());
     }
 }

@@ -206,5 +206,8 @@ pub fn builder(m: &Mechanism) -> String {
     if !m.order.is_empty() {
         s += &format!("\n        .order({})", names(&m.order));
     }
+    if m.floating_base {
+        s += "\n        .floating_base()";
+    }
     s
 }

@@ -158,6 +158,32 @@ pub fn quat_mul<S: Scalar>(a: &[S; 4], b: &[S; 4]) -> [S; 4] {
     ]
 }
 
+/// The rotation matrix of a quaternion `(w, x, y, z)` of any non-zero norm: the
+/// homogeneous form divided by |q|², orthogonal in exact arithmetic whatever the norm (so
+/// an integrator's drift off the unit sphere does not shear the body).
+pub fn quat_to_matrix<S: Scalar>(q: &[S; 4]) -> M3<S> {
+    let [w, x, y, z] = *q;
+    let s = (w * w + x * x + y * y + z * z).recip();
+    let two = s * 2.0;
+    [
+        [
+            (w * w + x * x - y * y - z * z) * s,
+            (x * y - w * z) * two,
+            (x * z + w * y) * two,
+        ],
+        [
+            (x * y + w * z) * two,
+            (w * w - x * x + y * y - z * z) * s,
+            (y * z - w * x) * two,
+        ],
+        [
+            (x * z - w * y) * two,
+            (y * z + w * x) * two,
+            (w * w - x * x - y * y + z * z) * s,
+        ],
+    ]
+}
+
 /// The unit quaternion `(w, x, y, z)` of a rotation matrix (Shepperd's method: it picks the
 /// largest of four candidates, so it branches on values and is for `f64` constants only).
 pub fn quat_from_matrix(m: &M3<f64>) -> [f64; 4] {

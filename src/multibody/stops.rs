@@ -205,7 +205,7 @@ pub fn hold<S: Scalar>(
         .map(|(k, side)| (limits[k].coordinate, side))
         .collect();
     let at: Vec<usize> = set.iter().map(|&(c, _)| c).collect();
-    let w = inverse_mass_columns(q.len(), &at, &free);
+    let w = inverse_mass_columns(qd.len(), &at, &free);
     let (kept, lambda) = reactions(set, w.clone(), |c| -qdd[c]);
     for (&(c, _), &l) in kept.iter().zip(&lambda) {
         let col = &w[at.iter().position(|&a| a == c).expect("kept from at")];
@@ -251,7 +251,7 @@ pub fn impact(
     if hits.is_empty() {
         return false;
     }
-    let n = q.len();
+    let n = qd.len();
     let before = qd.to_vec();
     let mut loaded = vec![0.0; n];
     free(q, qd, u, &mut loaded);

@@ -9,7 +9,9 @@ impl System for MassSpringDamper {
     const DESCRIPTION: &'static str =
         "A mass on a linear spring and viscous damper, driven by an external force";
     /// States are (positions, velocities).
-    const SECOND_ORDER: bool = true;
+    fn second_order() -> bool {
+        true
+    }
     const EQUATIONS: &'static [&'static str] = &[
         "m ẍ + c ẋ + k x = F + F_amp sin(F_omega t)",
         "ωn = √(k/m), ζ = c / (2 m ωn)",

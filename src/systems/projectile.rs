@@ -10,7 +10,9 @@ impl System for Projectile {
     const DESCRIPTION: &'static str =
         "A point mass thrown in uniform gravity, no drag (z points down)";
     /// States are (positions, velocities).
-    const SECOND_ORDER: bool = true;
+    fn second_order() -> bool {
+        true
+    }
     const EQUATIONS: &'static [&'static str] = &[
         "SAE axes: z points down, gravity is +g k, the height is −z",
         "ẍ = 0, ÿ = 0, z̈ = g",

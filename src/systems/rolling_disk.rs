@@ -68,7 +68,9 @@ impl System for RollingDisk {
     const DESCRIPTION: &'static str =
         "A vertical disk rolling without slip on a plane (nonholonomic), the constraints kept by Lagrange multipliers";
     /// States are (positions, velocities).
-    const SECOND_ORDER: bool = true;
+    fn second_order() -> bool {
+        true
+    }
     const EQUATIONS: &'static [&'static str] = &[
         "q = (x, y, θ, φ): contact point, heading, spin angle; constraints ẋ = a φ̇ cos θ, ẏ = a φ̇ sin θ (not integrable)",
         "I_s = ½ m a² (spin axis), I_t = ¼ m a² (vertical diameter)",

@@ -52,7 +52,9 @@ impl System for RollingHoop {
     const DESCRIPTION: &'static str =
         "A hoop rolling without slip down an inclined plane, the rolling constraint kept by a Lagrange multiplier";
     /// States are (positions, velocities).
-    const SECOND_ORDER: bool = true;
+    fn second_order() -> bool {
+        true
+    }
     const EQUATIONS: &'static [&'static str] = &[
         "q = (x, θ): x down the slope, θ the hoop's rotation; constraint r θ̇ = ẋ (r θ = x from the start)",
         "m ẍ − m g sin φ − λ = 0",

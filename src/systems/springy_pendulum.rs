@@ -56,7 +56,9 @@ impl System for SpringyPendulum {
     const DESCRIPTION: &'static str =
         "A mass on a coiled spring pivoted at a fixed point, swinging in the vertical plane";
     /// States are (positions, velocities).
-    const SECOND_ORDER: bool = true;
+    fn second_order() -> bool {
+        true
+    }
     const EQUATIONS: &'static [&'static str] = &[
         "SAE axes: z points down; θ from the downward vertical: x = r sin θ, z = r cos θ",
         "r̈ − r θ̇² − g cos θ + (c/m)(r − r0) = F_r / m",

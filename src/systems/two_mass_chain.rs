@@ -20,7 +20,9 @@ impl System for TwoMassChain {
     const DESCRIPTION: &'static str =
         "Two masses in a chain: wall–k1–m1–(k2 ∥ c2)–m2, force F on m1";
     /// States are (positions, velocities).
-    const SECOND_ORDER: bool = true;
+    fn second_order() -> bool {
+        true
+    }
     const EQUATIONS: &'static [&'static str] = &[
         "m1 ẍ1 = −k1 x1 + k2 (x2 − x1) + c2 (ẋ2 − ẋ1) + F",
         "m2 ẍ2 = −k2 (x2 − x1) − c2 (ẋ2 − ẋ1)",

@@ -199,7 +199,9 @@ impl System for WhippleBicycle {
     const DESCRIPTION: &'static str =
         "The linearised Whipple–Carvallo bicycle (benchmark of Meijaard et al. 2007): roll and steer at constant forward speed";
     /// States are (positions, velocities).
-    const SECOND_ORDER: bool = true;
+    fn second_order() -> bool {
+        true
+    }
     const EQUATIONS: &'static [&'static str] = &[
         "M q̈ + v C1 q̇ + (g K0 + v² K2) q = f, q = (phi, delta), f = (T_phi, T_delta)",
         "Linearised about upright, straight-ahead rolling at constant forward speed v; four rigid bodies (rear wheel R, rear frame B, front fork and handlebar H, front wheel F), knife-edge wheels rolling without slip on level ground.",

@@ -467,7 +467,7 @@ fn integrate_general<M: System>(
     let mut problem = Problem {
         rhs: &mut rhs,
         jacobian: Some(&mut jacobian),
-        second_order: M::SECOND_ORDER.then_some(n / 2),
+        second_order: M::second_order().then_some(n / 2),
         // (the cast shortens the trait object's lifetime to the borrow's)
         mechanics: mechanics.as_deref_mut().map(|m| m as &mut dyn Mechanics),
         inputs_move: inputs.moving(),

@@ -897,7 +897,7 @@ fn check_method<M: System>(method: Method, u: &[f64], p: &[f64], lti: bool) -> R
             M::name()
         ));
     }
-    if method.needs_second_order() && !M::SECOND_ORDER {
+    if method.needs_second_order() && !M::second_order() {
         return Err(format!(
             "solver {name} needs states of the form (q, q̇); {} has none",
             M::name()

@@ -1,0 +1,199 @@
+"""Floating base (issue 32): `mbfmu build --urdf FILE --floating-base`, the root link free.
+
+- A one-link URDF (a brick, principal moments 1, 2, 3 kg m²) floating is the in-tree
+  `RigidBody` FMU: the same body angular velocity and attitude quaternion over 10 s from
+  ω = (1, 0.5, 0.2) rad/s (Euler's equations; its centre of mass falls as ½ g t², which
+  does not touch the rotation). Both at rtol 1e-12: they differ by what two integrations of
+  the same motion by two right-hand sides differ, ~1e-12; bound 1e-10.
+- Legged robots and humanoids of example-robot-data floating (Talos with its 24 mimic
+  joints: q̈ then from the mass matrix reduced to the base and the independent joints): at
+  random states
+  (base anywhere, any attitude, moving; joints anywhere, moving, under torques),
+  der(base_v…), der(base_w…) and der(J_dot) equal Pinocchio's free-flyer `aba` (base
+  velocity linear then angular, in the base frame, as ours) to 1e-10 relative to
+  max(1, |a|); der(base_x…) is R v and der(base_q…) is ½ q ⊗ (0, ω); E equals Pinocchio's
+  kinetic plus potential energy. And the momentum about the centre of mass: its rate,
+  Pinocchio's `computeCentroidalMomentumTimeVariation` at our accelerations, is (0, M g):
+  gravity pulls the centre of mass and exerts no torque about it, whatever the joints do.
+- The default experiment runs to its stop time in fmpy (the robot falls freely, its
+  shape kept: q̈ = 0 and the base falls at g).
+"""
+
+from __future__ import annotations
+
+import pathlib
+
+import fmpy
+import numpy as np
+import pinocchio as pin
+import pytest
+from fmpy.validation import validate_fmu
+
+import fmu_support as fs
+from test_multibody_pinocchio import configuration, robots_dir
+from test_real_robots import build, coordinate_damping, urdf_joints
+
+BRICK = """<robot name="brick"><link name="brick"><inertial><mass value="1"/>
+<inertia ixx="1" ixy="0" ixz="0" iyy="2" iyz="0" izz="3"/></inertial></link></robot>"""
+
+BASE_Q = ["base_x", "base_y", "base_z", "base_q0", "base_q1", "base_q2", "base_q3"]
+BASE_V = ["base_vx", "base_vy", "base_vz", "base_wx", "base_wy", "base_wz"]
+
+LEGGED = ["go2_description/urdf/go2.urdf", "solo_description/robots/solo12.urdf",
+          "anymal_c_simple_description/urdf/anymal.urdf", "bolt_description/robots/bolt.urdf",
+          "g1_description/urdf/g1_29dof_rev_1_0.urdf", "talos_data/robots/talos_reduced.urdf"]
+
+
+def test_a_floating_brick_is_the_in_tree_rigid_body(tmp_path):
+    urdf = tmp_path / "brick.urdf"
+    urdf.write_text(BRICK)
+    res = build(urdf, tmp_path, "--floating-base", "--platforms", "host")
+    assert res.returncode == 0, res.stderr
+    fmu = tmp_path / "brick.fmu"
+    assert not validate_fmu(str(fmu))
+    ours = fmpy.simulate_fmu(str(fmu), stop_time=10, output_interval=0.01, relative_tolerance=1e-12,
+                             start_values={"base_wx": 1.0, "base_wy": 0.5, "base_wz": 0.2},
+                             output=BASE_V[3:] + BASE_Q[2:] + ["E"])
+    theirs = fmpy.simulate_fmu(str(fs.fmu_file("RigidBody")), stop_time=10, output_interval=0.01,
+                               relative_tolerance=1e-12,
+                               output=["omega1", "omega2", "omega3", "q0", "q1", "q2", "q3"])
+    pairs = list(zip(BASE_V[3:] + BASE_Q[3:], ["omega1", "omega2", "omega3", "q0", "q1", "q2", "q3"]))
+    worst = max(np.abs(ours[a] - theirs[b]).max() for a, b in pairs)
+    print(f"brick against RigidBody over 10 s: worst difference {worst:.2e}")
+    assert worst < 1e-10
+    t = ours["time"]
+    assert np.allclose(ours["base_z"], -0.5 * 9.81 * t**2, rtol=1e-12, atol=1e-12)
+    # E = ½ ωᵀ I ω + ½ m v² + m g z, constant: its last two terms cancel, each growing to
+    # m g |z| = 4.8 kJ by t = 10 s, so E keeps what the integration leaves of them (rtol
+    # 1e-12 of that size; measured 3.7e-10 J, 8e-14 of it).
+    scale = 9.81 * np.abs(ours["base_z"]).max()
+    assert np.ptp(ours["E"]) < 1e-12 * scale
+
+
+class FreeFlyer:
+    """Pinocchio's model of a URDF on a free-flyer root joint, in our coordinate order. Its
+    mimic joints (Talos's grippers: Pinocchio 4.1 refuses their mimic model) are joints of
+    the model here, set from the joints they follow; its mass matrix and bias are reduced
+    by G (base and independent joints → every velocity) as the mimic model would."""
+
+    def __init__(self, urdf: pathlib.Path, ours: list[str]):
+        self.model = pin.buildModelFromUrdf(str(urdf), pin.JointModelFreeFlyer())
+        self.data = self.model.createData()
+        self.ours = ours
+        self.roots = {name: j["root"] for name, j in urdf_joints(urdf).items() if j["mimic"]}
+        self.names = ours + list(self.roots)
+        self.joints = [self.model.joints[self.model.getJointId(j)] for j in self.names]
+        self.idx = np.array([j.idx_v for j in self.joints], dtype=int)
+        assert len(self.names) + 6 == self.model.nv
+        # G: our velocities (base, then our joints) → Pinocchio's.
+        self.g = np.zeros((self.model.nv, 6 + len(ours)))
+        self.g[:6, :6] = np.eye(6)
+        for k, name in enumerate(self.names):
+            of, r = (self.roots[name][0], self.roots[name][1]) if name in self.roots else (name, 1.0)
+            self.g[self.idx[k], 6 + ours.index(of)] = r
+
+    def q(self, base_q, q):
+        full = list(q) + [r * q[self.ours.index(of)] + o for of, r, o in self.roots.values()]
+        out = configuration(self.model, self.joints, full)
+        w, x, y, z = base_q[3:]
+        out[:7] = [*base_q[:3], x, y, z, w]  # Pinocchio's quaternion: scalar last
+        return out
+
+    def v(self, base_v, qd):
+        return self.g @ np.concatenate([base_v, qd])
+
+    def accelerations(self, pq, pv, tau):
+        """(base acceleration, our joints' q̈): `aba` without mimics, else the reduced
+        `Gᵀ M G a = Gᵀ (τ − nle)`."""
+        force = self.g[:, 6:] @ tau
+        if not self.roots:
+            a = pin.aba(self.model, self.data, pq, pv, force)
+            return a[:6], a[self.idx[:len(self.ours)]]
+        m = pin.crba(self.model, self.data, pq)
+        m = np.triu(m) + np.triu(m, 1).T
+        nle = pin.nonLinearEffects(self.model, self.data, pq, pv)
+        a = np.linalg.solve(self.g.T @ m @ self.g, self.g.T @ (force - nle))
+        return a[:6], a[6:]
+
+
+def random_unit_quaternion(rng):
+    q = rng.normal(size=4)
+    return q / np.linalg.norm(q)
+
+
+@pytest.fixture(scope="module", params=LEGGED)
+def legged(request, tmp_path_factory):
+    rel = request.param
+    urdf = robots_dir() / rel
+    out = tmp_path_factory.mktemp("floating")
+    name = "F_" + "".join(c if c.isalnum() else "_" for c in pathlib.Path(rel).stem)
+    res = build(urdf, out, "--floating-base", "--name", name, "--platforms", "host")
+    assert res.returncode == 0, res.stderr[-2000:]
+    print(res.stdout.strip())
+    return urdf, fs.Model(name, out / f"{name}.fmu")
+
+
+def test_a_floating_robot_equals_pinocchios_free_flyer(legged, instances):
+    urdf, model = legged
+    names = model.state_names
+    nq = names.index("base_q3") + 1
+    ours = names[: nq - 7]
+    assert names[nq - 7:nq] == BASE_Q and names[nq:nq + len(ours)] == [f"{j}_dot" for j in ours]
+    assert names[nq + len(ours):] == BASE_V
+    ref = FreeFlyer(urdf, ours)
+    n = len(ours)
+    d = coordinate_damping(urdf_joints(urdf), ours)
+    prismatic = np.array([model.vars[j].unit == "m" for j in ours], dtype=bool)
+    inst = instances(model, model.name)
+    rng = np.random.default_rng(20261129 + n)
+    worst = {"a": 0.0, "E": 0.0, "rates": 0.0, "momentum": 0.0}
+    mass = sum(inertia.mass for inertia in ref.model.inertias)
+    for k in range(4):
+        base_q = np.concatenate([rng.uniform(-2, 2, 3), random_unit_quaternion(rng)])
+        base_v = rng.uniform(-1, 1, 6)
+        q = rng.uniform(-np.pi, np.pi, n)
+        q[prismatic] = rng.uniform(-0.05, 0.05, prismatic.sum())
+        qd, tau = rng.uniform(-2, 2, n), rng.uniform(-1, 1, n)
+        if k:
+            inst.ok("fmi2Reset")
+        values = {**dict(zip(BASE_Q, base_q)), **dict(zip(BASE_V, base_v)), **dict(zip(ours, q)),
+                  **{f"{j}_dot": x for j, x in zip(ours, qd)}, **{f"tau_{j}": x for j, x in zip(ours, tau)},
+                  "limit_events": 0}
+        inst.initialize(values, tol=1e-10)
+        pq, pv = ref.q(base_q, q), ref.v(base_v, qd)
+        a_base, a_joints = ref.accelerations(pq, pv, tau - d * qd)
+        got = np.array(inst.get_reals([f"der({v})" for v in BASE_V] + [f"der({j}_dot)" for j in ours]))
+        want = np.concatenate([a_base, a_joints])
+        worst["a"] = max(worst["a"], (np.abs(got - want) / np.maximum(1.0, np.abs(want))).max())
+        energy = pin.computeKineticEnergy(ref.model, ref.data, pq, pv) + pin.computePotentialEnergy(ref.model, ref.data, pq)
+        worst["E"] = max(worst["E"], abs(inst.get_reals(["E"])[0] - energy) / max(1.0, abs(energy)))
+        # The base's kinematics: ṗ = R v, q̇ = ½ q ⊗ (0, ω).
+        rot = pin.Quaternion(pq[6], *pq[3:6]).toRotationMatrix()
+        w0, x0, y0, z0 = base_q[3:]
+        wx, wy, wz = base_v[3:]
+        spin = 0.5 * np.array([-x0 * wx - y0 * wy - z0 * wz, w0 * wx + y0 * wz - z0 * wy,
+                               w0 * wy - x0 * wz + z0 * wx, w0 * wz + x0 * wy - y0 * wx])
+        rates = np.array(inst.get_reals([f"der({v})" for v in BASE_Q]))
+        worst["rates"] = max(worst["rates"], np.abs(rates - np.concatenate([rot @ base_v[:3], spin])).max())
+        # Momentum about the centre of mass: rate (0, M g) at our accelerations.
+        pa = ref.g @ got  # (the bias of the mimics' accelerations is 0: q = r q_J + o)
+        dh = pin.computeCentroidalMomentumTimeVariation(ref.model, ref.data, pq, pv, pa)
+        h_dot = np.concatenate([ref.data.dhg.linear, ref.data.dhg.angular])
+        expected = np.array([0, 0, -9.81 * mass, 0, 0, 0])
+        worst["momentum"] = max(worst["momentum"], np.abs(h_dot - expected).max() / (9.81 * mass))
+        del dh
+    print(f"{urdf.name}: {n} joints + floating base, worst {worst}")
+    assert worst["a"] < 1e-10 and worst["E"] < 1e-10, worst
+    assert worst["rates"] < 1e-14 and worst["momentum"] < 1e-10, worst
+
+
+def test_a_floating_robot_falls_freely_in_its_default_experiment(legged):
+    """Released at rest, no torques: every body falls at g, the shape kept (the joints' q̈
+    is 0 and the base's v̇ is Rᵀ g) to the stop time."""
+    urdf, model = legged
+    stop = float(model.md.defaultExperiment.stopTime)
+    run = fmpy.simulate_fmu(str(model.path), output=["base_z", "base_vz", "E"])
+    assert run["time"][-1] == pytest.approx(stop)
+    t = run["time"]
+    assert np.allclose(run["base_z"], -0.5 * 9.81 * t**2, rtol=1e-9, atol=1e-9)
+    assert np.ptp(run["E"]) < 1e-9 * max(1.0, np.abs(run["E"]).max())
