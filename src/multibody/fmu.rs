@@ -1258,7 +1258,8 @@ fn floating_accelerations<S: Scalar>(b: &Built, q: &[S], v: &[S], u: &[S], a: &m
             .map(|(&t, g)| t - g)
             .collect()
     };
-    let mut am = vec![S::zero(); n];
+    // Every model joint's q̈ (mimic joints included), then the coordinates'.
+    let mut am = vec![S::zero(); b.model.nq()];
     let a0 = with_workspace(&b.model, |data| {
         b.model.aba_free_in(
             data,

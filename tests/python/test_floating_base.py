@@ -5,9 +5,10 @@
   ω = (1, 0.5, 0.2) rad/s (Euler's equations; its centre of mass falls as ½ g t², which
   does not touch the rotation). Both at rtol 1e-12: they differ by what two integrations of
   the same motion by two right-hand sides differ, ~1e-12; bound 1e-10.
-- Legged robots and humanoids of example-robot-data floating (Talos with its 24 mimic
-  joints: q̈ then from the mass matrix reduced to the base and the independent joints): at
-  random states
+- Legged robots and humanoids of example-robot-data floating (Talos reduced: its
+  grippers' mimics are on fixed joints, ignored; the mimic path of a floating base is
+  checked in Rust, `src/multibody/floating_tests.rs`, by energy and momentum): at random
+  states
   (base anywhere, any attitude, moving; joints anywhere, moving, under torques),
   der(base_v…), der(base_w…) and der(J_dot) equal Pinocchio's free-flyer `aba` (base
   velocity linear then angular, in the base frame, as ours) to 1e-10 relative to
