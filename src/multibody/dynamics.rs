@@ -551,9 +551,26 @@ impl Model {
 
     /// [`Model::rnea`] into `tau`, with the workspace `d`: no allocation.
     pub fn rnea_in<S: Scalar>(&self, d: &mut Data<S>, q: &[S], qd: &[S], qdd: &[S], tau: &mut [S]) {
+        self.rnea_tree(d, None, &self.base_acceleration::<S>(), q, qd, qdd, tau);
+    }
+
+    /// RNEA's two passes over the tree from a base moving with velocity `v0` (`None`: a
+    /// fixed base) and fictitious acceleration `a0` (gravity included, base coordinates):
+    /// the joint forces into `tau`, and the wrench the joints pass to the base (base frame;
+    /// zero for a fixed base, whose children's wrenches are not needed).
+    #[allow(clippy::too_many_arguments)]
+    fn rnea_tree<S: Scalar>(
+        &self,
+        d: &mut Data<S>,
+        v0: Option<&Motion<S>>,
+        a0: &Motion<S>,
+        q: &[S],
+        qd: &[S],
+        qdd: &[S],
+        tau: &mut [S],
+    ) -> Force<S> {
         let n = self.nq();
-        self.velocities_into(None, q, qd, d);
-        let a0 = self.base_acceleration::<S>();
+        self.velocities_into(v0, q, qd, d);
         let Data {
             xs, v, a, pa: f, ..
         } = d;
@@ -561,7 +578,7 @@ impl Model {
         f.clear();
         for i in 0..n {
             let ai = match self.parent[i] {
-                None => xs[i].motion(&a0),
+                None => xs[i].motion(a0),
                 Some(p) => xs[i].motion(&a[p]),
             }
             .add(&Motion::from_axis(&self.subspace[i], qdd[i]))
@@ -574,13 +591,16 @@ impl Model {
             );
             a.push(ai);
         }
+        let mut f0 = Force::zero();
         for i in (0..n).rev() {
             tau[i] = f[i].along(&self.subspace[i]);
-            if let Some(p) = self.parent[i] {
-                let back = xs[i].force_back(&f[i]);
-                f[p] = f[p].add(&back);
+            match (self.parent[i], v0) {
+                (Some(p), _) => f[p] = f[p].add(&xs[i].force_back(&f[i])),
+                (None, Some(_)) => f0 = f0.add(&xs[i].force_back(&f[i])),
+                (None, None) => {}
             }
         }
+        f0
     }
 
     /// The joint-space mass matrix `M(q)` (CRBA), row-major, symmetric.
@@ -692,9 +712,7 @@ impl Model {
         gravity: bool,
         tau: &mut [S],
     ) -> Force<S> {
-        let n = self.nq();
         let fb = self.free_base.as_ref().expect("a floating base");
-        self.velocities_into(Some(velocity), q, qd, d);
         // The fictitious acceleration of gravity (see `aba_tree`): â₀ = a₀ − (0, Rᵀ g).
         let down = if gravity {
             mat_t_vec(rotation, &lift3(&self.gravity))
@@ -709,39 +727,12 @@ impl Model {
                 a0.lin[2] - down[2],
             ],
         };
-        let Data {
-            xs, v, a, pa: f, ..
-        } = d;
-        a.clear();
-        f.clear();
-        for i in 0..n {
-            let ai = match self.parent[i] {
-                None => xs[i].motion(&a0),
-                Some(p) => xs[i].motion(&a[p]),
-            }
-            .add(&Motion::from_axis(&self.subspace[i], qdd[i]))
-            .add(&v[i].cross_motion(&Motion::from_axis(&self.subspace[i], qd[i])));
-            let inertia = RigidInertia::<S>::lift(&self.inertia[i]);
-            f.push(
-                inertia
-                    .apply(&ai)
-                    .add(&v[i].cross_force(&inertia.apply(&v[i]))),
-            );
-            a.push(ai);
-        }
+        let joints = self.rnea_tree(d, Some(velocity), &a0, q, qd, qdd, tau);
         let inertia = RigidInertia::<S>::lift(&fb.inertia);
-        let mut f0 = inertia
+        inertia
             .apply(&a0)
-            .add(&velocity.cross_force(&inertia.apply(velocity)));
-        for i in (0..n).rev() {
-            tau[i] = f[i].along(&self.subspace[i]);
-            let back = xs[i].force_back(&f[i]);
-            match self.parent[i] {
-                Some(p) => f[p] = f[p].add(&back),
-                None => f0 = f0.add(&back),
-            }
-        }
-        f0
+            .add(&velocity.cross_force(&inertia.apply(velocity)))
+            .add(&joints)
     }
 
     /// [`Model::aba_free_in`] with mimic joints: the dynamics reduced to the base and the
