@@ -1,12 +1,16 @@
 #!/usr/bin/env python3
 """Writes docs/robots.md: every URDF of example-robot-data built with `mbfmu build --urdf`
-(the prebuilt runtime, this machine's binary), with its coordinates, build time, FMU size
-and q̈ error against Pinocchio (its mimic model) at 10 random states; or the one line it was
-refused with. Run with the test virtualenv after `build --all`:
+(the prebuilt runtime, this machine's binary; `--floating-base` for the legged, humanoid and
+flying robots, FLOATING in tests/python/test_real_robots.py), with its coordinates, base,
+build time, FMU size and q̈ error against Pinocchio (its mimic model, or its free-flyer
+model for a floating base) at 10 random states; or the one line it was refused with. Run
+with the test virtualenv after `build --all`:
 
     .venv/bin/python scripts/robots-table.py
 
 It uses the helpers of tests/python/test_real_robots.py (which asserts what this reports).
+`mbfmu build --urdf` prints no operation count (the runtime interprets the algorithm; only
+`--compile`'s generated code has one), so the table has no such column.
 """
 
 from __future__ import annotations
@@ -24,85 +28,101 @@ sys.path.insert(0, str(REPO / "tests" / "python"))
 
 import fmu_support as fs  # noqa: E402
 from test_real_robots import (  # noqa: E402
-    REFUSED, PinocchioMimic, build, coordinate_damping, every_urdf, initialised_at,
-    urdf_joints,
+    FLOATING, REFUSED, base_options, build, every_urdf, identifier_of, worst_against_pinocchio,
 )
 from test_multibody_pinocchio import robots_dir  # noqa: E402
 
 
 def qdd_error(model: fs.Model, urdf: pathlib.Path) -> float:
-    n = len(model.state_names) // 2
-    ours = model.state_names[:n]
-    ref = PinocchioMimic(urdf, ours)
-    d = coordinate_damping(urdf_joints(urdf), ours)
-    prismatic = np.array([model.vars[j].unit == "m" for j in ours])
+    """The largest relative q̈ error (a floating base's acceleration included) at 10
+    random states with no input."""
     inst = model.instance("table")
-    rng = np.random.default_rng(7)
-    worst = 0.0
     try:
-        for k in range(10):
-            q = rng.uniform(-np.pi, np.pi, n)
-            q[prismatic] = rng.uniform(-0.05, 0.05, prismatic.sum())
-            qd = rng.uniform(-2, 2, n)
-            initialised_at(inst, ours, q, qd, np.zeros(n), reset=k > 0)
-            want = ref.qdd(q, qd, -d * qd)
-            got = np.array(inst.get_reals([f"der({j}_dot)" for j in ours]))
-            worst = max(worst, (np.abs(got - want) / np.maximum(1.0, np.abs(want))).max())
+        return worst_against_pinocchio(model, urdf, inst, np.random.default_rng(7), 10, torques=False)["qdd"]
     finally:
         inst.free()
-    return worst
 
 
 def main() -> None:
-    rows = []
+    rows, seconds_of = [], {}
     with tempfile.TemporaryDirectory() as tmp:
         out = pathlib.Path(tmp)
         for rel in every_urdf():
             urdf = robots_dir() / rel
-            identifier = "R_" + "".join(c if c.isalnum() else "_" for c in rel.removesuffix(".urdf"))
+            identifier = identifier_of(rel)
+            base = "floating" if rel in FLOATING else "fixed"
             start = time.perf_counter()
-            res = build(urdf, out, "--name", identifier, "--platforms", "host")
+            res = build(urdf, out, "--name", identifier, "--platforms", "host", *base_options(rel))
             seconds = time.perf_counter() - start
             if res.returncode != 0:
                 line = res.stderr.strip().splitlines()[-1]
                 why = re.sub(r"^mbfmu: (\S+?\.urdf(:\d+)?: |mechanism_runtime: )", "", line)
                 why = re.sub(r"; integration stopped.*", "", why)
                 kind = ("refused: " + REFUSED[rel][1]) if rel in REFUSED else "FAILS"
-                rows.append(f"| `{rel}` | | {kind} | | | {why.replace('|', '/')} |")
-                print(rel, kind)
+                rows.append(f"| `{rel}` | | {base} | {kind} | | | {why.replace('|', '/')} |")
+                print(rel, base, kind)
                 continue
             joints = re.search(r"\(([^)]*) joints", res.stdout).group(1)
             fmu = out / f"{identifier}.fmu"
             model = fs.Model(identifier, fmu)
             err = qdd_error(model, urdf)
             size = fmu.stat().st_size / 1e6
-            rows.append(f"| `{rel}` | {joints} | builds, runs | {seconds:.1f} s | {size:.1f} MB | {err:.1e} |")
-            print(rel, joints, f"{seconds:.1f} s", f"{err:.1e}")
+            rows.append(f"| `{rel}` | {joints} | {base} | builds, runs | {seconds:.1f} s | {size:.1f} MB | {err:.1e} |")
+            print(rel, joints, base, f"{seconds:.1f} s", f"{err:.1e}")
+    (REPO / "docs" / "robots.md").write_text(page(rows))
+    print(f"wrote docs/robots.md: {sum('builds, runs' in r for r in rows)} of {len(rows)} build")
+
+
+def page(rows: list[str]) -> str:
+    """docs/robots.md from the table's rows."""
     built = sum("builds, runs" in r for r in rows)
-    text = f"""# Every URDF of example-robot-data 6.0
+    floating_built = sum("| floating | builds, runs" in r for r in rows)
+    refused = sum("| refused: " in r for r in rows)
+    times = []
+    for r in rows:
+        m = re.match(r"\| `([^`]*)` \| [^|]* \| (\w+) \| builds, runs \| ([\d.]+) s \|", r)
+        if m and float(m.group(3)) >= 10:
+            times.append((float(m.group(3)), pathlib.Path(m.group(1)).stem, m.group(2)))
+    slow = ", ".join(f"{stem} ({base}) {t:.0f} s" for t, stem, base in sorted(times, reverse=True))
+    return f"""# Every URDF of example-robot-data 6.0
 
 Each of the {len(rows)} files built with `mbfmu build --urdf FILE --platforms host` (the
 prebuilt mechanism runtime: no compiler), as `scripts/robots-table.py` measured it on this
-project's 2-core machine. **{built} build** and run their default experiment;
-`tests/python/test_real_robots.py` asserts the same for every file (the FMU's der(J_dot) and
-E against Pinocchio to 1e-10 at random states, the default experiment run by fmpy to its
-stop time, or the one refusal line below).
+project's 2-core machine. **{built} build** and run their default experiment, {refused} are
+refused for their own fault; `tests/python/test_real_robots.py` asserts the same for every
+file (the FMU's der(J_dot), a floating base's acceleration and E against Pinocchio to 1e-10
+at random states, the default experiment run by fmpy to its stop time, or the one refusal
+line below).
 
-Columns: joints (coordinates, + mimic joints that follow them); the build's wall time
-(reading, the reference run, linearisation, the page: most of it is the reference run of
-the default experiment); the FMU's size with this machine's binary only (each further
-platform adds 1–3 MB); the largest relative difference of q̈ from Pinocchio's (`crba` and
-`nonLinearEffects` of its mimic model, the URDF's damping applied) at 10 random states with
-no input, relative to max(1, |q̈ᵢ|). A refused file's column says why, in the build's own
-words. Joint limits are end stops (`limit_events = stops`, the default): the robots that fall
-onto their limits in the default experiment (the humanoids, Baxter, PR2, Centauro, TIAGo)
-build in 12–31 s, most of it their reference run through the impacts.
+**Base.** The legged robots, humanoids and flying robots, {len(FLOATING)} files
+({floating_built} of them build), are built with `--floating-base`: those
+example-robot-data's own loaders put on a free-flyer root joint (the quadrupeds, with or
+without an arm, Centauro, the bipeds and humanoids, PR2, Hector's and Iris's quadrotors,
+Borinot's and Hextilt's flying arms), and the files without a loader of their own as their
+siblings (`iris.urdf`, Romeo's small models, `talos_reduced_corrected.urdf`); the SO-100 and
+SO-101, which their loader also floats, are desk arms and stay fixed like every other arm,
+hand, pendulum and TIAGo (`FLOATING` in the test names each file). A floating robot has no
+ground contact: in its default experiment (at rest, no torques) it falls freely, its shape
+kept (the test checks base_z = −½ g t²). A single rigid body (`quadrotor_base.urdf`,
+`iris_simple.urdf`) floating is an FMU of its base's 13 states alone.
 
-| file | joints | result | build | FMU | q̈ error / why |
-|---|---|---|---|---|---|
+Columns: joints (coordinates, + mimic joints that follow them); base (fixed, or floating:
+six more degrees of freedom); the build's wall time (reading, the reference run,
+linearisation, the page); the FMU's size with this machine's binary only (each further
+platform adds 1–3 MB); the largest relative difference of q̈ (and of a floating base's
+acceleration) from Pinocchio's at 10 random states (a floating base at a random position,
+attitude and velocity) with no input, relative to max(1, |q̈ᵢ|): fixed, `crba` and
+`nonLinearEffects` of its mimic model; floating, `aba` of its free-flyer model (with mimic
+joints, its mass matrix and bias reduced to the independent joints); the URDF's damping
+applied. A refused file's column says why, in the build's own words. Joint limits are end
+stops (`limit_events = stops`, the default): a fixed robot that falls onto its limits in
+the default experiment has its reference run go through the impacts. Builds of 10 s or
+more: {slow or "none"}. `mbfmu build --urdf` prints no operation count (the runtime
+interprets the algorithm), so there is no such column.
+
+| file | joints | base | result | build | FMU | q̈ error / why |
+|---|---|---|---|---|---|---|
 """ + "\n".join(rows) + "\n"
-    (REPO / "docs" / "robots.md").write_text(text)
-    print(f"wrote docs/robots.md: {built} of {len(rows)} build")
 
 
 if __name__ == "__main__":

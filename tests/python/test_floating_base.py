@@ -32,14 +32,12 @@ import pytest
 from fmpy.validation import validate_fmu
 
 import fmu_support as fs
-from test_multibody_pinocchio import configuration, robots_dir
-from test_real_robots import build, coordinate_damping, urdf_joints
+from test_multibody_pinocchio import robots_dir
+from test_real_robots import (BASE_Q, BASE_V, FreeFlyer, build, coordinate_damping,
+                              random_unit_quaternion, urdf_joints)
 
 BRICK = """<robot name="brick"><link name="brick"><inertial><mass value="1"/>
 <inertia ixx="1" ixy="0" ixz="0" iyy="2" iyz="0" izz="3"/></inertial></link></robot>"""
-
-BASE_Q = ["base_x", "base_y", "base_z", "base_q0", "base_q1", "base_q2", "base_q3"]
-BASE_V = ["base_vx", "base_vy", "base_vz", "base_wx", "base_wy", "base_wz"]
 
 LEGGED = ["go2_description/urdf/go2.urdf", "solo_description/robots/solo12.urdf",
           "anymal_c_simple_description/urdf/anymal.urdf", "bolt_description/robots/bolt.urdf",
@@ -71,58 +69,6 @@ def test_a_floating_brick_is_the_in_tree_rigid_body(tmp_path):
     # 1e-12 of that size; measured 3.7e-10 J, 8e-14 of it).
     scale = 9.81 * np.abs(ours["base_z"]).max()
     assert np.ptp(ours["E"]) < 1e-12 * scale
-
-
-class FreeFlyer:
-    """Pinocchio's model of a URDF on a free-flyer root joint, in our coordinate order. Its
-    mimic joints (Talos's grippers: Pinocchio 4.1 refuses their mimic model) are joints of
-    the model here, set from the joints they follow; its mass matrix and bias are reduced
-    by G (base and independent joints → every velocity) as the mimic model would."""
-
-    def __init__(self, urdf: pathlib.Path, ours: list[str]):
-        self.model = pin.buildModelFromUrdf(str(urdf), pin.JointModelFreeFlyer())
-        self.data = self.model.createData()
-        self.ours = ours
-        self.roots = {name: j["root"] for name, j in urdf_joints(urdf).items() if j["mimic"]}
-        self.names = ours + list(self.roots)
-        self.joints = [self.model.joints[self.model.getJointId(j)] for j in self.names]
-        self.idx = np.array([j.idx_v for j in self.joints], dtype=int)
-        assert len(self.names) + 6 == self.model.nv
-        # G: our velocities (base, then our joints) → Pinocchio's.
-        self.g = np.zeros((self.model.nv, 6 + len(ours)))
-        self.g[:6, :6] = np.eye(6)
-        for k, name in enumerate(self.names):
-            of, r = (self.roots[name][0], self.roots[name][1]) if name in self.roots else (name, 1.0)
-            self.g[self.idx[k], 6 + ours.index(of)] = r
-
-    def q(self, base_q, q):
-        full = list(q) + [r * q[self.ours.index(of)] + o for of, r, o in self.roots.values()]
-        out = configuration(self.model, self.joints, full)
-        w, x, y, z = base_q[3:]
-        out[:7] = [*base_q[:3], x, y, z, w]  # Pinocchio's quaternion: scalar last
-        return out
-
-    def v(self, base_v, qd):
-        return self.g @ np.concatenate([base_v, qd])
-
-    def accelerations(self, pq, pv, tau):
-        """(base acceleration, our joints' q̈): `aba` without mimics, else the reduced
-        `Gᵀ M G a = Gᵀ (τ − nle)`."""
-        if not self.roots:
-            a = pin.aba(self.model, self.data, pq, pv, self.g[:, 6:] @ tau)
-            return a[:6], a[self.idx[:len(self.ours)]]
-        m = pin.crba(self.model, self.data, pq)
-        m = np.triu(m) + np.triu(m, 1).T
-        nle = pin.nonLinearEffects(self.model, self.data, pq, pv)
-        # τ is already a force on the reduced coordinates (none on a mimic joint's own).
-        force = np.concatenate([np.zeros(6), tau])
-        a = np.linalg.solve(self.g.T @ m @ self.g, force - self.g.T @ nle)
-        return a[:6], a[6:]
-
-
-def random_unit_quaternion(rng):
-    q = rng.normal(size=4)
-    return q / np.linalg.norm(q)
 
 
 @pytest.fixture(scope="module", params=LEGGED)
