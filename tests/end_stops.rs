@@ -5,7 +5,10 @@
 //! is what is left), and its bounces end resting on the stop inside one doStep. A block
 //! pushed up a prismatic joint rests on its upper stop with the reaction −(F − m g).
 
-use mbfmu::fmi::{Instance, Logger, ModelInfo, StepOutcome};
+#[path = "common/instance.rs"]
+mod instance;
+
+use mbfmu::fmi::{Instance, ModelInfo, StepOutcome};
 use mbfmu::multibody::fmu::Robot;
 use mbfmu::multibody::{Body, Joint, JointKind, Limit, Mechanism, Origin};
 
@@ -72,23 +75,11 @@ mbfmu::mechanism_fmu!(pub StopLift, "StopLift", lift);
 type B = Robot<StopLift>;
 
 fn instance<R: mbfmu::model::System>(values: &[(&str, f64)]) -> (Instance<R>, &'static ModelInfo) {
-    let info: &'static ModelInfo = Box::leak(Box::new(ModelInfo::of::<R>()));
-    let mut inst = Instance::<R>::new(info, Logger::silent("stops"));
-    for (name, v) in values {
-        let vr = info.layout.vr_of(name).expect(name);
-        inst.set_value(vr, *v).unwrap();
-    }
-    inst.setup_experiment(Some(1e-10), 0.0, None).unwrap();
-    inst.enter_initialization_mode().unwrap();
-    inst.exit_initialization_mode().unwrap();
-    (inst, info)
+    instance::started::<R>("stops", values)
 }
 
 fn get<R: mbfmu::model::System>(inst: &Instance<R>, info: &ModelInfo, name: &str) -> f64 {
-    let mut v = [0.0];
-    inst.get_real(&[info.layout.vr_of(name).expect(name)], &mut v)
-        .unwrap();
-    v[0]
+    instance::value_of(inst, info, name)
 }
 
 /// The potential energy of the bob at q (V = 0 at the base origin).

@@ -5,6 +5,9 @@
 //! tests/end_stops.rs); and `mbfmu build --urdf` refuses every bad URDF with one line and writes
 //! no file.
 
+#[path = "common/instance.rs"]
+mod instance;
+
 use mbfmu::fmi::{Instance, Logger, ModelInfo, StepOutcome};
 use mbfmu::multibody::fmu::Robot;
 use mbfmu::multibody::{Body, Joint, JointKind, Limit, Mechanism, Origin};
@@ -90,16 +93,7 @@ fn a_mechanism_describes_what_it_runs_and_what_it_is() {
 }
 
 fn instance(values: &[(&str, f64)]) -> (Instance<R>, &'static ModelInfo) {
-    let info: &'static ModelInfo = Box::leak(Box::new(ModelInfo::of::<R>()));
-    let mut inst = Instance::<R>::new(info, Logger::silent("lift"));
-    for (name, v) in values {
-        let vr = info.layout.vr_of(name).expect(name);
-        inst.set_value(vr, *v).unwrap();
-    }
-    inst.setup_experiment(Some(1e-10), 0.0, None).unwrap();
-    inst.enter_initialization_mode().unwrap();
-    inst.exit_initialization_mode().unwrap();
-    (inst, info)
+    instance::started::<R>("lift", values)
 }
 
 /// Pushed up by 20 N against its weight from rest at 0: q = ½ a t², a = 20 − 9.81, so the

@@ -161,8 +161,37 @@ fn a_floating_arm_keeps_its_energy() {
     );
 }
 
-/// The spatial momentum in the world, `X*(∂T/∂v₀)` (T's gradient in the base velocity is
-/// the momentum of the whole tree in base coordinates), as dual numbers along the flow:
+/// The spatial momentum of `model` in the world, `(linear, angular about the world origin)`,
+/// as dual numbers in time along the flow from `s`: `X*(∂T/∂v₀)` (T's gradient in the base
+/// velocity is the momentum of the whole tree in base coordinates).
+fn world_momentum(model: &Model, s: &State) -> (V3<Dual64>, V3<Dual64>) {
+    // h_b[k] = ∂T/∂v₀ₖ as a dual number in time: ε₁ time, ε₂ the gradient.
+    let lift = |x: f64, rate: f64| HyperDual64::new(x, rate, 0.0, 0.0);
+    let (r, p, v, q, qd) = along_flow(model, s, lift);
+    let mut h = [Dual64::from(0.0); 6];
+    for (k, hk) in h.iter_mut().enumerate() {
+        let mut vk = v;
+        let slot = if k < 3 {
+            &mut vk.ang[k]
+        } else {
+            &mut vk.lin[k - 3]
+        };
+        slot.eps2 = 1.0;
+        let t = model.kinetic_energy_free(&vk, &q, &qd);
+        *hk = Dual64::new(t.eps2, t.eps1eps2);
+    }
+    let time = |x: &HyperDual64| Dual64::new(x.re, x.eps1);
+    let rt: M3<Dual64> = std::array::from_fn(|i| std::array::from_fn(|k| time(&r[i][k])));
+    let pt: V3<Dual64> = std::array::from_fn(|i| time(&p[i]));
+    let f_w = mat_vec(&rt, &[h[3], h[4], h[5]]);
+    let n_w = super::spatial::add(
+        &mat_vec(&rt, &[h[0], h[1], h[2]]),
+        &super::spatial::cross(&pt, &f_w),
+    );
+    (f_w, n_w)
+}
+
+/// The spatial momentum in the world ([`world_momentum`]) as dual numbers along the flow:
 /// without gravity it is kept whatever the joints' torques; with gravity its linear part
 /// changes by M g.
 #[test]
@@ -173,27 +202,7 @@ fn a_floating_arm_keeps_its_momentum() {
         s.tau = torques.to_vec();
         let mass: f64 = model.inertia.iter().map(|i| i.m).sum::<f64>()
             + model.free_base.as_ref().unwrap().inertia.m;
-        // h_b[k] = ∂T/∂v₀ₖ as a dual number in time: ε₁ time, ε₂ the gradient.
-        let lift = |x: f64, rate: f64| HyperDual64::new(x, rate, 0.0, 0.0);
-        let (r, p, v, q, qd) = along_flow(&model, &s, lift);
-        let mut h = [Dual64::from(0.0); 6];
-        for (k, hk) in h.iter_mut().enumerate() {
-            let mut vk = v;
-            let slot = if k < 3 {
-                &mut vk.ang[k]
-            } else {
-                &mut vk.lin[k - 3]
-            };
-            slot.eps2 = 1.0;
-            let t = model.kinetic_energy_free(&vk, &q, &qd);
-            *hk = Dual64::new(t.eps2, t.eps1eps2);
-        }
-        let time = |x: &HyperDual64| Dual64::new(x.re, x.eps1);
-        let rt: M3<Dual64> = std::array::from_fn(|i| std::array::from_fn(|k| time(&r[i][k])));
-        let pt: V3<Dual64> = std::array::from_fn(|i| time(&p[i]));
-        let (n_b, f_b) = ([h[0], h[1], h[2]], [h[3], h[4], h[5]]);
-        let f_w = mat_vec(&rt, &f_b);
-        let n_w = super::spatial::add(&mat_vec(&rt, &n_b), &super::spatial::cross(&pt, &f_w));
+        let (f_w, n_w) = world_momentum(&model, &s);
         let scale = f_w
             .iter()
             .chain(&n_w)
@@ -281,28 +290,7 @@ fn the_reduced_floating_dynamics_keep_energy_and_momentum() {
         "dE/dt = {} vs power {power}",
         e.eps
     );
-    let lift = |x: f64, rate: f64| HyperDual64::new(x, rate, 0.0, 0.0);
-    let (r, p, v, q, qd) = along_flow(&free, &s, lift);
-    let mut h = [Dual64::from(0.0); 6];
-    for (k, hk) in h.iter_mut().enumerate() {
-        let mut vk = v;
-        let slot = if k < 3 {
-            &mut vk.ang[k]
-        } else {
-            &mut vk.lin[k - 3]
-        };
-        slot.eps2 = 1.0;
-        let t = free.kinetic_energy_free(&vk, &q, &qd);
-        *hk = Dual64::new(t.eps2, t.eps1eps2);
-    }
-    let time = |x: &HyperDual64| Dual64::new(x.re, x.eps1);
-    let rt: M3<Dual64> = std::array::from_fn(|i| std::array::from_fn(|k| time(&r[i][k])));
-    let pt: V3<Dual64> = std::array::from_fn(|i| time(&p[i]));
-    let f_w = mat_vec(&rt, &[h[3], h[4], h[5]]);
-    let n_w = super::spatial::add(
-        &mat_vec(&rt, &[h[0], h[1], h[2]]),
-        &super::spatial::cross(&pt, &f_w),
-    );
+    let (f_w, n_w) = world_momentum(&free, &s);
     for k in 0..3 {
         assert!(
             f_w[k].eps.abs() < 1e-12 && n_w[k].eps.abs() < 1e-12,

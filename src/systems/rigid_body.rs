@@ -37,27 +37,7 @@ impl RigidBody {
     /// non-zero `q`: the homogeneous form divided by |q|², exactly orthogonal in exact
     /// arithmetic whatever the norm of `q`.
     pub fn rotation_matrix<S: Scalar>(q: &[S]) -> [[S; 3]; 3] {
-        let (q0, q1, q2, q3) = (q[0], q[1], q[2], q[3]);
-        let n2 = q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3;
-        let s = n2.recip();
-        let two = s * 2.0;
-        [
-            [
-                (q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3) * s,
-                (q1 * q2 - q0 * q3) * two,
-                (q1 * q3 + q0 * q2) * two,
-            ],
-            [
-                (q1 * q2 + q0 * q3) * two,
-                (q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3) * s,
-                (q2 * q3 - q0 * q1) * two,
-            ],
-            [
-                (q1 * q3 - q0 * q2) * two,
-                (q2 * q3 + q0 * q1) * two,
-                (q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3) * s,
-            ],
-        ]
+        crate::multibody::spatial::quat_to_matrix(&[q[0], q[1], q[2], q[3]])
     }
 
     /// The notes' Euler angles `(roll φ, pitch θ, yaw ψ)` of the attitude `q` (any
