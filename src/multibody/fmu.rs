@@ -188,13 +188,8 @@ macro_rules! mechanism_fmu {
     };
 }
 
-/// A joint position limit on one coordinate.
-#[derive(Clone, Debug, PartialEq)]
-pub struct PositionLimit {
-    pub coordinate: usize,
-    pub lower: f64,
-    pub upper: f64,
-}
+/// A joint position limit on one coordinate (the end stops' data, kept by [`stops`]).
+pub use super::stops::PositionLimit;
 
 /// What [`Robot`] needs of a mechanism, made once: the model, the variables (their names
 /// leaked, as scenes want `&'static str`: once per mechanism and process), the start

@@ -21,8 +21,15 @@
 //! its saved states and Model Exchange's importer hold all there is. A model layer: it
 //! knows no FMI.
 
-use super::fmu::PositionLimit;
 use crate::model::Scalar;
+
+/// A joint position limit on one coordinate.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PositionLimit {
+    pub coordinate: usize,
+    pub lower: f64,
+    pub upper: f64,
+}
 
 /// A rebound that would rise less than this (rad, or m) above its stop under the load at
 /// the impact, `(e v)² / (2 |q̈|)`, rests instead: far below any tolerance a user sets.
