@@ -12,7 +12,7 @@ use super::run::{simulate, RunSettings, Trajectory};
 use super::svg::{chart, Series};
 use super::{rough, written};
 use crate::integrators::Method;
-use crate::linearize::Linearization;
+use crate::linearize::{eigenvalues, Linearization};
 use crate::model::{Layout, Scene, System, VarKind};
 use crate::xml::fmi_attributes;
 use nalgebra::DMatrix;
@@ -281,7 +281,16 @@ fn linearisation_section(lin: &Linearization) -> String {
     if lin.b.ncols() > 0 {
         h.push_str(&format!("<p>B =</p>{}\n", matrix(&lin.b)));
     }
-    let eig = lin.a.clone().complex_eigenvalues();
+    let eig = match eigenvalues(&lin.a) {
+        Ok(eig) => eig,
+        Err(why) => {
+            h.push_str(&format!(
+                "<p>The eigenvalues of A are not listed: {}.</p>\n",
+                escape(&why)
+            ));
+            return h;
+        }
+    };
     let mut rows = String::new();
     let mut eigs: Vec<_> = eig.iter().collect();
     eigs.sort_by(|a, b| a.norm().total_cmp(&b.norm()).then(b.im.total_cmp(&a.im)));

@@ -7,8 +7,10 @@
 //! outputs. So `C = [I; ∂g/∂x]` and `D = [0; ∂g/∂u]`: an output equal to a state has
 //! derivative 1 with respect to that state.
 
+mod eigen;
 mod format;
 
+pub use eigen::eigenvalues;
 pub use format::{to_csv, to_json, to_py};
 
 use crate::model::consistent;
