@@ -24,14 +24,16 @@
 //!   an event, restitution the parameter `restitution`; a joint rests on its stop while the
 //!   load pushes into it, with its reaction as the output `tau_stop_J`, and leaves when it
 //!   pulls); or fmi2Discard at the limit (the signed distance to the nearest limit as the
-//!   event indicator); or ignored. A mechanism with loop closures has no end stops.
+//!   event indicator); or ignored. A mechanism with loop closures has no end stops;
+//! - Coulomb friction ([`friction`](super::friction)): slipping and sticking, a joint
+//!   coming to rest located as an event, the force as the output `tau_friction_J`.
 //!
-//! Not modelled, and said so ([`unmodelled`], the page): Coulomb friction and velocity
-//! limits. A model layer: nothing here knows FMI, packaging or the CLI.
+//! Not modelled, and said so ([`unmodelled`], the page): velocity limits, and friction in
+//! a mechanism with loop closures. A model layer: nothing here knows FMI, packaging or the CLI.
 
 use super::dynamics::{Axis, Model};
 use super::mechanism::{Error, JointKind, Mechanism};
-use super::stops;
+use super::{friction, stops};
 use crate::model::lagrangian::Lagrangian;
 use crate::model::{Scalar, Scene, Var};
 use num_dual::{Dual, Dual64};
@@ -56,7 +58,8 @@ macro_rules! mechanism_equations {
             "E = T + V; for the end of each branch, its position and orientation quaternion (w, x, y, z) in the base frame",
             "Joint position limits are end stops (parameter limit_events = stops, the default): a joint reaching one moving into it is an impact, located as an event: its velocity becomes −e times what it was (e = restitution) and every other joint's changes by the same impulse through M (Δq̇ = M⁻¹ e_k Λ); a rebound that would rise less than 1e-9 rad (m) rests instead",
             "A joint resting on its stop (on it, q̇ = 0) stays there while the load pushes into it: q̈_k = 0 by a reaction λ_k (output tau_stop_J) with M q̈ = Q + … + e_k λ_k; where λ would have to pull, the joint leaves. limit_events = discard ends the doStep with fmi2Discard at a limit instead; ignore runs through",
-            "Not modelled: Coulomb friction, velocity limits; effort limits are the ranges of the inputs; a mimic joint follows the joint it names (q = r q_joint + o, no coordinate or input of its own: its position and velocity are outputs), q̈ then from the mass matrix reduced to the independent joints",
+            "Coulomb friction F (URDF <dynamics friction>, output tau_friction_J): −F sign(q̇) while a joint slips; a joint at rest (q̇ = 0 exactly) sticks, held by a force within ±F found with the stops' reactions, and breaks away at ±F where the load needs more; a slipping joint coming to rest (within 1e-9 of q̇ = 0) is an event, located (use DOPRI5 or DOP853: RADAU5's Newton iteration and a fixed step may not step through it)",
+            "Not modelled: velocity limits; effort limits are the ranges of the inputs; a mimic joint follows the joint it names (q = r q_joint + o, no coordinate or input of its own: its position and velocity are outputs), q̈ then from the mass matrix reduced to the independent joints",
             $($note,)*
         ]
     };
@@ -227,6 +230,10 @@ pub struct Built {
     pub scenes: Vec<Scene>,
     /// Viscous damping per coordinate.
     pub damping: Vec<f64>,
+    /// Coulomb friction per coordinate (a mimic joint's on the joint it follows, `|r| F`;
+    /// [`super::friction`]); empty for a mechanism with loop closures, whose friction is
+    /// not modelled (its build warning says so).
+    pub friction: Vec<f64>,
     /// [`codegen::fingerprint`](super::codegen::fingerprint) of `model`: generated code
     /// runs only on the model it was generated from ([`Declared::GENERATED_FROM`]).
     pub fingerprint: u64,
@@ -528,8 +535,21 @@ impl Built {
             damping_model[d] += r * r * model.damping[i];
             damping_model[i] = 0.0;
         }
+        // A mimic joint's friction likewise: the force F against its motion is |r| F
+        // against the followed joint's.
+        let mut friction_model: Vec<f64> = (0..n).map(|i| joint_of(i).friction).collect();
+        for &i in &mimics {
+            let (d, r) = model.driver(i);
+            friction_model[d] += r.abs() * friction_model[i];
+            friction_model[i] = 0.0;
+        }
         let model_start = start.clone();
         let (start, hold, damping) = (permute(&start), permute(&hold), permute(&damping_model));
+        let friction = if mechanism.closures.is_empty() {
+            permute(&friction_model)
+        } else {
+            Vec::new()
+        };
         let effort: Vec<Option<f64>> = order.iter().map(|&i| effort[i]).collect();
         let dependent: Vec<bool> = order.iter().map(|i| dependent_model.contains(i)).collect();
         let unit = |i: usize| match model.kinds[i] {
@@ -683,6 +703,20 @@ impl Built {
                 outputs.push(v);
             }
         }
+        let stop_outputs = outputs.len();
+        for (k, _) in friction.iter().enumerate().filter(|(_, &f)| f > 0.0) {
+            let i = order[k];
+            let (_, _, f, what) = unit(i);
+            let name = &joint_of(i).name;
+            let mut v = Var::new("", Some(f), 0.0, "");
+            v.name = format!("tau_friction_{name}").into();
+            v.description = format!(
+                "Generalised {what} of Coulomb friction on joint {name} ({f}, |·| ≤ {:?}): −F sign(q̇) while it slips, the force that holds it while it sticks (q̇ = 0)",
+                friction[k]
+            )
+            .into();
+            outputs.push(v);
+        }
         // Every name once, none of the FMU's own.
         let mut seen: std::collections::HashMap<String, String> = RESERVED
             .iter()
@@ -747,12 +781,17 @@ impl Built {
                 ));
             }
         }
-        for v in outputs.iter().skip(mimic_outputs) {
-            if let Some(other) = seen.insert(v.name.to_string(), "an end-stop output".into()) {
+        for (k, v) in outputs.iter().enumerate().skip(mimic_outputs) {
+            let what = if k < stop_outputs {
+                "an end-stop output"
+            } else {
+                "a friction output"
+            };
+            if let Some(other) = seen.insert(v.name.to_string(), what.into()) {
                 return Err(Error::new(
                     robot(),
                     format!(
-                        "the end-stop output \"{}\" would also be {other}: rename the joint",
+                        "the {what} \"{}\" would also be {other}: rename the joint",
                         v.name
                     ),
                 ));
@@ -782,6 +821,7 @@ impl Built {
         );
         Ok(Built {
             damping,
+            friction,
             fingerprint: super::codegen::fingerprint(&model),
             model,
             mechanism,
@@ -935,10 +975,11 @@ fn base_moves(model: &Model, q: &[f64]) -> bool {
 /// loop closures has none, and discards at a limit) and, where there are end stops (a tree
 /// with limits), `restitution`.
 fn limit_parameters(closures: bool, limited: bool) -> Vec<Var> {
-    let (default, last) = if closures {
-        (LimitMode::Discard, LimitMode::Discard)
+    // A mechanism with closures has no end stops: its last item, and default, is discard.
+    let default = if closures {
+        LimitMode::Discard
     } else {
-        (LimitMode::Stops, LimitMode::Stops)
+        LimitMode::Stops
     };
     let mode = Var::new(
         "limit_events",
@@ -946,7 +987,7 @@ fn limit_parameters(closures: bool, limited: bool) -> Vec<Var> {
         default as i32 as f64,
         "What a joint reaching a position limit does",
     )
-    .enumeration(&LimitMode::ITEMS[..=last as usize]);
+    .enumeration(&LimitMode::ITEMS[..=default as usize]);
     let restitution = Var::new(
         "restitution",
         None,
@@ -1080,9 +1121,9 @@ fn unmodelled_by_joint(mechanism: &Mechanism) -> Vec<(&'static str, Vec<String>,
     };
     let mut lines = Vec::new();
     let friction = list(&|j| (j.friction > 0.0).then_some(j.friction));
-    if !friction.is_empty() {
+    if !friction.is_empty() && !mechanism.closures.is_empty() {
         lines.push((
-            "Coulomb friction is not modelled",
+            "Coulomb friction is not modelled in a mechanism with loop closures",
             friction,
             "URDF <dynamics friction>",
         ));
@@ -1215,6 +1256,47 @@ fn free_accelerations<D: Declared, S: Scalar>(q: &[S], qd: &[S], u: &[S], qdd: &
     }
     for (k, &i) in b.order.iter().enumerate() {
         qdd[k] = a[i];
+    }
+}
+
+/// q̈ of a tree mechanism: [`free_accelerations`] with the slipping joints' friction
+/// ([`friction::slip`]), then the joints held by their end stops (`limit_events` = stops)
+/// or stuck by friction ([`stops::hold`]); the stops' reactions and every coordinate's
+/// friction force into `out` when given. `u` the inputs, `p` the parameters.
+fn accelerations<D: Declared, S: Scalar>(
+    (q, qd, u, p): (&[S], &[S], &[S], &[S]),
+    qdd: &mut [S],
+    out: (Option<&mut [S]>, Option<&mut [S]>),
+) {
+    let b = D::built();
+    let stops = LimitMode::of(p[LIMIT_EVENTS].re()) == LimitMode::Stops;
+    let limits: &[PositionLimit] = if stops { &b.limits } else { &[] };
+    let free = |v: &[S], tau: &[S], out: &mut [S]| free_accelerations::<D, S>(q, v, tau, out);
+    if !friction::any(&b.friction) {
+        free_accelerations::<D, S>(q, qd, u, qdd);
+        stops::hold((limits, &[]), (q, qd), qdd, out, free);
+        return;
+    }
+    let mut forces = u.to_vec();
+    friction::slip(&b.friction, qd, &mut forces);
+    free_accelerations::<D, S>(q, qd, &forces, qdd);
+    let (stop_out, mut friction_out) = out;
+    let held_out = friction_out.as_deref_mut();
+    stops::hold(
+        (limits, &b.friction),
+        (q, qd),
+        qdd,
+        (stop_out, held_out),
+        free,
+    );
+    // The held solve wrote the stuck joints' friction (and the breakaways'); the slipping
+    // ones' is what `slip` took off.
+    if let Some(force) = friction_out {
+        for ((out, &f), v) in force.iter_mut().zip(&b.friction).zip(qd) {
+            if f > 0.0 && !friction::at_rest(f, v.re()) {
+                *out = S::from(-f * v.re().signum());
+            }
+        }
     }
 }
 
@@ -1395,15 +1477,15 @@ impl<D: Declared> Lagrangian for Robot<D> {
         gravity + b.model.spring_energy(&qm)
     }
 
+    /// `Q = τ − d q̇`, less the slipping joints' friction ([`friction::slip`]; a stuck
+    /// joint's is a reaction, which only the generated path's held solve has).
     fn forces<S: Scalar>(_t: f64, _q: &[S], qd: &[S], u: &[S], _p: &[S], out: &mut [S]) {
+        let b = D::built();
         out.fill(S::zero());
-        for ((o, (&tau, &v)), &d) in out
-            .iter_mut()
-            .zip(u.iter().zip(qd))
-            .zip(&D::built().damping)
-        {
+        for ((o, (&tau, &v)), &d) in out.iter_mut().zip(u.iter().zip(qd)).zip(&b.damping) {
             *o = tau - v * d;
         }
+        friction::slip(&b.friction, qd, out);
     }
 
     /// The loop closures by forward kinematics ([`Model::closure_residuals_at`]).
@@ -1431,12 +1513,7 @@ impl<D: Declared> Lagrangian for Robot<D> {
         if D::CONSTRAINTS > 0 {
             return false;
         }
-        free_accelerations::<D, S>(q, qd, u, qdd);
-        if LimitMode::of(p[LIMIT_EVENTS].re()) == LimitMode::Stops {
-            let free =
-                |v: &[S], tau: &[S], out: &mut [S]| free_accelerations::<D, S>(q, v, tau, out);
-            stops::hold(&D::built().limits, (q, qd), qdd, None, free);
-        }
+        accelerations::<D, S>((q, qd, u, p), qdd, (None, None));
         true
     }
 
@@ -1500,18 +1577,17 @@ impl<D: Declared> Lagrangian for Robot<D> {
                 at += 2;
             }
         }
-        // The end stops' reactions, last (a tree's only).
-        if m == 0 && !b.limits.is_empty() {
-            let reaction = &mut y[at..at + b.limits.len()];
-            reaction.fill(S::zero());
-            if LimitMode::of(p[LIMIT_EVENTS].re()) == LimitMode::Stops
-                && stops::any_resting(&b.limits, q, qd)
-            {
-                let mut qdd = vec![S::zero(); qd.len()];
-                free_accelerations::<D, S>(q, qd, u, &mut qdd);
-                let free =
-                    |v: &[S], tau: &[S], out: &mut [S]| free_accelerations::<D, S>(q, v, tau, out);
-                stops::hold(&b.limits, (q, qd), &mut qdd, Some(reaction), free);
+        // The end stops' reactions, then the friction forces, last (a tree's only).
+        let stops = if m == 0 { b.limits.len() } else { 0 };
+        let frictions = b.friction.iter().filter(|&&f| f > 0.0).count();
+        if stops + frictions > 0 {
+            let mut qdd = vec![S::zero(); qd.len()];
+            let mut force = vec![S::zero(); qd.len()];
+            let (reaction, rest) = y[at..].split_at_mut(stops);
+            accelerations::<D, S>((q, qd, u, p), &mut qdd, (Some(reaction), Some(&mut force)));
+            let friction = b.friction.iter().zip(&force).filter(|(&f, _)| f > 0.0);
+            for (out, (_, &f)) in rest.iter_mut().zip(friction) {
+                *out = f;
             }
         }
     }
@@ -1527,31 +1603,60 @@ impl<D: Declared> Lagrangian for Robot<D> {
     }
 
     /// The distance to the nearest limit ([`LimitMode::Discard`]), or to the nearest
-    /// stop a joint is not on ([`stops::indicator`]).
-    fn event_indicator(_t: f64, q: &[f64], qd: &[f64], _u: &[f64], p: &[f64]) -> Option<f64> {
+    /// stop a joint is not on ([`stops::indicator`]); with friction, each slipping joint's
+    /// velocity too ([`friction::factors`], all in [`friction::one_indicator`]).
+    fn event_indicator(_t: f64, q: &[f64], qd: &[f64], u: &[f64], p: &[f64]) -> Option<f64> {
         let b = D::built();
-        match LimitMode::of(p[LIMIT_EVENTS]) {
+        let limits = match LimitMode::of(p[LIMIT_EVENTS]) {
             LimitMode::Ignore => None,
             LimitMode::Discard => b.limit_distance(q),
             LimitMode::Stops => stops::indicator(&b.limits, q, qd),
-        }
-    }
-
-    /// A tree with limits has end stops, whose impacts change every state.
-    fn impacts() -> bool {
-        D::CONSTRAINTS == 0 && !D::built().limits.is_empty()
-    }
-
-    /// End stops: the impact ([`stops::impact`]); else the doStep ends at the limit.
-    fn on_event(t: f64, q: &mut [f64], qd: &mut [f64], u: &[f64], p: &[f64]) -> Result<(), String> {
-        if LimitMode::of(p[LIMIT_EVENTS]) != LimitMode::Stops {
-            return Err(D::built().limit_reached(t, q));
-        }
-        let free = |q: &[f64], v: &[f64], tau: &[f64], out: &mut [f64]| {
-            free_accelerations::<D, f64>(q, v, tau, out)
         };
-        let restitution = p.get(RESTITUTION).copied().unwrap_or(0.0);
-        stops::impact(&D::built().limits, (q, qd, u), restitution, free);
+        if !friction::any(&b.friction) {
+            return limits;
+        }
+        // With friction there is an indicator even while no joint slips (1: no event).
+        let qdd = friction::any_in_band(&b.friction, qd).then(|| {
+            let mut qdd = vec![0.0; qd.len()];
+            accelerations::<D, f64>((q, qd, u, p), &mut qdd, (None, None));
+            qdd
+        });
+        let factors = friction::factors(&b.friction, qd, qdd.as_deref());
+        Some(friction::one_indicator(limits.into_iter().chain(factors)).unwrap_or(1.0))
+    }
+
+    /// A tree with limits has end stops, whose impacts change every state; friction's
+    /// events put a joint at rest.
+    fn impacts() -> bool {
+        let b = D::built();
+        D::CONSTRAINTS == 0 && (!b.limits.is_empty() || friction::any(&b.friction))
+    }
+
+    /// End stops: the impact ([`stops::impact`]); else the doStep ends at the limit
+    /// ([`LimitMode::Discard`]). Then a joint slowing to rest under friction sticks
+    /// ([`friction::stick`]).
+    fn on_event(t: f64, q: &mut [f64], qd: &mut [f64], u: &[f64], p: &[f64]) -> Result<(), String> {
+        let b = D::built();
+        match LimitMode::of(p[LIMIT_EVENTS]) {
+            LimitMode::Ignore => {}
+            LimitMode::Discard => {
+                if b.limit_distance(q).is_some_and(|d| d <= 0.0) {
+                    return Err(b.limit_reached(t, q));
+                }
+            }
+            LimitMode::Stops => {
+                let free = |q: &[f64], v: &[f64], tau: &[f64], out: &mut [f64]| {
+                    free_accelerations::<D, f64>(q, v, tau, out)
+                };
+                let restitution = p.get(RESTITUTION).copied().unwrap_or(0.0);
+                stops::impact(&b.limits, (q, qd, u), restitution, free);
+            }
+        }
+        if friction::any(&b.friction) {
+            let mut qdd = vec![0.0; qd.len()];
+            accelerations::<D, f64>((q, qd, u, p), &mut qdd, (None, None));
+            friction::stick(&b.friction, qd, &qdd);
+        }
         Ok(())
     }
 }

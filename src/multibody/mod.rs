@@ -9,6 +9,7 @@ pub mod codegen;
 pub mod derivatives;
 pub mod dynamics;
 pub mod fmu;
+pub mod friction;
 /// The benchmark models' generated dynamics (1.2 MB of source): for `mbfmu speed --robots`
 /// and the tests only, so a crate of one's own (no `cli` feature) does not compile them.
 #[cfg(any(test, feature = "cli"))]

@@ -153,81 +153,175 @@ fn inverse_mass_columns<S: Scalar>(
         .collect()
 }
 
-/// Reactions λ on the joints `set` (coordinates, with the side of their stop) that take
-/// `value` to `target` through `w` (the columns of `M⁻¹` for `set`), released one at a
-/// time (the most pulling first) while one pulls: returns the joints kept and their λ.
-fn reactions<S: Scalar>(
-    mut set: Vec<(usize, Side)>,
-    mut w: Vec<Vec<S>>,
-    change: impl Fn(usize) -> S,
-) -> (Vec<(usize, Side)>, Vec<S>) {
-    loop {
-        let mut a: Vec<Vec<S>> = set
-            .iter()
-            .map(|&(r, _)| w.iter().map(|col| col[r]).collect())
-            .collect();
-        let mut lambda: Vec<S> = set.iter().map(|&(c, _)| change(c)).collect();
-        crate::model::lagrangian::solve(&mut a, &mut lambda);
-        // A stop pushes: λ against the side it is on (λ · into ≤ 0). A pull is judged by
-        // the acceleration (or velocity change) it makes, (M⁻¹)_kk λ: one below RELEASE is
-        // rounding of a reaction that is ~0 (a limb resting on its stop unloaded), and
-        // letting go on rounding would make the joint chatter on and off its stop.
-        let pulling = set
-            .iter()
-            .zip(&lambda)
-            .enumerate()
-            .map(|(k, (&(c, side), l))| (k, l.re() * side.into() * w[k][c].re()))
-            .filter(|&(_, pull)| pull > RELEASE)
-            .max_by(|a, b| a.1.total_cmp(&b.1));
-        match pulling {
-            Some((k, _)) => {
-                set.remove(k);
-                w.remove(k);
-            }
-            None => return (set, lambda),
+/// A joint held at q̈ = 0 (or brought to a velocity, at an impact) by a reaction λ bounded
+/// to `[lo, hi]`: a stop pushes only (one bound 0, or the joint's friction where it has
+/// some: friction holds it where the load pulls it off), a stuck joint's friction holds
+/// it within ±F (Coulomb).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Held {
+    coordinate: usize,
+    lo: f64,
+    hi: f64,
+    /// The stop it is on (the limit's index, the side), if any.
+    stop: Option<(usize, Side)>,
+}
+
+impl Held {
+    /// On the stop of `limit` (index `k`) on `side`, with friction `f` (0: none).
+    fn on_stop(k: usize, limit: &PositionLimit, side: Side, f: f64) -> Held {
+        let (lo, hi) = match side {
+            Side::Lower => (-f, f64::INFINITY),
+            Side::Upper => (f64::NEG_INFINITY, f),
+        };
+        Held {
+            coordinate: limit.coordinate,
+            lo,
+            hi,
+            stop: Some((k, side)),
         }
     }
 }
 
-/// With end stops: q̈ (`qdd`, from `free`, the forward dynamics at this q) of the joints
-/// resting on a stop made 0 where the load pushes them into it, the others' changed by the
-/// reactions; each limit's reaction (generalised force, 0 where none acts) into
-/// `reaction` when given. `free(q̇, τ, q̈)`: the unconstrained q̈ at this q.
+/// Reactions λ on the joints `set` that make each one's velocity or acceleration change
+/// by `change` (through `w`, the columns of `M⁻¹` for `set`), each within its bounds: where
+/// one comes out beyond, the worst (by the acceleration its excess makes, `(M⁻¹)_kk ·
+/// excess`) is let go at its bound, that force applied, and the rest solved again. Returns
+/// the joints kept with their λ, and those let go with the force they keep (a joint
+/// slipping at its friction; 0 for a stop let go). Not the exact complementarity solution
+/// where several coupled joints are let go at once, but each one let go is one whose bound
+/// could not hold it.
+fn reactions<S: Scalar>(
+    mut set: Vec<Held>,
+    mut w: Vec<Vec<S>>,
+    mut change: Vec<S>,
+) -> (Vec<Held>, Vec<S>, Vec<(usize, f64)>) {
+    let mut let_go = Vec::new();
+    loop {
+        let mut a: Vec<Vec<S>> = set
+            .iter()
+            .map(|h| w.iter().map(|col| col[h.coordinate]).collect())
+            .collect();
+        let mut lambda = change.clone();
+        crate::model::lagrangian::solve(&mut a, &mut lambda);
+        // An excess is judged by the acceleration (or velocity change) it makes: one below
+        // RELEASE is rounding of a reaction at its bound (a limb resting on its stop
+        // unloaded), and letting go on rounding would make the joint chatter.
+        let worst = set
+            .iter()
+            .zip(&lambda)
+            .enumerate()
+            .map(|(k, (h, l))| {
+                let l = l.re();
+                let excess = (l - h.hi).max(h.lo - l).max(0.0);
+                (k, excess * w[k][h.coordinate].re())
+            })
+            .filter(|&(_, excess)| excess > RELEASE)
+            .max_by(|a, b| a.1.total_cmp(&b.1));
+        let Some((k, _)) = worst else {
+            return (set, lambda, let_go);
+        };
+        let h = set.remove(k);
+        let col = w.remove(k);
+        let bound = lambda[k].re().clamp(h.lo, h.hi);
+        change.remove(k);
+        for (c, other) in change.iter_mut().zip(&set) {
+            *c -= col[other.coordinate] * bound;
+        }
+        let_go.push((h.coordinate, bound));
+    }
+}
+
+/// q̈ (`qdd`, from `free`, the forward dynamics at this q, the slipping joints' friction
+/// included) of the joints held: those resting on a stop (`limits`) and, with `friction`
+/// (per coordinate, 0: none; empty: none anywhere), those at rest
+/// ([`friction::at_rest`](super::friction::at_rest)). Each is
+/// made 0 where its bounded reaction can hold it (a stop pushes; friction holds within ±F),
+/// the others' changed by the reactions; a joint the bound cannot hold moves, its friction
+/// at the bound. Each limit's reaction into `stop_out` and each coordinate's friction force
+/// into `friction_out` when given (0 where none acts; a stuck joint on its stop: the stop's
+/// reaction where it pushes into the stop, else friction's). `free(q̇, τ, q̈)`: the
+/// unconstrained q̈ at this q.
 pub fn hold<S: Scalar>(
-    limits: &[PositionLimit],
+    (limits, friction): (&[PositionLimit], &[f64]),
     (q, qd): (&[S], &[S]),
     qdd: &mut [S],
-    mut reaction: Option<&mut [S]>,
+    (mut stop_out, mut friction_out): (Option<&mut [S]>, Option<&mut [S]>),
     free: impl Fn(&[S], &[S], &mut [S]),
 ) {
-    if let Some(r) = reaction.as_deref_mut() {
-        r.fill(S::zero());
+    for out in [stop_out.as_deref_mut(), friction_out.as_deref_mut()]
+        .into_iter()
+        .flatten()
+    {
+        out.fill(S::zero());
     }
-    if !any_resting(limits, q, qd) {
+    let stuck = |c: usize| {
+        friction
+            .get(c)
+            .is_some_and(|&f| super::friction::at_rest(f, qd[c].re()))
+    };
+    if !any_resting(limits, q, qd) && !(0..qd.len()).any(stuck) {
         return;
     }
+    let f_of = |c: usize| friction.get(c).copied().unwrap_or(0.0);
     let re = |v: &[S]| v.iter().map(|x| x.re()).collect::<Vec<f64>>();
-    let set: Vec<(usize, Side)> = resting(limits, &re(q), &re(qd))
+    let mut set: Vec<Held> = resting(limits, &re(q), &re(qd))
         .into_iter()
-        .map(|(k, side)| (limits[k].coordinate, side))
+        .map(|(k, side)| Held::on_stop(k, &limits[k], side, f_of(limits[k].coordinate)))
         .collect();
-    let at: Vec<usize> = set.iter().map(|&(c, _)| c).collect();
-    let w = inverse_mass_columns(qd.len(), &at, &free);
-    let (kept, lambda) = reactions(set, w.clone(), |c| -qdd[c]);
-    for (&(c, _), &l) in kept.iter().zip(&lambda) {
-        let col = &w[at.iter().position(|&a| a == c).expect("kept from at")];
-        qdd.iter_mut().zip(col).for_each(|(a, &wc)| *a += wc * l);
-        if let Some(r) = reaction.as_deref_mut() {
-            let k = limits
-                .iter()
-                .position(|l| l.coordinate == c)
-                .expect("a limit");
-            r[k] = l;
+    for c in (0..qd.len()).filter(|&c| stuck(c)) {
+        if !set.iter().any(|h| h.coordinate == c) {
+            let f = f_of(c);
+            set.push(Held {
+                coordinate: c,
+                lo: -f,
+                hi: f,
+                stop: None,
+            });
         }
     }
-    // Exactly at rest: no rounding left to move it off the stop.
-    for &(c, _) in &kept {
-        qdd[c] = S::zero();
+    // Unloaded (every held joint's free q̈ is rounding, a robot at rest under its holding
+    // torques or falling freely): the reactions are ~0, within any bound; no solve (it
+    // costs a forward dynamics per held joint, a floating robot's with mimics O(n²) each).
+    if set.iter().all(|h| qdd[h.coordinate].re().abs() <= RELEASE) {
+        for h in &set {
+            qdd[h.coordinate] = S::zero();
+        }
+        return;
+    }
+    let at: Vec<usize> = set.iter().map(|h| h.coordinate).collect();
+    let w = inverse_mass_columns(qd.len(), &at, &free);
+    let column = |c: usize| &w[at.iter().position(|&a| a == c).expect("held")];
+    let change = at.iter().map(|&c| -qdd[c]).collect();
+    let (kept, lambda, let_go) = reactions(set.clone(), w.clone(), change);
+    for &(c, force) in &let_go {
+        qdd.iter_mut()
+            .zip(column(c))
+            .for_each(|(a, &wc)| *a += wc * force);
+        if let Some(out) = friction_out.as_deref_mut() {
+            out[c] = S::from(force);
+        }
+    }
+    for (h, &l) in kept.iter().zip(&lambda) {
+        qdd.iter_mut()
+            .zip(column(h.coordinate))
+            .for_each(|(a, &wc)| *a += wc * l);
+        let pushes = |side: Side| l.re() * side.into() <= 0.0;
+        match h.stop {
+            Some((k, side)) if pushes(side) => {
+                if let Some(out) = stop_out.as_deref_mut() {
+                    out[k] = l;
+                }
+            }
+            _ => {
+                if let Some(out) = friction_out.as_deref_mut() {
+                    out[h.coordinate] = l;
+                }
+            }
+        }
+    }
+    // Exactly at rest: no rounding left to move it.
+    for h in &kept {
+        qdd[h.coordinate] = S::zero();
     }
 }
 
@@ -300,14 +394,29 @@ pub fn impact(
             free(&qf, v, tau, out)
         });
         let goal = |c: usize| goals[at.iter().position(|&a| a == c).expect("in the set")];
-        let (kept, lambda) = reactions(set, w.clone(), |c| goal(c) - before[c]);
+        // An impact's impulses: the stops' only (friction is a bounded force, no impulse).
+        let held: Vec<Held> = set
+            .iter()
+            .map(|&(c, side)| {
+                let k = limits
+                    .iter()
+                    .position(|l| l.coordinate == c)
+                    .expect("a limit");
+                Held::on_stop(k, &limits[k], side, 0.0)
+            })
+            .collect();
+        let change = at.iter().map(|&c| goal(c) - before[c]).collect();
+        let (kept, lambda, _) = reactions(held, w.clone(), change);
         qd.copy_from_slice(&before);
-        for (&(c, _), &l) in kept.iter().zip(&lambda) {
-            let col = &w[at.iter().position(|&a| a == c).expect("kept from at")];
+        for (h, &l) in kept.iter().zip(&lambda) {
+            let col = &w[at
+                .iter()
+                .position(|&a| a == h.coordinate)
+                .expect("kept from at")];
             qd.iter_mut().zip(col).for_each(|(v, &wc)| *v += wc * l);
         }
-        for &(c, _) in &kept {
-            qd[c] = goal(c);
+        for h in &kept {
+            qd[h.coordinate] = goal(h.coordinate);
         }
         // Joints at their stop that the impulse drives into it: part of this impact.
         let mut more = false;

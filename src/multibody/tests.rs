@@ -996,8 +996,11 @@ fn the_adapters_accelerations_are_aba_and_the_euler_lagrange_equations() {
         let mut dx = vec![0.0; 2 * n];
         <Robot<Tree> as System>::derivatives(0.0, &x, &u, &p, &mut dx);
         assert_eq!(&dx[..n], &qd[..]);
-        // The generated path is exactly Model::aba (damping inside).
-        assert_eq!(dx[n..].to_vec(), model.aba(&q, &qd, &u));
+        // The generated path is exactly Model::aba (damping inside), the waist's Coulomb
+        // friction 0.2 against its motion.
+        let mut slipping = u.clone();
+        slipping[0] -= 0.2 * qd[0].signum();
+        assert_eq!(dx[n..].to_vec(), model.aba(&q, &qd, &slipping));
         // The Euler–Lagrange equations of T, V and Q = τ − d q̇ by automatic
         // differentiation: the same q̈ to rounding.
         let ad = lagrangian::accelerations::<TreeAd, f64>(0.0, &q, &qd, &u, &p);
@@ -1038,8 +1041,8 @@ fn mimic_joints_follow_and_their_dynamics_are_the_euler_lagrange_equations() {
     assert_eq!(names, ["waist", "shoulder", "wrist"]);
     let outputs: Vec<String> = b.outputs.iter().map(|v| v.name.to_string()).collect();
     assert_eq!(
-        outputs[outputs.len() - 4..],
-        ["slide", "slide_dot", "hip", "hip_dot"]
+        outputs[outputs.len() - 5..],
+        ["slide", "slide_dot", "hip", "hip_dot", "tau_friction_waist"]
     );
     // The chain composed: hip = −1.5 (0.3 shoulder + 0.05) + 0.2.
     let hip = b.model.joints.iter().position(|j| j == "hip").unwrap();
@@ -1074,7 +1077,7 @@ fn mimic_joints_follow_and_their_dynamics_are_the_euler_lagrange_equations() {
         // The outputs: the mimics' positions and velocities follow.
         let mut y = vec![0.0; b.outputs.len()];
         <Robot<Geared> as Lagrangian>::extra_outputs(0.0, &q, &qd, &u, &p, &mut y);
-        let at = y.len() - 4;
+        let at = y.len() - 5;
         assert!((y[at] - (0.3 * q[1] + 0.05)).abs() < 1e-15);
         assert!((y[at + 1] - 0.3 * qd[1]).abs() < 1e-15);
         assert!((y[at + 2] - (-1.5 * (0.3 * q[1] + 0.05) + 0.2)).abs() < 1e-15);
@@ -1165,8 +1168,13 @@ fn the_adapters_variables_are_named_after_joints_and_links() {
             outputs.push(format!("{link}_{s}"));
         }
     }
-    // The end stops' reactions, in coordinate order: the slide, then the hip.
-    outputs.extend(["tau_stop_slide".into(), "tau_stop_hip".into()]);
+    // The end stops' reactions, in coordinate order: the slide, then the hip; then the
+    // waist's friction force.
+    outputs.extend([
+        "tau_stop_slide".into(),
+        "tau_stop_hip".into(),
+        "tau_friction_waist".into(),
+    ]);
     assert_eq!(names(<R as Lagrangian>::outputs()), outputs);
     assert_eq!(
         names(<R as Lagrangian>::parameters()),
@@ -1201,17 +1209,29 @@ fn the_adapters_variables_are_named_after_joints_and_links() {
 
 #[test]
 fn the_unmodelled_is_named() {
+    // Friction is modelled in a tree, not in a mechanism with loop closures.
     let lines = super::fmu::unmodelled(&limited());
-    assert_eq!(lines.len(), 2, "{lines:?}");
-    assert!(lines[0].contains("Coulomb friction") && lines[0].contains("\"waist\" (0.2)"));
-    assert!(lines[1].contains("velocity limits") && lines[1].contains("\"hip\" (2.0)"));
+    assert_eq!(lines.len(), 1, "{lines:?}");
+    assert!(lines[0].contains("velocity limits") && lines[0].contains("\"hip\" (2.0)"));
     let notes = super::fmu::unmodelled_notes(&limited());
     assert_eq!(
         notes,
-        [
-            "Coulomb friction of 1 joint is not modelled (the build warning names them)",
-            "Velocity limits of 1 joint are not enforced (the build warning names them)"
-        ]
+        ["Velocity limits of 1 joint are not enforced (the build warning names them)"]
+    );
+    let mut looped = limited();
+    looped.closures.push(crate::multibody::Closure {
+        name: "c".into(),
+        body_a: "a".into(),
+        point_a: [0.0; 3],
+        body_b: "b".into(),
+        point_b: [0.0; 3],
+        axes: "xz".into(),
+    });
+    let lines = super::fmu::unmodelled(&looped);
+    assert!(
+        lines[0].contains("Coulomb friction is not modelled in a mechanism with loop closures")
+            && lines[0].contains("\"waist\" (0.2)"),
+        "{lines:?}"
     );
 }
 

@@ -33,7 +33,7 @@ from fmpy.validation import validate_fmu
 
 import fmu_support as fs
 from test_multibody_pinocchio import robots_dir
-from test_real_robots import (BASE_Q, BASE_V, FreeFlyer, build, coordinate_damping,
+from test_real_robots import (BASE_Q, BASE_V, FreeFlyer, build, coordinate_damping, coordinate_friction,
                               random_unit_quaternion, urdf_joints)
 
 BRICK = """<robot name="brick"><link name="brick"><inertial><mass value="1"/>
@@ -92,7 +92,8 @@ def test_a_floating_robot_equals_pinocchios_free_flyer(legged, instances):
     assert names[nq + len(ours):] == BASE_V
     ref = FreeFlyer(urdf, ours)
     n = len(ours)
-    d = coordinate_damping(urdf_joints(urdf), ours)
+    joints = urdf_joints(urdf)
+    d, f = coordinate_damping(joints, ours), coordinate_friction(joints, ours)
     prismatic = np.array([model.vars[j].unit == "m" for j in ours], dtype=bool)
     inst = instances(model, model.name)
     rng = np.random.default_rng(20261129 + n)
@@ -111,7 +112,8 @@ def test_a_floating_robot_equals_pinocchios_free_flyer(legged, instances):
                   "limit_events": 0}
         inst.initialize(values, tol=1e-10)
         pq, pv = ref.q(base_q, q), ref.v(base_v, qd)
-        a_base, a_joints = ref.accelerations(pq, pv, tau - d * qd)
+        # Damping, and Coulomb friction −F sign(q̇) (every joint slips), as the FMU applies them.
+        a_base, a_joints = ref.accelerations(pq, pv, tau - d * qd - f * np.sign(qd))
         got = np.array(inst.get_reals([f"der({v})" for v in BASE_V] + [f"der({j}_dot)" for j in ours]))
         want = np.concatenate([a_base, a_joints])
         worst["a"] = max(worst["a"], (np.abs(got - want) / np.maximum(1.0, np.abs(want))).max())

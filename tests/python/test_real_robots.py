@@ -106,13 +106,6 @@ def coordinate_friction(joints: dict[str, dict], ours: list[str]) -> np.ndarray:
     return f
 
 
-def models_friction(model: fs.Model) -> bool:
-    """Whether the FMU applies the URDF's Coulomb friction (it then has an output
-    tau_friction_J per joint with friction); an FMU without such outputs does not model it,
-    nor does Pinocchio: the reference then leaves it out too."""
-    return any(name.startswith("tau_friction_") for name in model.vars)
-
-
 class PinocchioMimic:
     """Pinocchio's model of a URDF with its mimic joints (no coordinate of their own),
     addressed in our coordinate order; q̈ = crba⁻¹ (τ − D q̇ − nonLinearEffects), as its
@@ -271,14 +264,14 @@ def worst_against_pinocchio(model: fs.Model, urdf: pathlib.Path, inst, rng, stat
     relative to max(1, |E|). Fixed base: its mimic model (PinocchioMimic); floating: its
     free-flyer model (FreeFlyer) at a random base position, attitude and velocity. Joints
     anywhere (prismatic ones within ±5 cm), moving at up to 2 rad/s, under torques within
-    their effort limits (at most 1) unless not `torques`; the URDF's damping applied, and
-    its Coulomb friction (−F sign(q̇): every joint slips) where the FMU models it."""
+    their effort limits (at most 1) unless not `torques`; the URDF's damping applied,
+    and its Coulomb friction (−F sign(q̇): every joint slips)."""
     ours, floating = coordinates(model)
     n = len(ours)
     ref = FreeFlyer(urdf, ours) if floating else PinocchioMimic(urdf, ours)
     joints = urdf_joints(urdf)
     d = coordinate_damping(joints, ours)
-    f = coordinate_friction(joints, ours) if models_friction(model) else np.zeros(n)
+    f = coordinate_friction(joints, ours)
     prismatic = np.array([model.vars[j].unit == "m" for j in ours], dtype=bool)
     span = np.array([min(1.0, -float(model.vars[f"tau_{j}"].min or -1.0), float(model.vars[f"tau_{j}"].max or 1.0))
                      for j in ours])
