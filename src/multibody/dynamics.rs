@@ -142,6 +142,12 @@ pub struct Data<S> {
     bias: Vec<S>,
     reduced: Vec<S>,
     rhs: Vec<S>,
+    /// With mimic joints: `reduced` holds the factored reduced mass matrix of the q the
+    /// next calls are at, so they skip forming and factoring it (O(n³) with a floating
+    /// base). Set by a caller that evaluates the dynamics again at the same q with other
+    /// velocities and forces (the end stops' and friction's inverse-mass columns), after a
+    /// first call at that q; cleared by it after.
+    pub mass_is_current: bool,
 }
 
 impl<S: Scalar> Data<S> {
@@ -162,6 +168,7 @@ impl<S: Scalar> Data<S> {
             bias: Vec::new(),
             reduced: Vec::new(),
             rhs: Vec::new(),
+            mass_is_current: false,
         }
     }
 }
@@ -773,13 +780,16 @@ impl Model {
             }
         };
         let mut mass = std::mem::take(&mut d.reduced);
-        mass.clear();
-        mass.resize(size * size, S::zero());
         let mut column = vec![S::zero(); size];
         let mut t = vec![S::zero(); n];
         let zero_v = vec![S::zero(); n];
         let still = Motion::zero();
-        for c in 0..size {
+        let columns = if d.mass_is_current { 0 } else { size };
+        if columns > 0 {
+            mass.clear();
+            mass.resize(size * size, S::zero());
+        }
+        for c in 0..columns {
             let a0 = unit(c);
             for (i, a) in qdd.iter_mut().enumerate() {
                 *a = if c >= 6 && rank[i] == c - 6 {
@@ -801,7 +811,9 @@ impl Model {
             t[i] = tau[i] - qd[i] * self.damping[i] - t[i];
         }
         reduce(&Force::zero().sub(&f0), &t, &mut rhs);
-        ldl_factor_flat(&mut mass, size);
+        if columns > 0 {
+            ldl_factor_flat(&mut mass, size);
+        }
         ldl_substitute_flat(&mass, size, &mut rhs);
         for i in 0..n {
             qdd[i] = rhs[6 + rank[i]] * self.driver(i).1;
@@ -926,8 +938,10 @@ impl Model {
     fn reduced_in<S: Scalar>(&self, d: &mut Data<S>, q: &[S], qd: &[S], tau: &[S], qdd: &mut [S]) {
         let n = self.nq();
         let mut mass = std::mem::take(&mut d.mass);
-        mass.resize(n * n, S::zero());
-        self.crba_in(d, q, &mut mass);
+        if !d.mass_is_current {
+            mass.resize(n * n, S::zero());
+            self.crba_in(d, q, &mut mass);
+        }
         let mut bias = std::mem::take(&mut d.bias);
         bias.clear();
         bias.resize(n, S::zero());
@@ -936,13 +950,15 @@ impl Model {
         self.rnea_in(d, q, qd, qdd, &mut bias);
         let (rank, nr) = (&self.driver_index, self.ndof());
         let (reduced, rhs) = (&mut d.reduced, &mut d.rhs);
-        self.reduce_mass_into(&mass, reduced);
+        if !d.mass_is_current {
+            self.reduce_mass_into(&mass, reduced);
+            ldl_factor_flat(reduced, nr);
+        }
         rhs.clear();
         rhs.resize(nr, S::zero());
         for i in 0..n {
             rhs[rank[i]] += (tau[i] - qd[i] * self.damping[i] - bias[i]) * self.driver(i).1;
         }
-        ldl_factor_flat(reduced, nr);
         ldl_substitute_flat(reduced, nr, rhs);
         for i in 0..n {
             qdd[i] = rhs[rank[i]] * self.driver(i).1;

@@ -238,21 +238,25 @@ fn the_floating_flag_is_kept_by_the_merge() {
     );
 }
 
-/// With a mimic joint (a pointer on the hand following the shoulder at half its angle),
-/// the floating dynamics reduced to the base and the independent joints (inverse-dynamics
-/// columns, LDLᵀ) keep the energy under gravity and the momentum without it, as the
-/// articulated path does: the mimic's state and rates follow (`q = r q_J + o`).
-#[test]
-fn the_reduced_floating_dynamics_keep_energy_and_momentum() {
-    let with_mimic = ARM.replace(
+/// [`ARM`] with a pointer on the hand following the shoulder at half its angle.
+fn with_mimic() -> String {
+    ARM.replace(
         "</robot>",
         r#"<link name="pointer"><inertial><origin xyz="0.05 0.02 0.1"/><mass value="0.3"/>
             <inertia ixx="0.002" ixy="0.0001" ixz="0" iyy="0.003" iyz="0" izz="0.0025"/></inertial></link>
           <joint name="follower" type="revolute"><parent link="hand"/><child link="pointer"/>
             <origin xyz="0.05 0 -0.1"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/>
             <mimic joint="shoulder" multiplier="0.5" offset="0.1"/></joint></robot>"#,
-    );
-    let mimic = floating(&with_mimic, [0.0, 0.0, -9.81]);
+    )
+}
+
+/// With a mimic joint (a pointer on the hand following the shoulder at half its angle),
+/// the floating dynamics reduced to the base and the independent joints (inverse-dynamics
+/// columns, LDLᵀ) keep the energy under gravity and the momentum without it, as the
+/// articulated path does: the mimic's state and rates follow (`q = r q_J + o`).
+#[test]
+fn the_reduced_floating_dynamics_keep_energy_and_momentum() {
+    let mimic = floating(&with_mimic(), [0.0, 0.0, -9.81]);
     assert!(mimic.has_mimics() && mimic.nq() == 4);
     let consistent = |s: &mut State| {
         s.q.push(0.5 * s.q[0] + 0.1);
@@ -277,7 +281,7 @@ fn the_reduced_floating_dynamics_keep_energy_and_momentum() {
     );
     // Without gravity, under joint torques (the mimic's acting through its multiplier):
     // dE/dt is the torques' power, and the momentum is kept.
-    let free = floating(&with_mimic, [0.0; 3]);
+    let free = floating(&with_mimic(), [0.0; 3]);
     let mut s = state(3);
     s.tau = vec![0.8, -3.0, 0.4];
     consistent(&mut s);
@@ -297,6 +301,62 @@ fn the_reduced_floating_dynamics_keep_energy_and_momentum() {
             "{k}: {} {}",
             f_w[k].eps,
             n_w[k].eps
+        );
+    }
+}
+
+/// The held solve evaluates the dynamics again at the same q with other velocities and
+/// forces, reusing the factored reduced mass matrix (`Data::mass_is_current`): what it
+/// gives is, to the bit, what a fresh evaluation gives, with a floating base and without.
+#[test]
+fn the_reused_mass_matrix_gives_a_fresh_evaluations_accelerations() {
+    for model in [
+        floating(&with_mimic(), [0.0, 0.0, -9.81]),
+        Model::new(&urdf::parse(&with_mimic(), "arm.urdf").expect("parses")).expect("builds"),
+    ] {
+        assert!(model.has_mimics());
+        let s = state(3);
+        let r = quat_to_matrix(&s.quat);
+        let q = [s.q.clone(), vec![0.5 * s.q[0] + 0.1]].concat();
+        let run = |d: &mut Data<f64>, qd: &[f64], tau: &[f64]| {
+            let mut qdd = vec![0.0; 4];
+            let base = if model.free_base.is_some() {
+                let still = Motion::zero();
+                let v = if qd[0] == 0.0 { &still } else { &s.velocity };
+                model.aba_free_in(d, &r, v, &q, qd, tau, &mut qdd)
+            } else {
+                model.aba_in(d, &q, qd, tau, &mut qdd);
+                Motion::zero()
+            };
+            (qdd, base)
+        };
+        let (qd, still) = ([1.3, -0.4, 2.1, 0.65], [0.0; 4]);
+        let (tau, unit) = ([0.8, -3.0, 0.4, 0.6], [0.0, 1.0, 0.0, 0.0]);
+        let mut reused = Data::new(&model);
+        run(&mut reused, &qd, &tau);
+        reused.mass_is_current = true;
+        for (qd, tau) in [(&still, &unit), (&qd, &unit), (&still, &tau)] {
+            let again = run(&mut reused, qd, tau);
+            let fresh = run(&mut Data::new(&model), qd, tau);
+            assert_eq!(again.0, fresh.0);
+            assert_eq!(again.1.ang, fresh.1.ang);
+            assert_eq!(again.1.lin, fresh.1.lin);
+        }
+        // And it is reused: marked current at another q, the answer differs.
+        let mut moved = Data::new(&model);
+        let mut q2 = q.clone();
+        // (Not the root joint's angle: a fixed base's M does not depend on it.)
+        q2[1] += 0.3;
+        let mut qdd = vec![0.0; 4];
+        if model.free_base.is_some() {
+            model.aba_free_in(&mut moved, &r, &s.velocity, &q2, &qd, &tau, &mut qdd);
+        } else {
+            model.aba_in(&mut moved, &q2, &qd, &tau, &mut qdd);
+        }
+        moved.mass_is_current = true;
+        assert_ne!(
+            run(&mut moved, &qd, &tau).0,
+            run(&mut Data::new(&model), &qd, &tau).0
         );
     }
 }

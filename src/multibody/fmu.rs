@@ -1183,6 +1183,22 @@ fn aba_reusing<S: Scalar + 'static>(model: &Model, q: &[S], qd: &[S], tau: &[S],
     with_workspace(model, |data| model.aba_in(data, q, qd, tau, qdd));
 }
 
+/// `f`, every forward dynamics in it at the q of the call just made (the held solve's
+/// inverse-mass columns): the workspace's factored mass matrix is reused, not formed and
+/// factored again per column ([`Data::mass_is_current`](super::dynamics::Data)), and
+/// marked stale again after `f`, however `f` ends.
+fn at_the_same_q<S: Scalar + 'static, R>(model: &Model, f: impl FnOnce() -> R) -> R {
+    struct Stale<'a, S: Scalar + 'static>(&'a Model, PhantomData<S>);
+    impl<S: Scalar + 'static> Drop for Stale<'_, S> {
+        fn drop(&mut self) {
+            with_workspace::<S, _>(self.0, |d| d.mass_is_current = false);
+        }
+    }
+    with_workspace::<S, _>(model, |d| d.mass_is_current = true);
+    let _stale = Stale::<S>(model, PhantomData);
+    f()
+}
+
 /// `f` with this thread's workspace for `model` and the scalar type `S`.
 fn with_workspace<S: Scalar + 'static, R>(
     model: &Model,
@@ -1252,7 +1268,7 @@ fn free_accelerations<D: Declared, S: Scalar>(q: &[S], qd: &[S], u: &[S], qdd: &
         .collect();
     let mut a = vec![S::zero(); q.len()];
     if !(generated && D::generated_aba(&q, &qd, &tau, &mut a)) {
-        a = b.model.aba(&q, &qd, &tau);
+        aba_reusing(&b.model, &q, &qd, &tau, &mut a);
     }
     for (k, &i) in b.order.iter().enumerate() {
         qdd[k] = a[i];
@@ -1274,7 +1290,9 @@ fn accelerations<D: Declared, S: Scalar>(
     let free = |v: &[S], tau: &[S], out: &mut [S]| free_accelerations::<D, S>(q, v, tau, out);
     if !friction::any(&b.friction) {
         free_accelerations::<D, S>(q, qd, u, qdd);
-        stops::hold((limits, &[]), (q, qd), qdd, out, free);
+        at_the_same_q::<S, _>(&b.model, || {
+            stops::hold((limits, &[]), (q, qd), qdd, out, free)
+        });
         return;
     }
     let mut forces = u.to_vec();
@@ -1282,13 +1300,15 @@ fn accelerations<D: Declared, S: Scalar>(
     free_accelerations::<D, S>(q, qd, &forces, qdd);
     let (stop_out, mut friction_out) = out;
     let held_out = friction_out.as_deref_mut();
-    stops::hold(
-        (limits, &b.friction),
-        (q, qd),
-        qdd,
-        (stop_out, held_out),
-        free,
-    );
+    at_the_same_q::<S, _>(&b.model, || {
+        stops::hold(
+            (limits, &b.friction),
+            (q, qd),
+            qdd,
+            (stop_out, held_out),
+            free,
+        )
+    });
     // The held solve wrote the stuck joints' friction (and the breakaways'); the slipping
     // ones' is what `slip` took off.
     if let Some(force) = friction_out {
