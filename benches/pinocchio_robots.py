@@ -16,6 +16,12 @@ weighs on both alike):
   with no joint under `"__empty__"`: the Python-to-C++ binding's cost with (almost) no
   C++ work, which the Rust side takes off (so the figures are Pinocchio's own C++ time per
   call, as benches/pinocchio_chain.py does);
+- `{"interpreted": [{"name", "file", "floating"}, ...]}` (the second table: robots the
+  runtime interprets, `src/bench/interpreted.rs`): builds each example-robot-data file
+  (free-flyer root where floating; its mimic model too where it has mimic joints and a
+  fixed base) and answers `{"robots": example-robot-data's robots/ folder}`; then
+  `{"time": name}`: `{"aba": s, "mimic": s}` (`crba` + `nonLinearEffects` of the mimic
+  model, where built) at a random configuration, the binding's cost taken off here;
 - `"quit"`.
 
 Timed: `pin.aba` (forward dynamics, one RHS; in its default LOCAL convention, and in the
@@ -52,8 +58,60 @@ def number(fn) -> int:
     return max(50, int(LOOP_SECONDS / max(t, 1e-9)))
 
 
+def robots_dir():
+    """``<site-packages>/cmeel.prefix/share/example-robot-data/robots``."""
+    import pathlib
+
+    for base in map(pathlib.Path, sys.path):
+        d = base / "cmeel.prefix" / "share" / "example-robot-data" / "robots"
+        if d.is_dir():
+            return d
+    raise SystemExit("pinocchio_robots.py: example-robot-data's robots/ is not on sys.path")
+
+
+_BINDING = []
+
+
+def binding_cost() -> float:
+    """Seconds of one binding call with (almost) no C++ work: `pin.aba` on a model with no
+    joint, the best of 5 loops."""
+    if not _BINDING:
+        empty = pin.Model()
+        data, z = empty.createData(), np.zeros(0)
+        fn = lambda: pin.aba(empty, data, z, z, z)
+        n = number(fn)
+        _BINDING.append(min(timeit.timeit(fn, number=n) / n for _ in range(5)))
+    return _BINDING[0]
+
+
+def interpreted_calls(urdf: str, floating: bool):
+    """The timed calls of one robot of the second table: {key: (fn, loop size, binding
+    calls per fn)}."""
+    np.random.seed(7)
+    root = [pin.JointModelFreeFlyer()] if floating else []
+    model = pin.buildModelFromUrdf(urdf, *root)
+    data = model.createData()
+    q = pin.randomConfiguration(model, -np.ones(model.nq), np.ones(model.nq))
+    v, tau = np.random.uniform(-1, 1, model.nv), np.random.uniform(-5, 5, model.nv)
+    fn = lambda: pin.aba(model, data, q, v, tau)
+    out = {"aba": (fn, number(fn), 1)}
+    if not floating:
+        mimic = pin.buildModelFromUrdf(urdf, mimic=True)
+        if mimic.nv < model.nv:
+            md = mimic.createData()
+            mq = pin.randomConfiguration(mimic, -np.ones(mimic.nq), np.ones(mimic.nq))
+            mv = np.random.uniform(-1, 1, mimic.nv)
+
+            def both():
+                pin.crba(mimic, md, mq)
+                pin.nonLinearEffects(mimic, md, mq, mv)
+
+            out["mimic"] = (both, number(both), 2)
+    return out
+
+
 def serve():
-    setups = {}
+    setups, interpreted = {}, {}
     for line in sys.stdin:
         msg = json.loads(line)
         if msg == "quit":
@@ -72,6 +130,16 @@ def serve():
             fns = calls(empty, z, z, z)
             setups["__empty__"] = {k: (fn, number(fn)) for k, fn in fns.items()}
             print(json.dumps({"qdd": qdd, "version": pin.__version__}), flush=True)
+        elif isinstance(msg, dict) and "interpreted" in msg:
+            robots = robots_dir()
+            for m in msg["interpreted"]:
+                interpreted[m["name"]] = interpreted_calls(str(robots / m["file"]), m["floating"])
+            print(json.dumps({"robots": str(robots)}), flush=True)
+        elif isinstance(msg, dict) and "time" in msg:
+            out = {}
+            for k, (fn, n, calls_made) in interpreted[msg["time"]].items():
+                out[k] = timeit.timeit(fn, number=n) / n - calls_made * binding_cost()
+            print(json.dumps(out), flush=True)
         elif msg == "rep":
             out = {}
             for name, fns in setups.items():

@@ -29,6 +29,7 @@
 
 pub mod chain;
 pub mod floors;
+pub mod interpreted;
 /// Needs the `cli` feature (serde_json talks to the Pinocchio child).
 #[cfg(feature = "cli")]
 #[cfg(feature = "cli")]

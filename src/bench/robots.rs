@@ -155,14 +155,14 @@ fn rust_rep(e: &Entry, model: &Model) -> (f64, f64, Option<f64>, f64, f64) {
 }
 
 /// The Pinocchio child process.
-struct Pinocchio {
+pub(crate) struct Pinocchio {
     child: Child,
     stdin: ChildStdin,
     stdout: BufReader<ChildStdout>,
 }
 
 impl Pinocchio {
-    fn start(python: &Path, script: &Path) -> Result<Pinocchio, String> {
+    pub(crate) fn start(python: &Path, script: &Path) -> Result<Pinocchio, String> {
         let mut child = Command::new(python)
             .arg(script)
             .arg("serve")
@@ -179,7 +179,7 @@ impl Pinocchio {
         })
     }
 
-    fn ask(&mut self, msg: &Value) -> Result<Value, String> {
+    pub(crate) fn ask(&mut self, msg: &Value) -> Result<Value, String> {
         writeln!(self.stdin, "{msg}").map_err(|e| format!("pinocchio child: {e}"))?;
         self.stdin.flush().map_err(|e| e.to_string())?;
         let mut line = String::new();

@@ -209,8 +209,9 @@ struct SpeedArgs {
     #[arg(long)]
     symbolic: bool,
     /// The generated robot dynamics (UR5, Panda, spatial chain N = 1…64) against Pinocchio
-    /// in the same run instead (robots.csv, robots.png; Python with `pin`: $MBFMU_PYTHON,
-    /// else .venv/bin/python3, else python3)
+    /// in the same run instead (robots.csv, robots.png), then the runtime's interpreted
+    /// dynamics on mimic and floating robots (robots_interpreted.csv; Python with `pin` and
+    /// example-robot-data: $MBFMU_PYTHON, else .venv/bin/python3, else python3)
     #[arg(long, conflicts_with_all = ["chain", "symbolic"])]
     robots: bool,
 }
@@ -984,7 +985,23 @@ fn speed_robots(reps: usize, out: &Path) -> Result<(), String> {
     println!("largest relative q̈ difference from pin.aba at the timed states: {worst:.1e}");
     let csv_path = out.join("robots.csv");
     write(&csv_path, &csv)?;
-    robots::plot(&csv_path, &out.join("robots.png"))
+    robots::plot(&csv_path, &out.join("robots.png"))?;
+    speed_interpreted(reps, out)
+}
+
+/// The second table of `mbfmu speed --robots`: the runtime's interpreted dynamics on mimic
+/// and floating robots against Pinocchio (`mbfmu::bench::interpreted`), into
+/// `DIR/robots_interpreted.csv`.
+fn speed_interpreted(reps: usize, out: &Path) -> Result<(), String> {
+    use mbfmu::bench::interpreted;
+    let rows = interpreted::sweep(reps)?;
+    println!("{}", interpreted::MARKDOWN_HEADER);
+    let mut csv = String::from(interpreted::CSV_HEADER);
+    for r in &rows {
+        println!("{}", interpreted::markdown_line(r));
+        csv.push_str(&interpreted::csv_line(r));
+    }
+    write(&out.join("robots_interpreted.csv"), &csv)
 }
 
 fn bench(args: BenchArgs) -> Result<(), String> {
