@@ -646,6 +646,69 @@ impl Model {
         }
     }
 
+    /// The mass matrix of a floating-base model ([`Model::free_base`]), `(6 + n)` square,
+    /// row-major: the base's acceleration `(ω̇, v̇)` in its own frame first, then the
+    /// joints. CRBA with the base as the root of every composite: the base block is the
+    /// whole robot's inertia about the base origin, a joint's base column its subtree's
+    /// composite inertia times its axis carried back to the base (the joints' block is
+    /// [`Model::crba_in`]'s: it does not depend on the base's pose). O(n d), where forming
+    /// it by inverse dynamics column by column is O(n²).
+    pub fn crba_free_in<S: Scalar>(&self, d: &mut Data<S>, q: &[S], m: &mut [S]) {
+        let fb = self.free_base.as_ref().expect("a floating base");
+        let n = self.nq();
+        let size = 6 + n;
+        assert_eq!(
+            m.len(),
+            size * size,
+            "m has {} entries, not (6 + nq)²",
+            m.len()
+        );
+        self.transforms_into(q, &mut d.xs);
+        let Data { xs, ic, .. } = d;
+        ic.clear();
+        ic.extend(self.inertia.iter().map(RigidInertia::lift));
+        let mut base = RigidInertia::<S>::lift(&fb.inertia);
+        for i in (0..n).rev() {
+            let back = ic[i].back(&xs[i]);
+            match self.parent[i] {
+                Some(p) => ic[p] = ic[p].add(&back),
+                None => base = base.add(&back),
+            }
+        }
+        m.fill(S::zero());
+        let put = |m: &mut [S], c: usize, f: &Force<S>| {
+            for k in 0..3 {
+                m[k * size + c] = f.ang[k];
+                m[(3 + k) * size + c] = f.lin[k];
+                m[c * size + k] = f.ang[k];
+                m[c * size + 3 + k] = f.lin[k];
+            }
+        };
+        for k in 0..6 {
+            let mut unit = Motion::zero();
+            if k < 3 {
+                unit.ang[k] = S::one();
+            } else {
+                unit.lin[k - 3] = S::one();
+            }
+            let f = base.apply(&unit);
+            put(m, k, &f);
+        }
+        for (i, composite) in ic.iter().enumerate() {
+            let mut f = composite.apply(&Motion::from_axis(&self.subspace[i], S::one()));
+            let c = 6 + i;
+            m[c * size + c] = f.along(&self.subspace[i]);
+            let mut j = i;
+            while let Some(p) = self.parent[j] {
+                f = xs[j].force_back(&f);
+                j = p;
+                m[c * size + 6 + j] = f.along(&self.subspace[j]);
+                m[(6 + j) * size + c] = m[c * size + 6 + j];
+            }
+            put(m, c, &xs[j].force_back(&f));
+        }
+    }
+
     /// Forward dynamics (ABA): `q̈` from `(q, q̇, τ)` under gravity, with the joints'
     /// viscous damping applied as `τ − d q̇`.
     pub fn aba<S: Scalar>(&self, q: &[S], qd: &[S], tau: &[S]) -> Vec<S> {
@@ -744,10 +807,10 @@ impl Model {
 
     /// [`Model::aba_free_in`] with mimic joints: the dynamics reduced to the base and the
     /// independent joints, `Gᵀ M G [a₀; q̈ᵣ] = Gᵀ ([0; τ − d q̇] − b)`, as
-    /// [`Model::reduced_in`] for a fixed base. Each column of `Gᵀ M G` is one inverse
-    /// dynamics ([`Model::rnea_free_in`]) without gravity or velocity, at a unit
-    /// acceleration of the base or of an independent joint (with its mimics); b is the
-    /// inverse dynamics at zero acceleration. O(n²), solved by LDLᵀ.
+    /// [`Model::reduced_in`] for a fixed base: M by CRBA with the base
+    /// ([`Model::crba_free_in`], O(n d)), b the inverse dynamics at zero acceleration
+    /// ([`Model::rnea_free_in`]), solved by LDLᵀ (O(n³), skipped where the factor is
+    /// current: [`Data::mass_is_current`]).
     #[allow(clippy::too_many_arguments)]
     fn reduced_free_in<S: Scalar>(
         &self,
@@ -761,15 +824,6 @@ impl Model {
     ) -> Motion<S> {
         let (n, nr, rank) = (self.nq(), self.ndof(), &self.driver_index);
         let size = 6 + nr;
-        let unit = |k: usize| -> Motion<S> {
-            let mut m = Motion::zero();
-            if k < 3 {
-                m.ang[k] = S::one();
-            } else if k < 6 {
-                m.lin[k - 3] = S::one();
-            }
-            m
-        };
         // Gᵀ of a base wrench and joint forces: (wrench; Σ r τ per independent joint).
         let reduce = |f0: &Force<S>, t: &[S], out: &mut [S]| {
             out[..3].copy_from_slice(&f0.ang);
@@ -780,29 +834,34 @@ impl Model {
             }
         };
         let mut mass = std::mem::take(&mut d.reduced);
-        let mut column = vec![S::zero(); size];
         let mut t = vec![S::zero(); n];
-        let zero_v = vec![S::zero(); n];
         let still = Motion::zero();
-        let columns = if d.mass_is_current { 0 } else { size };
-        if columns > 0 {
+        if !d.mass_is_current {
+            // The full mass matrix by CRBA, then Gᵀ M G: the base's six pass through, a
+            // mimic joint's row and column add to its driver's, times its multiplier.
+            let full = 6 + n;
+            let mut m = std::mem::take(&mut d.mass);
+            m.clear();
+            m.resize(full * full, S::zero());
+            self.crba_free_in(d, q, &mut m);
+            let at = |a: usize| -> (usize, f64) {
+                if a < 6 {
+                    (a, 1.0)
+                } else {
+                    (6 + rank[a - 6], self.driver(a - 6).1)
+                }
+            };
             mass.clear();
             mass.resize(size * size, S::zero());
-        }
-        for c in 0..columns {
-            let a0 = unit(c);
-            for (i, a) in qdd.iter_mut().enumerate() {
-                *a = if c >= 6 && rank[i] == c - 6 {
-                    S::from(self.driver(i).1)
-                } else {
-                    S::zero()
-                };
+            for a in 0..full {
+                let (ra, fa) = at(a);
+                for b in 0..full {
+                    let (rb, fb) = at(b);
+                    mass[ra * size + rb] += m[a * full + b] * (fa * fb);
+                }
             }
-            let f0 = self.rnea_free_in(d, (rotation, &still, &a0), q, &zero_v, qdd, false, &mut t);
-            reduce(&f0, &t, &mut column);
-            for (r, &x) in column.iter().enumerate() {
-                mass[r * size + c] = x;
-            }
+            ldl_factor_flat(&mut mass, size);
+            d.mass = m;
         }
         qdd.fill(S::zero());
         let f0 = self.rnea_free_in(d, (rotation, velocity, &still), q, qd, qdd, true, &mut t);
@@ -811,9 +870,6 @@ impl Model {
             t[i] = tau[i] - qd[i] * self.damping[i] - t[i];
         }
         reduce(&Force::zero().sub(&f0), &t, &mut rhs);
-        if columns > 0 {
-            ldl_factor_flat(&mut mass, size);
-        }
         ldl_substitute_flat(&mass, size, &mut rhs);
         for i in 0..n {
             qdd[i] = rhs[6 + rank[i]] * self.driver(i).1;

@@ -360,3 +360,51 @@ fn the_reused_mass_matrix_gives_a_fresh_evaluations_accelerations() {
         );
     }
 }
+
+/// The floating mass matrix by CRBA with the base ([`Model::crba_free_in`]) is, column by
+/// column, the inverse dynamics without gravity or velocity at a unit acceleration of the
+/// base or of one joint ([`Model::rnea_free_in`]: the definition), with and without a
+/// mimic joint (here every joint its own column, the reduction is the caller's).
+#[test]
+fn the_floating_crba_is_the_inverse_dynamics_column_by_column() {
+    for model in [
+        floating(ARM, [0.0, 0.0, -9.81]),
+        floating(&with_mimic(), [0.0; 3]),
+    ] {
+        let n = model.nq();
+        let size = 6 + n;
+        let s = state(3);
+        let q = [s.q.clone(), vec![0.3; n - 3]].concat();
+        let r = quat_to_matrix(&s.quat);
+        let mut d = Data::new(&model);
+        let mut m = vec![0.0; size * size];
+        model.crba_free_in(&mut d, &q, &mut m);
+        let still = Motion::zero();
+        let mut worst = 0.0f64;
+        for c in 0..size {
+            let mut a0 = Motion::zero();
+            let mut qdd = vec![0.0; n];
+            match c {
+                0..=2 => a0.ang[c] = 1.0,
+                3..=5 => a0.lin[c - 3] = 1.0,
+                _ => qdd[c - 6] = 1.0,
+            }
+            let mut tau = vec![0.0; n];
+            let f0 = model.rnea_free_in(
+                &mut d,
+                (&r, &still, &a0),
+                &q,
+                &vec![0.0; n],
+                &qdd,
+                false,
+                &mut tau,
+            );
+            let column = [f0.ang.to_vec(), f0.lin.to_vec(), tau].concat();
+            for (row, want) in column.iter().enumerate() {
+                worst = worst.max((m[row * size + c] - want).abs());
+                assert_eq!(m[row * size + c], m[c * size + row], "symmetric");
+            }
+        }
+        assert!(worst < 1e-12, "{worst:e}");
+    }
+}
