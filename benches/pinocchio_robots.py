@@ -76,9 +76,8 @@ def binding_cost() -> float:
     """Seconds of one binding call with (almost) no C++ work: `pin.aba` on a model with no
     joint, the best of 5 loops."""
     if not _BINDING:
-        empty = pin.Model()
-        data, z = empty.createData(), np.zeros(0)
-        fn = lambda: pin.aba(empty, data, z, z, z)
+        z = np.zeros(0)
+        fn = calls(pin.Model(), z, z, z)["aba"]
         n = number(fn)
         _BINDING.append(min(timeit.timeit(fn, number=n) / n for _ in range(5)))
     return _BINDING[0]

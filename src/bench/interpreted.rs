@@ -20,7 +20,7 @@
 //! the state); that they compute the same q̈ is the tests' business
 //! (`tests/python/test_real_robots.py`, `test_floating_base.py`: within 1.4e-13).
 
-use super::robots::{python, script, Pinocchio};
+use super::robots::{python, script, uniform, Pinocchio};
 use super::speed::best_ns;
 use crate::multibody::fmu::Built;
 use crate::multibody::spatial::{quat_to_matrix, Motion};
@@ -71,13 +71,7 @@ fn model_of(robots: &Path, file: &str, floating: bool) -> Result<Model, String> 
 /// with a reused workspace (as the runtime's).
 fn time_model(model: &Model, reps: usize) -> f64 {
     let n = model.nq();
-    let mut s = 0x2545_f491_4f6c_dd1du64 ^ n as u64;
-    let mut next = |lo: f64, hi: f64| {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        lo + (hi - lo) * ((s >> 11) as f64 / (1u64 << 53) as f64)
-    };
+    let mut next = uniform(0x2545_f491_4f6c_dd1du64 ^ n as u64);
     let mut q: Vec<f64> = (0..n).map(|_| next(-1.0, 1.0)).collect();
     let mut qd: Vec<f64> = (0..n).map(|_| next(-1.0, 1.0)).collect();
     let tau: Vec<f64> = (0..n).map(|_| next(-5.0, 5.0)).collect();

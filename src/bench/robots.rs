@@ -92,15 +92,20 @@ pub struct RobotRow {
     pub max_difference: f64,
 }
 
-/// The timed state of a model with `n` joints (fixed seed).
-fn state(n: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
-    let mut s = 0x9e3779b97f4a7c15u64 ^ n as u64;
-    let mut next = |lo: f64, hi: f64| {
+/// Uniform numbers in `[lo, hi)` from `seed` (xorshift64): the benchmarks' fixed states.
+pub(crate) fn uniform(seed: u64) -> impl FnMut(f64, f64) -> f64 {
+    let mut s = seed;
+    move |lo, hi| {
         s ^= s << 13;
         s ^= s >> 7;
         s ^= s << 17;
         lo + (hi - lo) * ((s >> 11) as f64 / (1u64 << 53) as f64)
-    };
+    }
+}
+
+/// The timed state of a model with `n` joints (fixed seed).
+fn state(n: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let mut next = uniform(0x9e3779b97f4a7c15u64 ^ n as u64);
     let q = (0..n).map(|_| next(-1.5, 1.5)).collect();
     let qd = (0..n).map(|_| next(-1.0, 1.0)).collect();
     let tau = (0..n).map(|_| next(-5.0, 5.0)).collect();

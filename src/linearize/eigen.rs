@@ -20,18 +20,15 @@ const ITERATIONS_PER_ROW: usize = 30;
 pub fn eigenvalues(a: &DMatrix<f64>) -> Result<Vec<Complex<f64>>, String> {
     let mut isolated = Vec::new();
     let mut rest: Vec<usize> = (0..a.nrows()).collect();
-    loop {
-        let alone = rest.iter().position(|&i| {
+    let alone = |rest: &[usize]| {
+        rest.iter().position(|&i| {
             rest.iter().all(|&j| j == i || a[(i, j)] == 0.0)
                 || rest.iter().all(|&j| j == i || a[(j, i)] == 0.0)
-        });
-        match alone {
-            Some(k) => {
-                let i = rest.remove(k);
-                isolated.push(Complex::new(a[(i, i)], 0.0));
-            }
-            None => break,
-        }
+        })
+    };
+    while let Some(k) = alone(&rest) {
+        let i = rest.remove(k);
+        isolated.push(Complex::new(a[(i, i)], 0.0));
     }
     if rest.is_empty() {
         return Ok(isolated);

@@ -620,30 +620,7 @@ impl Model {
 
     /// [`Model::crba`] into `m` (n × n, row-major), with the workspace `d`: no allocation.
     pub fn crba_in<S: Scalar>(&self, d: &mut Data<S>, q: &[S], m: &mut [S]) {
-        let n = self.nq();
-        assert_eq!(m.len(), n * n, "m has {} entries, not nq²", m.len());
-        self.transforms_into(q, &mut d.xs);
-        let Data { xs, ic, .. } = d;
-        ic.clear();
-        ic.extend(self.inertia.iter().map(RigidInertia::lift));
-        for i in (0..n).rev() {
-            if let Some(p) = self.parent[i] {
-                let back = ic[i].back(&xs[i]);
-                ic[p] = ic[p].add(&back);
-            }
-        }
-        m.fill(S::zero());
-        for i in 0..n {
-            let mut f = ic[i].apply(&Motion::from_axis(&self.subspace[i], S::one()));
-            m[i * n + i] = f.along(&self.subspace[i]);
-            let mut j = i;
-            while let Some(p) = self.parent[j] {
-                f = xs[j].force_back(&f);
-                j = p;
-                m[i * n + j] = f.along(&self.subspace[j]);
-                m[j * n + i] = m[i * n + j];
-            }
-        }
+        self.crba_tree(d, None, q, m);
     }
 
     /// The mass matrix of a floating-base model ([`Model::free_base`]), `(6 + n)` square,
@@ -655,27 +632,41 @@ impl Model {
     /// it by inverse dynamics column by column is O(n²).
     pub fn crba_free_in<S: Scalar>(&self, d: &mut Data<S>, q: &[S], m: &mut [S]) {
         let fb = self.free_base.as_ref().expect("a floating base");
+        self.crba_tree(d, Some(&fb.inertia), q, m);
+    }
+
+    /// CRBA from a fixed base (`base = None`: `m` is n square) or a floating one (its
+    /// inertia: `m` is `6 + n` square, the base's `(ω̇, v̇)` first).
+    fn crba_tree<S: Scalar>(
+        &self,
+        d: &mut Data<S>,
+        base: Option<&RigidInertia<f64>>,
+        q: &[S],
+        m: &mut [S],
+    ) {
         let n = self.nq();
-        let size = 6 + n;
+        let o = if base.is_some() { 6 } else { 0 };
+        let size = o + n;
         assert_eq!(
             m.len(),
             size * size,
-            "m has {} entries, not (6 + nq)²",
+            "m has {} entries, not {size}²",
             m.len()
         );
         self.transforms_into(q, &mut d.xs);
         let Data { xs, ic, .. } = d;
         ic.clear();
         ic.extend(self.inertia.iter().map(RigidInertia::lift));
-        let mut base = RigidInertia::<S>::lift(&fb.inertia);
+        let mut whole = base.map(RigidInertia::<S>::lift);
         for i in (0..n).rev() {
-            let back = ic[i].back(&xs[i]);
-            match self.parent[i] {
-                Some(p) => ic[p] = ic[p].add(&back),
-                None => base = base.add(&back),
+            match (self.parent[i], whole.as_mut()) {
+                (Some(p), _) => ic[p] = ic[p].add(&ic[i].back(&xs[i])),
+                (None, Some(w)) => *w = w.add(&ic[i].back(&xs[i])),
+                (None, None) => {}
             }
         }
         m.fill(S::zero());
+        // A base column `c`: the wrench `f` (ang, lin) in both its row and its column.
         let put = |m: &mut [S], c: usize, f: &Force<S>| {
             for k in 0..3 {
                 m[k * size + c] = f.ang[k];
@@ -684,28 +675,31 @@ impl Model {
                 m[c * size + 3 + k] = f.lin[k];
             }
         };
-        for k in 0..6 {
-            let mut unit = Motion::zero();
-            if k < 3 {
-                unit.ang[k] = S::one();
-            } else {
-                unit.lin[k - 3] = S::one();
+        if let Some(w) = &whole {
+            for k in 0..6 {
+                let mut unit = Motion::zero();
+                if k < 3 {
+                    unit.ang[k] = S::one();
+                } else {
+                    unit.lin[k - 3] = S::one();
+                }
+                put(m, k, &w.apply(&unit));
             }
-            let f = base.apply(&unit);
-            put(m, k, &f);
         }
         for (i, composite) in ic.iter().enumerate() {
             let mut f = composite.apply(&Motion::from_axis(&self.subspace[i], S::one()));
-            let c = 6 + i;
+            let c = o + i;
             m[c * size + c] = f.along(&self.subspace[i]);
             let mut j = i;
             while let Some(p) = self.parent[j] {
                 f = xs[j].force_back(&f);
                 j = p;
-                m[c * size + 6 + j] = f.along(&self.subspace[j]);
-                m[(6 + j) * size + c] = m[c * size + 6 + j];
+                m[c * size + o + j] = f.along(&self.subspace[j]);
+                m[(o + j) * size + c] = m[c * size + o + j];
             }
-            put(m, c, &xs[j].force_back(&f));
+            if whole.is_some() {
+                put(m, c, &xs[j].force_back(&f));
+            }
         }
     }
 
@@ -844,22 +838,7 @@ impl Model {
             m.clear();
             m.resize(full * full, S::zero());
             self.crba_free_in(d, q, &mut m);
-            let at = |a: usize| -> (usize, f64) {
-                if a < 6 {
-                    (a, 1.0)
-                } else {
-                    (6 + rank[a - 6], self.driver(a - 6).1)
-                }
-            };
-            mass.clear();
-            mass.resize(size * size, S::zero());
-            for a in 0..full {
-                let (ra, fa) = at(a);
-                for b in 0..full {
-                    let (rb, fb) = at(b);
-                    mass[ra * size + rb] += m[a * full + b] * (fa * fb);
-                }
-            }
+            self.reduce_mass_into(&m, 6, &mut mass);
             ldl_factor_flat(&mut mass, size);
             d.mass = m;
         }
@@ -1007,7 +986,7 @@ impl Model {
         let (rank, nr) = (&self.driver_index, self.ndof());
         let (reduced, rhs) = (&mut d.reduced, &mut d.rhs);
         if !d.mass_is_current {
-            self.reduce_mass_into(&mass, reduced);
+            self.reduce_mass_into(&mass, 0, reduced);
             ldl_factor_flat(reduced, nr);
         }
         rhs.clear();
@@ -1023,16 +1002,26 @@ impl Model {
         d.bias = bias;
     }
 
-    /// `Gᵀ M G` into `reduced` ([`Model::ndof`] square, row-major) from the tree's mass
-    /// matrix `mass` ([`Model::nq`] square): `M` itself without mimic joints.
-    fn reduce_mass_into<S: Scalar>(&self, mass: &[S], reduced: &mut Vec<S>) {
-        let (n, nr, rank) = (self.nq(), self.ndof(), &self.driver_index);
+    /// `Gᵀ M G` into `reduced` (`base + ndof` square, row-major) from the mass matrix `mass`
+    /// (`base + nq` square) whose first `base` coordinates (0, or a floating base's 6) pass
+    /// through: a mimic joint's row and column add to its driver's, times its multiplier.
+    /// `M` itself without mimic joints.
+    fn reduce_mass_into<S: Scalar>(&self, mass: &[S], base: usize, reduced: &mut Vec<S>) {
+        let (full, size) = (base + self.nq(), base + self.ndof());
+        let at = |a: usize| -> (usize, f64) {
+            if a < base {
+                (a, 1.0)
+            } else {
+                (base + self.driver_index[a - base], self.driver(a - base).1)
+            }
+        };
         reduced.clear();
-        reduced.resize(nr * nr, S::zero());
-        for i in 0..n {
-            for j in 0..n {
-                let r = self.driver(i).1 * self.driver(j).1;
-                reduced[rank[i] * nr + rank[j]] += mass[i * n + j] * r;
+        reduced.resize(size * size, S::zero());
+        for a in 0..full {
+            let (ra, fa) = at(a);
+            for b in 0..full {
+                let (rb, fb) = at(b);
+                reduced[ra * size + rb] += mass[a * full + b] * (fa * fb);
             }
         }
     }
@@ -1046,7 +1035,7 @@ impl Model {
         let mut mass = vec![0.0; n * n];
         self.crba_in(&mut Data::new(self), q, &mut mass);
         let mut m = Vec::new();
-        self.reduce_mass_into(&mass, &mut m);
+        self.reduce_mass_into(&mass, 0, &mut m);
         let diagonal: Vec<f64> = (0..nr).map(|k| m[k * nr + k]).collect();
         ldl_factor_flat(&mut m, nr);
         // The pivots in order: a bad one spoils only those after it.

@@ -318,18 +318,19 @@ fn the_reused_mass_matrix_gives_a_fresh_evaluations_accelerations() {
         let s = state(3);
         let r = quat_to_matrix(&s.quat);
         let q = [s.q.clone(), vec![0.5 * s.q[0] + 0.1]].concat();
-        let run = |d: &mut Data<f64>, qd: &[f64], tau: &[f64]| {
+        let run_at = |d: &mut Data<f64>, q: &[f64], qd: &[f64], tau: &[f64]| {
             let mut qdd = vec![0.0; 4];
             let base = if model.free_base.is_some() {
                 let still = Motion::zero();
                 let v = if qd[0] == 0.0 { &still } else { &s.velocity };
-                model.aba_free_in(d, &r, v, &q, qd, tau, &mut qdd)
+                model.aba_free_in(d, &r, v, q, qd, tau, &mut qdd)
             } else {
-                model.aba_in(d, &q, qd, tau, &mut qdd);
+                model.aba_in(d, q, qd, tau, &mut qdd);
                 Motion::zero()
             };
             (qdd, base)
         };
+        let run = |d: &mut Data<f64>, qd: &[f64], tau: &[f64]| run_at(d, &q, qd, tau);
         let (qd, still) = ([1.3, -0.4, 2.1, 0.65], [0.0; 4]);
         let (tau, unit) = ([0.8, -3.0, 0.4, 0.6], [0.0, 1.0, 0.0, 0.0]);
         let mut reused = Data::new(&model);
@@ -347,12 +348,7 @@ fn the_reused_mass_matrix_gives_a_fresh_evaluations_accelerations() {
         let mut q2 = q.clone();
         // (Not the root joint's angle: a fixed base's M does not depend on it.)
         q2[1] += 0.3;
-        let mut qdd = vec![0.0; 4];
-        if model.free_base.is_some() {
-            model.aba_free_in(&mut moved, &r, &s.velocity, &q2, &qd, &tau, &mut qdd);
-        } else {
-            model.aba_in(&mut moved, &q2, &qd, &tau, &mut qdd);
-        }
+        run_at(&mut moved, &q2, &qd, &tau);
         moved.mass_is_current = true;
         assert_ne!(
             run(&mut moved, &qd, &tau).0,

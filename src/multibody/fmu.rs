@@ -1186,8 +1186,13 @@ fn aba_reusing<S: Scalar + 'static>(model: &Model, q: &[S], qd: &[S], tau: &[S],
 /// `f`, every forward dynamics in it at the q of the call just made (the held solve's
 /// inverse-mass columns): the workspace's factored mass matrix is reused, not formed and
 /// factored again per column ([`Data::mass_is_current`](super::dynamics::Data)), and
-/// marked stale again after `f`, however `f` ends.
+/// marked stale again after `f`, however `f` ends. Only the mimic joints' reduced path
+/// factors a mass matrix: without mimics `f` runs as it is (no workspace lookups on the
+/// per-evaluation path).
 fn at_the_same_q<S: Scalar + 'static, R>(model: &Model, f: impl FnOnce() -> R) -> R {
+    if !model.has_mimics() {
+        return f();
+    }
     struct Stale<'a, S: Scalar + 'static>(&'a Model, PhantomData<S>);
     impl<S: Scalar + 'static> Drop for Stale<'_, S> {
         fn drop(&mut self) {
