@@ -357,7 +357,7 @@ pub fn respond_mechanism<R: crate::multibody::fmu::OfMechanism>(request: &str) -
         Some("symbolic") => {
             let model = D::<R>::model();
             let n = model.nq();
-            let (z, mut qdd) = (vec![0.0; n], vec![0.0; n]);
+            let z = vec![0.0; n];
             let mut joints = if n == 1 {
                 "1 moving joint".to_string()
             } else {
@@ -371,19 +371,25 @@ pub fn respond_mechanism<R: crate::multibody::fmu::OfMechanism>(request: &str) -
                 );
             }
             let m = D::<R>::CONSTRAINTS;
-            let runs = if model.free_base.is_some() {
-                format!(
-                    "runs the articulated-body algorithm with a floating base (the base solved from its articulated inertia) on its model: {joints} and 6 of the base (the generated straight-line code covers fixed bases only)"
-                )
-            } else if m > 0 {
+            let floating = model.free_base.is_some();
+            if floating {
+                joints += " and 6 of the floating base";
+            }
+            let runs = if m > 0 {
                 format!(
                     "runs the λ-method on automatic differentiation of its energies: {joints}, {m} loop-closure residuals by forward kinematics, projected after every step"
                 )
             } else {
-                let has = D::<R>::generated_aba(&z, &z, &z, &mut qdd);
+                // The generated code's slices (longer with a floating base).
+                let [nq, nqd, _] = crate::multibody::codegen::leaf_lengths(model);
+                let (zq, zqd) = (vec![0.0; nq], vec![0.0; nqd]);
+                let mut qdd = vec![0.0; nqd];
+                let has = D::<R>::generated_aba(&zq, &zqd, &z, &mut qdd);
                 let current = crate::multibody::fmu::generated_is_current::<D<R>>();
                 let how = if has && current {
                     "straight-line code generated for this mechanism"
+                } else if floating {
+                    "the articulated-body algorithm with a floating base (the base solved from its articulated inertia) on its model"
                 } else {
                     "the articulated-body algorithm (Featherstone) on its model"
                 };

@@ -1,9 +1,9 @@
-//! `mbfmu speed --robots`, second table: the forward dynamics the prebuilt mechanism
-//! runtime interprets (what `mbfmu build --urdf` FMUs run) on the robots the generated code
-//! does not cover yet: mimic joints (the mass matrix reduced to the independent joints,
-//! CRBA + RNEA + LDLᵀ, [`Model::aba_in`]) and floating bases (the articulated-body
-//! algorithm with the base solved from its articulated inertia, or with mimic joints the
-//! reduced path, [`Model::aba_free_in`]), against Pinocchio in the same run.
+//! `mbfmu speed --robots`, second table: mimic joints and floating bases. The forward
+//! dynamics the prebuilt mechanism runtime interprets (what `mbfmu build --urdf` FMUs run):
+//! with mimic joints the mass matrix reduced to the independent joints (CRBA + RNEA +
+//! LDLᵀ, [`Model::aba_in`]), with a floating base the articulated-body algorithm with the
+//! base solved from its articulated inertia, or with mimic joints the reduced path
+//! ([`Model::aba_free_in`]); against Pinocchio in the same run.
 //!
 //! The robots are example-robot-data's files, found by the Pinocchio child (the same
 //! virtualenv). Pinocchio's figures, its own C++ time per call (the binding's cost on a
@@ -15,6 +15,10 @@
 //!   (`mimic=True`), the work of its mimic forward dynamics less the final solve (in its
 //!   favour). Pinocchio 4.1 builds no mimic model with a free-flyer root here (Talos: "The
 //!   parent joint of the mimic joint is not in the kinematic tree").
+//!
+//! Where the generated code has a committed module for the robot
+//! (`src/multibody/generated/`: `panda_mimic`, `go2_floating`, the same files), its
+//! straight-line q̈ is timed too: what `--compile` makes of that robot.
 //!
 //! Both sides time q̈ at a random state of their own (the algorithms have no branches on
 //! the state); that they compute the same q̈ is the tests' business
@@ -57,6 +61,21 @@ pub struct InterpretedRow {
     pub pinocchio_aba_ns: f64,
     /// `crba` + `nonLinearEffects` of Pinocchio's mimic model (fixed base with mimics).
     pub pinocchio_mimic_ns: Option<f64>,
+    /// The committed generated code's q̈, where there is a module for the robot.
+    pub generated_ns: Option<f64>,
+}
+
+/// The generated code's `aba` (q̈ and, floating, the base's acceleration).
+type AbaFn = fn(&[f64], &[f64], &[f64], &mut [f64]);
+
+/// The committed generated module of a robot of [`ROBOTS`], if any.
+fn generated_of(name: &str) -> Option<AbaFn> {
+    use crate::multibody::generated::{go2_floating, panda_mimic};
+    match name {
+        "panda (mimic)" => Some(panda_mimic::aba::<f64>),
+        "go2 (floating)" => Some(go2_floating::aba::<f64>),
+        _ => None,
+    }
 }
 
 fn model_of(robots: &Path, file: &str, floating: bool) -> Result<Model, String> {
@@ -68,8 +87,8 @@ fn model_of(robots: &Path, file: &str, floating: bool) -> Result<Model, String> 
 }
 
 /// One call's best time (ns) of the interpreted forward dynamics at a fixed random state,
-/// with a reused workspace (as the runtime's).
-fn time_model(model: &Model, reps: usize) -> f64 {
+/// with a reused workspace (as the runtime's); of `generated`'s instead where given.
+fn time_model(model: &Model, generated: Option<AbaFn>, reps: usize) -> f64 {
     let n = model.nq();
     let mut next = uniform(0x2545_f491_4f6c_dd1du64 ^ n as u64);
     let mut q: Vec<f64> = (0..n).map(|_| next(-1.0, 1.0)).collect();
@@ -87,11 +106,22 @@ fn time_model(model: &Model, reps: usize) -> f64 {
     if model.free_base.is_some() {
         let quat = [next(-1.0, 1.0), next(-1.0, 1.0), next(-1.0, 1.0), 1.0];
         let norm = quat.iter().map(|x| x * x).sum::<f64>().sqrt();
-        let rotation = quat_to_matrix(&quat.map(|x| x / norm));
+        let quat = quat.map(|x| x / norm);
+        let rotation = quat_to_matrix(&quat);
         let velocity = Motion {
             ang: [next(-1.0, 1.0), next(-1.0, 1.0), next(-1.0, 1.0)],
             lin: [next(-1.0, 1.0), next(-1.0, 1.0), next(-1.0, 1.0)],
         };
+        if let Some(aba) = generated {
+            // The generated layout: the base's pose and velocity after the joints'.
+            let q: Vec<f64> = [&q[..], &[0.0; 3], &quat].concat();
+            let qd: Vec<f64> = [&qd[..], &velocity.lin, &velocity.ang].concat();
+            let mut out = vec![0.0; n + 6];
+            return best_ns(reps, || {
+                aba(black_box(&q), &qd, &tau, &mut out);
+                black_box(&out);
+            });
+        }
         best_ns(reps, || {
             black_box(model.aba_free_in(
                 &mut data,
@@ -102,6 +132,11 @@ fn time_model(model: &Model, reps: usize) -> f64 {
                 &tau,
                 &mut qdd,
             ));
+        })
+    } else if let Some(aba) = generated {
+        best_ns(reps, || {
+            aba(black_box(&q), &qd, &tau, &mut qdd);
+            black_box(&qdd);
         })
     } else {
         best_ns(reps, || {
@@ -129,13 +164,17 @@ pub fn sweep(reps: usize) -> Result<Vec<InterpretedRow>, String> {
         let model = model_of(robots, file, floating)?;
         let mimics = model.follows.iter().filter(|f| f.is_some()).count();
         let mut best = f64::INFINITY;
+        let mut straight = f64::INFINITY;
         let (mut aba, mut mimic) = (f64::INFINITY, f64::INFINITY);
         for rep in 0..reps {
             eprintln!(
                 "robots (interpreted): {name}, repetition {} of {reps}",
                 rep + 1
             );
-            best = best.min(time_model(&model, 1));
+            best = best.min(time_model(&model, None, 1));
+            if let Some(g) = generated_of(name) {
+                straight = straight.min(time_model(&model, Some(g), 1));
+            }
             let t = pin.ask(&json!({ "time": name }))?;
             let get = |k: &str| t[k].as_f64().map(|s| s * 1e9);
             aba = aba.min(get("aba").ok_or("pinocchio child: no aba")?);
@@ -151,19 +190,21 @@ pub fn sweep(reps: usize) -> Result<Vec<InterpretedRow>, String> {
             interpreted_ns: best,
             pinocchio_aba_ns: aba,
             pinocchio_mimic_ns: mimic.is_finite().then_some(mimic),
+            generated_ns: straight.is_finite().then_some(straight),
         });
     }
     Ok(rows)
 }
 
-pub const MARKDOWN_HEADER: &str = "| robot | coordinates (+ mimic joints) | base | interpreted q̈ ns | Pinocchio aba ns (every joint a coordinate) | Pinocchio mimic crba + nonLinearEffects ns | interpreted / Pinocchio |\n|---|---|---|---|---|---|---|";
+pub const MARKDOWN_HEADER: &str = "| robot | coordinates (+ mimic joints) | base | interpreted q̈ ns | generated q̈ ns | Pinocchio aba ns (every joint a coordinate) | Pinocchio mimic crba + nonLinearEffects ns | interpreted / Pinocchio | generated / Pinocchio |\n|---|---|---|---|---|---|---|---|---|";
 
-/// One markdown row: the ratio against Pinocchio's mimic model where it has one, else its
+/// One markdown row: the ratios against Pinocchio's mimic model where it has one, else its
 /// `aba`.
 pub fn markdown_line(r: &InterpretedRow) -> String {
     let peer = r.pinocchio_mimic_ns.unwrap_or(r.pinocchio_aba_ns);
+    let or_dash = |x: Option<f64>, f: &dyn Fn(f64) -> String| x.map_or("—".to_string(), f);
     format!(
-        "| {} | {}{} | {} | {:.0} | {:.0} | {} | **{:.2}** |",
+        "| {} | {}{} | {} | {:.0} | {} | {:.0} | {} | **{:.2}** | {} |",
         r.model,
         r.coordinates,
         if r.mimics > 0 {
@@ -173,27 +214,29 @@ pub fn markdown_line(r: &InterpretedRow) -> String {
         },
         if r.floating { "floating" } else { "fixed" },
         r.interpreted_ns,
+        or_dash(r.generated_ns, &|g| format!("{g:.0}")),
         r.pinocchio_aba_ns,
-        r.pinocchio_mimic_ns
-            .map_or("—".to_string(), |m| format!("{m:.0}")),
+        or_dash(r.pinocchio_mimic_ns, &|m| format!("{m:.0}")),
         r.interpreted_ns / peer,
+        or_dash(r.generated_ns, &|g| format!("**{:.2}**", g / peer)),
     )
 }
 
 pub const CSV_HEADER: &str =
-    "robot,coordinates,mimics,floating,interpreted_ns,pinocchio_aba_ns,pinocchio_mimic_ns\n";
+    "robot,coordinates,mimics,floating,interpreted_ns,pinocchio_aba_ns,pinocchio_mimic_ns,generated_ns\n";
 
-/// One CSV line (see [`CSV_HEADER`]; the mimic figure empty where none).
+/// One CSV line (see [`CSV_HEADER`]; the mimic and generated figures empty where none).
 pub fn csv_line(r: &InterpretedRow) -> String {
+    let or_empty = |x: Option<f64>| x.map_or(String::new(), |x| format!("{x:.1}"));
     format!(
-        "{},{},{},{},{:.1},{:.1},{}\n",
+        "{},{},{},{},{:.1},{:.1},{},{}\n",
         r.model,
         r.coordinates,
         r.mimics,
         r.floating,
         r.interpreted_ns,
         r.pinocchio_aba_ns,
-        r.pinocchio_mimic_ns
-            .map_or(String::new(), |m| format!("{m:.1}"))
+        or_empty(r.pinocchio_mimic_ns),
+        or_empty(r.generated_ns),
     )
 }

@@ -503,11 +503,10 @@ fn build_urdf(
         .unwrap_or_default()
         .to_string();
     let generated = runs.starts_with("runs straight-line code generated");
-    // (A floating base runs the interpreted algorithm: the generated code is fixed-base.)
-    let tree = mechanism.closures.is_empty()
-        && !floating
-        && mbfmu::multibody::Model::new(&mechanism).is_ok_and(|m| m.nq() > 0);
-    if tree && !generated {
+    let planned = mbfmu::multibody::codegen::robot_dynamics(&mechanism, "mbfmu")
+        .map_err(|e| format!("{file}: {e}"))?
+        .is_some();
+    if planned && !generated {
         return Err(format!(
             "{file}: the compiled crate ({}) does not run its generated dynamics ({runs}): a bug of mbfmu's code generator",
             dir.display()
@@ -515,6 +514,16 @@ fn build_urdf(
     }
     let binaries = own_model::with_cross_builds(&manifest, library, chosen, Some(&shared))?;
     let fmu = package_robot(&binaries, &[], out, &name)?;
+    let tree = mechanism.closures.is_empty()
+        && mbfmu::multibody::Model::new(&mechanism).is_ok_and(|m| m.nq() > 0);
+    let runs = if tree && !planned {
+        format!(
+            "{runs} (no straight-line code: its q̈ would take more than {} operations, which rustc compiles in minutes)",
+            mbfmu::multibody::codegen::MAX_OPERATIONS
+        )
+    } else {
+        runs
+    };
     report_robot(&fmu, &mechanism, started, &runs);
     Ok(())
 }
@@ -577,7 +586,7 @@ fn build_urdf_runtime(
         &mechanism,
         started,
         if floating {
-            "runs the articulated-body algorithm with a floating base (the base solved from its articulated inertia), interpreted by the prebuilt mechanism runtime, which reads the robot from the FMU's resources (no compiler)"
+            "runs the articulated-body algorithm with a floating base (the base solved from its articulated inertia), interpreted by the prebuilt mechanism runtime, which reads the robot from the FMU's resources (no compiler; --compile generates straight-line code for this robot: faster, needs cargo)"
         } else if mbfmu::multibody::Model::new(&mechanism).is_ok_and(|m| m.has_mimics()) {
             "runs the mass matrix reduced to the independent joints (mimic joints follow them), interpreted by the prebuilt mechanism runtime, which reads the robot from the FMU's resources (no compiler; --compile generates straight-line code for this robot: faster, needs cargo)"
         } else {

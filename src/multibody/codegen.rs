@@ -27,13 +27,19 @@
 //! to the size of what was snapped (UR5: a few 1e-12 relative; tests: 1e-10, the
 //! tolerance of the Pinocchio comparison).
 //!
+//! A floating base's code takes the base's pose and velocity after the joints' and gives
+//! its acceleration after theirs ([`floating_dynamics`]); mimic joints' is the reduced
+//! mass-matrix solve of [`Model::aba`], traced.
+//!
 //! The committed output for the benchmark models (UR5, Panda, the spatial chain of
-//! [`spatial_chain_urdf`]) is under `src/multibody/generated/`; a test regenerates it and
+//! [`spatial_chain_urdf`]; the Panda with its mimic finger, Go2 floating) is under
+//! `src/multibody/generated/`; a test regenerates it and
 //! compares (`MBFMU_REGENERATE=1` rewrites it).
 
-use super::dynamics::Model;
+use super::dynamics::{Data, Model};
 use super::spatial::{
-    cross, lift3, mat_t_vec, mat_vec, Force, Motion, RigidInertia, Transform, M3, V3,
+    cross, lift3, mat_t_vec, mat_vec, quat_to_matrix, Force, Motion, RigidInertia, Transform, M3,
+    V3,
 };
 use crate::model::symbolic::emit::{straight_line, Straight};
 use crate::model::symbolic::expr::with_graph;
@@ -128,26 +134,34 @@ pub fn generated_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("src/multibody/generated")
 }
 
-/// The model of a committed URDF (`ur5`, `panda`) or of `chain_N`.
+/// The model of a committed URDF (`ur5`, `panda`, `panda_mimic`; `go2_floating`: `go2`
+/// with its floating base) or of `chain_N`.
 pub fn benchmark_model(module: &str) -> Model {
-    let mechanism = match module.strip_prefix("chain_") {
+    let (file, floating) = match module.strip_suffix("_floating") {
+        Some(file) => (file, true),
+        None => (module, false),
+    };
+    let mut mechanism = match file.strip_prefix("chain_") {
         Some(n) => {
             let n: usize = n.parse().expect("chain_N");
             super::urdf::parse(&spatial_chain_urdf(n), module)
         }
-        None => super::urdf::load(&generated_dir().join(format!("urdf/{module}.urdf"))),
+        None => super::urdf::load(&generated_dir().join(format!("urdf/{file}.urdf"))),
     }
     .unwrap_or_else(|e| panic!("{module}: {e}"));
+    mechanism.floating_base = floating;
     Model::new(&mechanism).unwrap_or_else(|e| panic!("{module}: {e}"))
 }
 
 /// The committed models. Each gets the algorithm with the fewest operations after
 /// folding ([`fewest_operations`]); the Jacobian is emitted symbolically for UR5, Panda and
 /// the chains up to 8 links (beyond, the code grows past a megabyte; the analytical O(n²)
-/// derivatives of [`super::derivatives`] run there instead).
+/// derivatives of [`super::derivatives`] run there instead). The Panda with its mimic
+/// finger and Go2 floating are there for the benchmark of those paths (q̈ only).
 pub fn targets() -> Vec<Target> {
     let mut modules: Vec<String> = vec!["ur5".into(), "panda".into()];
     modules.extend(CHAIN_SIZES.iter().map(|n| format!("chain_{n}")));
+    modules.extend(["panda_mimic".into(), "go2_floating".into()]);
     modules
         .into_iter()
         .map(|module| {
@@ -155,7 +169,8 @@ pub fn targets() -> Vec<Target> {
             let algorithm = fewest_operations(&model);
             Target {
                 snap: SNAP,
-                jacobian: (model.nq() <= 9).then(|| fewest_jacobian(&model, algorithm)),
+                jacobian: (model.nq() <= 9 && algorithm != Algorithm::Aba)
+                    .then(|| fewest_jacobian(&model, algorithm)),
                 algorithm,
                 module,
                 model,
@@ -172,10 +187,11 @@ pub fn fewest_operations(model: &Model) -> Algorithm {
 
 /// [`fewest_operations`] with entries within `snap` of 0 or ±1 snapped.
 ///
-/// A model with mimic joints: [`Algorithm::Aba`], which is [`Model::aba`]'s reduced
-/// mass-matrix solve for it (the other two know no mimics).
+/// A model with mimic joints or a floating base: [`Algorithm::Aba`], which is
+/// [`Model::aba`]'s reduced mass-matrix solve for mimics and [`Model::aba_free_in`] for a
+/// floating base ([`floating_dynamics`]; the other two know neither).
 pub fn fewest_operations_within(model: &Model, snap: f64) -> Algorithm {
-    if model.has_mimics() {
+    if model.has_mimics() || model.free_base.is_some() {
         return Algorithm::Aba;
     }
     let ops = |alg| {
@@ -253,6 +269,41 @@ pub fn forward_dynamics<S: Scalar>(
         Algorithm::AbaFolded => aba_folded(model, q, qd, tau),
         Algorithm::CrbaLdl => crba_ldl(model, q, qd, tau),
     }
+}
+
+/// The generated code's layout for a floating-base model ([`Model::free_base`]), `n` its
+/// joints (mimic joints included):
+/// - `q`: the joints' positions, then the base's `x y z` (world frame) and its unit
+///   quaternion `w x y z` (world ← base): `n + 7`;
+/// - `q̇`: the joints' velocities, then the base's `v` and `ω` (base frame): `n + 6`;
+/// - `τ`: the joints' forces: `n`;
+/// - out: the joints' `q̈`, then the base's `v̇` and `ω̇`: `n + 6`.
+///
+/// By [`Model::aba_free_in`] (its reduced path with mimic joints), the rotation from
+/// [`quat_to_matrix`] (homogeneous: no branch, exact on the unit sphere). The base's
+/// position plays no part (gravity is uniform).
+pub fn floating_dynamics<S: Scalar>(model: &Model, q: &[S], qd: &[S], tau: &[S]) -> Vec<S> {
+    let n = model.nq();
+    assert_eq!((q.len(), qd.len(), tau.len()), (n + 7, n + 6, n));
+    let rotation = quat_to_matrix(&[q[n + 3], q[n + 4], q[n + 5], q[n + 6]]);
+    let velocity = Motion {
+        ang: [qd[n + 3], qd[n + 4], qd[n + 5]],
+        lin: [qd[n], qd[n + 1], qd[n + 2]],
+    };
+    let mut out = vec![S::zero(); n + 6];
+    let (joints, base) = out.split_at_mut(n);
+    let a0 = model.aba_free_in(
+        &mut Data::new(model),
+        &rotation,
+        &velocity,
+        &q[..n],
+        &qd[..n],
+        tau,
+        joints,
+    );
+    base[..3].copy_from_slice(&a0.lin);
+    base[3..].copy_from_slice(&a0.ang);
+    out
 }
 
 /// CRBA + RNEA bias + dense LDLᵀ (no pivoting: M is positive definite).
@@ -550,11 +601,20 @@ pub fn trace_within(
 ) -> Traced {
     let model = snapped_within(model, snap);
     let n = model.nq();
+    let [nq, nqd, ntau] = leaf_lengths(&model);
+    assert!(
+        jacobian.is_none() || nq == n,
+        "no symbolic Jacobian for a floating base"
+    );
     let ((qdd, dq, dqd), graph) = record(|| {
-        let q = Expr::inputs(Arg::Q, n);
-        let qd = Expr::inputs(Arg::Qd, n);
-        let tau = Expr::inputs(Arg::U, n);
-        let qdd = forward_dynamics(&model, algorithm, &q, &qd, &tau);
+        let q = Expr::inputs(Arg::Q, nq);
+        let qd = Expr::inputs(Arg::Qd, nqd);
+        let tau = Expr::inputs(Arg::U, ntau);
+        let qdd = if model.free_base.is_some() {
+            floating_dynamics(&model, &q, &qd, &tau)
+        } else {
+            forward_dynamics(&model, algorithm, &q, &qd, &tau)
+        };
         let (mut dq, mut dqd) = (vec![0; n * n], vec![0; n * n]);
         match jacobian {
             None => {}
@@ -610,6 +670,17 @@ pub fn trace_within(
         qdd,
         dq,
         dqd,
+    }
+}
+
+/// The lengths of the generated code's `q`, `q̇` and `τ`: `n` each, or for a floating
+/// base `n + 7`, `n + 6`, `n` ([`floating_dynamics`]).
+pub fn leaf_lengths(model: &Model) -> [usize; 3] {
+    let n = model.nq();
+    if model.free_base.is_some() {
+        [n + 7, n + 6, n]
+    } else {
+        [n; 3]
     }
 }
 
@@ -672,7 +743,7 @@ fn function(
     graph: &Graph,
     name: &str,
     doc: &str,
-    n: usize,
+    lengths: [usize; 3],
     outputs: &[(&str, &[Id])],
 ) -> (String, Straight) {
     let roots: Vec<Id> = outputs
@@ -703,7 +774,10 @@ fn function(
         param(Arg::U, "tau")
     )
     .unwrap();
-    for (arg, a) in [(Arg::Q, "q"), (Arg::Qd, "qd"), (Arg::U, "tau")] {
+    for ((arg, a), n) in [(Arg::Q, "q"), (Arg::Qd, "qd"), (Arg::U, "tau")]
+        .into_iter()
+        .zip(lengths)
+    {
         if st.used_args[arg as usize] {
             writeln!(src, "        let {a} = &{a}[..{n}];").unwrap();
         }
@@ -730,14 +804,18 @@ pub fn generate(target: &Target, krate: &str) -> Generated {
     let model = &target.model;
     let n = model.nq();
     let traced = trace_within(model, target.algorithm, target.jacobian, target.snap);
-    let (aba_src, aba_st) = function(
-        &traced.graph,
-        "aba",
+    let lengths = leaf_lengths(model);
+    let doc = if model.free_base.is_some() {
+        "q̈ and the floating base's acceleration from (q, q̇, τ), as `codegen::floating_dynamics`:\n\
+         `q` the joints' positions, then the base's x y z and quaternion w x y z (world ← base);\n\
+         `qd` the joints' velocities, then the base's v and ω (base frame); `tau` the joints';\n\
+         `qdd` the joints' q̈, then the base's v̇ and ω̇. The joints' viscous damping acts\n\
+         inside, as `τ − d q̇`. The slices' lengths are checked once, up front."
+    } else {
         "q̈ from (q, q̇, τ): the joints' viscous damping acts inside, as `τ − d q̇` (as\n\
-         `Model::aba`). The slices' lengths are checked once, up front.",
-        n,
-        &[("qdd", &traced.qdd)],
-    );
+         `Model::aba`). The slices' lengths are checked once, up front."
+    };
+    let (aba_src, aba_st) = function(&traced.graph, "aba", doc, lengths, &[("qdd", &traced.qdd)]);
     let mut source = String::new();
     let joints = model.joints.join(", ");
     let derivatives = target.jacobian.map(|how| {
@@ -748,7 +826,7 @@ pub fn generate(target: &Target, krate: &str) -> Generated {
                 "q̈ and its Jacobian, `dqdd_dq[i * n + j] = ∂q̈_i/∂q_j` and `dqdd_dqd` alike\n\
                  (row-major), from symbolic derivatives ({how:?})."
             ),
-            n,
+            lengths,
             &[
                 ("qdd", &traced.qdd),
                 ("dqdd_dq", &traced.dq),
@@ -766,7 +844,7 @@ pub fn generate(target: &Target, krate: &str) -> Generated {
     write!(
         source,
         "//! Generated by `mbfmu::multibody::codegen` from `{module}` ({n} joints: {joints}): do not\n\
-         //! edit; {regenerate}. Algorithm: {algorithm:?}.\n\
+         //! edit; {regenerate}. Algorithm: {algorithm:?}{base}.\n\
          //!\n\
          //! `aba`: {aba_ops} operations in {aba_lets} `let`s.{der}\n\n\
          use {krate}::model::Scalar;\n\n\
@@ -776,6 +854,11 @@ pub fn generate(target: &Target, krate: &str) -> Generated {
          /// Operations of [`aba`].\n\
          pub const OPERATIONS: usize = {aba_ops};\n\n",
         module = target.module,
+        base = if model.free_base.is_some() {
+            ", with the floating base"
+        } else {
+            ""
+        },
         name = model.name,
         algorithm = target.algorithm,
         aba_ops = aba_st.operations,
@@ -839,6 +922,14 @@ pub fn fingerprint(model: &Model) -> u64 {
     hash
 }
 
+/// The most operations a robot's generated `aba` may take ([`robot_dynamics`]). rustc's
+/// time grows faster than the code: the crate of Go2 floating (5 000 operations) compiles
+/// in 37 s on 2 cores, Talos full floating with its 12 mimic joints (38 491: the reduced
+/// mass matrix's CRBA and LDLᵀ) in 10 min (the function is compiled for f64 and for the
+/// dual numbers of the derivatives). Beyond this the interpreted algorithm runs (Talos
+/// full floating: 23 µs per q̈, `docs/benchmarks.md`).
+pub const MAX_OPERATIONS: usize = 20_000;
+
 /// The straight-line dynamics of a mechanism for its own crate (`src/dynamics.rs` of the
 /// crates `mbfmu build --urdf` and `mbfmu new --from-urdf` write), naming the library as
 /// `krate`: `aba` of the model snapped within [`EXACT_SNAP`] only (the URDF's model to
@@ -850,7 +941,8 @@ pub fn fingerprint(model: &Model) -> u64 {
 /// evaluation per direction, any n; the symbolic `aba_derivatives` gives the whole
 /// Jacobian in one call but not ∂q̈/∂τ, and would triple the code the build compiles).
 /// `Ok(None)` for a mechanism with loop closures (the λ-method runs, on automatic
-/// differentiation) or without a moving joint.
+/// differentiation), without a moving joint, or whose `aba` would take more than
+/// [`MAX_OPERATIONS`] (the interpreted algorithm runs).
 pub fn robot_dynamics(
     mechanism: &super::Mechanism,
     krate: &str,
@@ -867,6 +959,9 @@ pub fn robot_dynamics(
         model,
     };
     let mut g = generate(&target, krate);
+    if g.aba_operations > MAX_OPERATIONS {
+        return Ok(None);
+    }
     let at = g.source.find("/// The model's name").expect("the header");
     g.source.insert_str(
         at,

@@ -13,7 +13,7 @@ use num_dual::{Dual64, HyperDual64};
 
 /// A three-link floating arm: offsets on every axis, a prismatic joint, inertias with
 /// products, a root with its own mass and an off-origin centre of mass.
-const ARM: &str = r#"<robot name="arm">
+pub(crate) const ARM: &str = r#"<robot name="arm">
   <link name="torso"><inertial><origin xyz="0.05 -0.02 0.1"/><mass value="4"/>
     <inertia ixx="0.3" ixy="0.01" ixz="-0.02" iyy="0.25" iyz="0.015" izz="0.2"/></inertial></link>
   <link name="upper"><inertial><origin xyz="0.1 0.02 -0.15"/><mass value="1.5"/>
@@ -239,7 +239,7 @@ fn the_floating_flag_is_kept_by_the_merge() {
 }
 
 /// [`ARM`] with a pointer on the hand following the shoulder at half its angle.
-fn with_mimic() -> String {
+pub(crate) fn with_mimic() -> String {
     ARM.replace(
         "</robot>",
         r#"<link name="pointer"><inertial><origin xyz="0.05 0.02 0.1"/><mass value="0.3"/>

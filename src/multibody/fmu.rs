@@ -132,7 +132,9 @@ pub trait Declared: 'static {
 
     /// `q̈` from `(q, q̇, τ)` as [`Model::aba`] (damping applied inside: `τ − d q̇`) by
     /// straight-line code generated for this mechanism, into `qdd`, returning `true`;
-    /// `false` (the default): none, [`Model::aba`] runs instead.
+    /// `false` (the default): none, [`Model::aba`] runs instead. With a floating base, the
+    /// base's state and acceleration follow the joints'
+    /// ([`codegen::floating_dynamics`](super::codegen::floating_dynamics)).
     fn generated_aba<S: Scalar>(_q: &[S], _qd: &[S], _tau: &[S], _qdd: &mut [S]) -> bool {
         false
     }
@@ -1251,7 +1253,7 @@ fn without_start_values(xml: &str) -> String {
 fn free_accelerations<D: Declared, S: Scalar>(q: &[S], qd: &[S], u: &[S], qdd: &mut [S]) {
     let b = D::built();
     if b.model.free_base.is_some() {
-        floating_accelerations(b, q, qd, u, qdd);
+        floating_accelerations::<D, S>(q, qd, u, qdd);
         return;
     }
     let generated = generated_is_current::<D>();
@@ -1340,13 +1342,15 @@ fn base_state<S: Scalar>(q: &[S], v: &[S]) -> super::dynamics::BaseState<S> {
 }
 
 /// `(q̈, base acceleration)` of a floating-base robot into `a` (joints', then the base's
-/// `v̇` and `ω̇`), by the articulated-body algorithm with the base solved from its
-/// articulated inertia ([`Model::aba_free_in`]); springs as joint forces. `u` may be longer
-/// than the joints (a generalised force on every velocity, as the end stops pass it): the
-/// base's part is 0 and left out.
-fn floating_accelerations<S: Scalar>(b: &Built, q: &[S], v: &[S], u: &[S], a: &mut [S]) {
+/// `v̇` and `ω̇`): by [`Declared::generated_aba`]'s straight-line code where current (its
+/// layout: [`codegen::floating_dynamics`](super::codegen::floating_dynamics)), else by the
+/// articulated-body algorithm with the base solved from its articulated inertia
+/// ([`Model::aba_free_in`]); springs as joint forces. `u` may be longer than the joints (a
+/// generalised force on every velocity, as the end stops pass it): the base's part is 0
+/// and left out.
+fn floating_accelerations<D: Declared, S: Scalar>(q: &[S], v: &[S], u: &[S], a: &mut [S]) {
+    let b = D::built();
     let n = b.order.len();
-    let base = base_state(&q[n..], &v[n..]);
     let (qm, vm, um) = (
         b.positions_to_model(&q[..n]),
         b.velocities_to_model(&v[..n]),
@@ -1360,24 +1364,32 @@ fn floating_accelerations<S: Scalar>(b: &Built, q: &[S], v: &[S], u: &[S], a: &m
             .map(|(&t, g)| t - g)
             .collect()
     };
-    // Every model joint's q̈ (mimic joints included), then the coordinates'.
-    let mut am = vec![S::zero(); b.model.nq()];
-    let a0 = with_workspace(&b.model, |data| {
-        b.model.aba_free_in(
-            data,
-            &base.rotation,
-            &base.velocity,
-            &qm,
-            &vm,
+    // Every model joint's q̈ (mimic joints included), then the base's v̇ and ω̇.
+    let nm = b.model.nq();
+    let mut am = vec![S::zero(); nm + 6];
+    let generated = generated_is_current::<D>() && {
+        let whole = |joints: &[S], base: &[S]| -> Vec<S> { [joints, base].concat() };
+        D::generated_aba(
+            &whole(&qm, &q[n..n + 7]),
+            &whole(&vm, &v[n..n + 6]),
             &tau,
             &mut am,
         )
-    });
+    };
+    if !generated {
+        let base = base_state(&q[n..], &v[n..]);
+        let (joints, rest) = am.split_at_mut(nm);
+        let a0 = with_workspace(&b.model, |data| {
+            b.model
+                .aba_free_in(data, &base.rotation, &base.velocity, &qm, &vm, &tau, joints)
+        });
+        rest[..3].copy_from_slice(&a0.lin);
+        rest[3..].copy_from_slice(&a0.ang);
+    }
     for (k, &i) in b.order.iter().enumerate() {
         a[k] = am[i];
     }
-    a[n..n + 3].copy_from_slice(&a0.lin);
-    a[n + 3..n + 6].copy_from_slice(&a0.ang);
+    a[n..n + 6].copy_from_slice(&am[nm..]);
 }
 
 /// A declared mechanism as a [`Lagrangian`] (hence a `System` and an FMU).

@@ -26,6 +26,6 @@ pub use dynamics::{Data, Model};
 pub use mechanism::{Body, Closure, Error, Joint, JointKind, Limit, Mechanism, Origin, Spring};
 
 #[cfg(test)]
-mod floating_tests;
+pub(crate) mod floating_tests;
 #[cfg(test)]
 mod tests;

@@ -19,11 +19,18 @@
   gravity pulls the centre of mass and exerts no torque about it, whatever the joints do.
 - The default experiment runs to its stop time in fmpy (the robot falls freely, its
   shape kept: q̈ = 0 and the base falls at g).
+- Go2 also with --compile (the generated straight-line code, which the build checks it
+  runs): the same checks. A floating arm with a mimic joint compiled (the reduced mass
+  matrix of the base and the independent joints as straight-line code) equals the
+  runtime's interpreted dynamics at random states; Talos full floating compiled says it
+  runs the interpreted algorithm (its generated q̈ would be past the operations rustc
+  compiles in reasonable time).
 """
 
 from __future__ import annotations
 
 import pathlib
+import subprocess
 
 import fmpy
 import numpy as np
@@ -32,9 +39,11 @@ import pytest
 from fmpy.validation import validate_fmu
 
 import fmu_support as fs
+from test_linearization import cli
 from test_multibody_pinocchio import robots_dir
 from test_real_robots import (BASE_Q, BASE_V, FreeFlyer, build, coordinate_damping, coordinate_friction,
                               random_unit_quaternion, urdf_joints)
+from test_urdf_fmu import build_env
 
 BRICK = """<robot name="brick"><link name="brick"><inertial><mass value="1"/>
 <inertia ixx="1" ixy="0" ixz="0" iyy="2" iyz="0" izz="3"/></inertial></link></robot>"""
@@ -71,15 +80,26 @@ def test_a_floating_brick_is_the_in_tree_rigid_body(tmp_path):
     assert np.ptp(ours["E"]) < 1e-12 * scale
 
 
-@pytest.fixture(scope="module", params=LEGGED)
+# Built with --compile too: q̈ and the base's acceleration generated as straight-line code
+# (the floating articulated-body algorithm), which the build checks it runs.
+COMPILED = ["go2_description/urdf/go2.urdf"]
+
+
+@pytest.fixture(scope="module", params=[(rel, False) for rel in LEGGED] + [(rel, True) for rel in COMPILED],
+                ids=lambda p: pathlib.Path(p[0]).stem + (" compiled" if p[1] else ""))
 def legged(request, tmp_path_factory):
-    rel = request.param
+    rel, compiled = request.param
     urdf = robots_dir() / rel
     out = tmp_path_factory.mktemp("floating")
-    name = "F_" + "".join(c if c.isalnum() else "_" for c in pathlib.Path(rel).stem)
-    res = build(urdf, out, "--floating-base", "--name", name, "--platforms", "host")
+    name = "F_" + "".join(c if c.isalnum() else "_" for c in pathlib.Path(rel).stem) + ("_C" if compiled else "")
+    extra = ["--compile"] if compiled else []
+    res = subprocess.run([str(cli()), "build", "--urdf", str(urdf), "--out", str(out), "--floating-base",
+                          "--name", name, "--platforms", "host", *extra],
+                         capture_output=True, text=True, env=build_env())
     assert res.returncode == 0, res.stderr[-2000:]
     print(res.stdout.strip())
+    if compiled:
+        assert "runs straight-line code generated for this mechanism" in res.stdout, res.stdout
     return urdf, fs.Model(name, out / f"{name}.fmu")
 
 
@@ -149,3 +169,84 @@ def test_a_floating_robot_falls_freely_in_its_default_experiment(legged):
     t = run["time"]
     assert np.allclose(run["base_z"], -0.5 * 9.81 * t**2, rtol=1e-9, atol=1e-9)
     assert np.ptp(run["E"]) < 1e-9 * max(1.0, np.abs(run["E"]).max())
+
+
+# A floating arm (a prismatic joint, products of inertia, an off-origin root) with a pointer
+# following the shoulder at half its angle: src/multibody/floating_tests.rs's ARM with_mimic.
+ARM_WITH_MIMIC = """<robot name="arm">
+  <link name="torso"><inertial><origin xyz="0.05 -0.02 0.1"/><mass value="4"/>
+    <inertia ixx="0.3" ixy="0.01" ixz="-0.02" iyy="0.25" iyz="0.015" izz="0.2"/></inertial></link>
+  <link name="upper"><inertial><origin xyz="0.1 0.02 -0.15"/><mass value="1.5"/>
+    <inertia ixx="0.025" ixy="0.001" ixz="0.002" iyy="0.03" iyz="-0.001" izz="0.015"/></inertial></link>
+  <link name="slider"><inertial><origin xyz="0 0.03 0.05"/><mass value="0.8"/>
+    <inertia ixx="0.004" ixy="0" ixz="0.0005" iyy="0.005" iyz="0" izz="0.003"/></inertial></link>
+  <link name="hand"><inertial><origin xyz="0.02 0 -0.04"/><mass value="0.5"/>
+    <inertia ixx="0.002" ixy="0.0001" ixz="0" iyy="0.0015" iyz="0.0002" izz="0.001"/></inertial></link>
+  <link name="pointer"><inertial><origin xyz="0.05 0.02 0.1"/><mass value="0.3"/>
+    <inertia ixx="0.002" ixy="0.0001" ixz="0" iyy="0.003" iyz="0" izz="0.0025"/></inertial></link>
+  <joint name="shoulder" type="revolute"><parent link="torso"/><child link="upper"/>
+    <origin xyz="0.1 0.2 0.3" rpy="0.3 -0.2 0.5"/><axis xyz="0 0.6 0.8"/>
+    <limit lower="-3" upper="3" effort="50" velocity="5"/><dynamics damping="0.2"/></joint>
+  <joint name="slide" type="prismatic"><parent link="upper"/><child link="slider"/>
+    <origin xyz="0.2 0 -0.3" rpy="0 0.4 0"/><axis xyz="1 0 0"/>
+    <limit lower="-0.5" upper="0.5" effort="50" velocity="1"/></joint>
+  <joint name="wrist" type="continuous"><parent link="slider"/><child link="hand"/>
+    <origin xyz="0 0.1 0" rpy="-0.3 0 0.2"/><axis xyz="1 0 0"/></joint>
+  <joint name="follower" type="revolute"><parent link="hand"/><child link="pointer"/>
+    <origin xyz="0.05 0 -0.1"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/>
+    <mimic joint="shoulder" multiplier="0.5" offset="0.1"/><dynamics damping="0.1"/></joint>
+</robot>"""
+
+
+def test_a_floating_mimic_arm_compiled_equals_the_runtime(tmp_path, instances):
+    """The straight-line code --compile generates for a floating base with a mimic joint
+    (the reduced mass matrix's CRBA and LDLᵀ, traced) against the runtime's interpreted
+    dynamics (the same algorithm run over the model's arrays): every derivative at random
+    states, 1e-12 relative to max(1, |a|) (two evaluation orders of the same arithmetic)."""
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text(ARM_WITH_MIMIC)
+    models = {}
+    for name, extra in [("ArmRuntime", []), ("ArmCompiled", ["--compile"])]:
+        res = subprocess.run([str(cli()), "build", "--urdf", str(urdf), "--out", str(tmp_path), "--floating-base",
+                              "--name", name, "--platforms", "host", *extra],
+                             capture_output=True, text=True, env=build_env())
+        assert res.returncode == 0, res.stderr[-2000:]
+        print(res.stdout.strip())
+        models[name] = fs.Model(name, tmp_path / f"{name}.fmu")
+    assert "runs straight-line code generated for this mechanism" in res.stdout, res.stdout
+    joints = ["shoulder", "slide", "wrist"]
+    derivatives = [f"der({v})" for v in models["ArmRuntime"].state_names]
+    assert models["ArmCompiled"].state_names == models["ArmRuntime"].state_names
+    runs = {name: instances(m, name) for name, m in models.items()}
+    rng = np.random.default_rng(32)
+    worst = 0.0
+    for k in range(5):
+        values = {**dict(zip(BASE_Q, np.concatenate([rng.uniform(-2, 2, 3), random_unit_quaternion(rng)]))),
+                  **dict(zip(BASE_V, rng.uniform(-1, 1, 6))),
+                  **dict(zip(joints, rng.uniform(-1, 1, 3) * [2, 0.3, 2])),
+                  **{f"{j}_dot": x for j, x in zip(joints, rng.uniform(-2, 2, 3))},
+                  **{f"tau_{j}": x for j, x in zip(joints, rng.uniform(-1, 1, 3))}, "limit_events": 0}
+        got = {}
+        for name, inst in runs.items():
+            if k:
+                inst.ok("fmi2Reset")
+            inst.initialize(values, tol=1e-10)
+            got[name] = np.array(inst.get_reals(derivatives))
+        want = got["ArmRuntime"]
+        worst = max(worst, (np.abs(got["ArmCompiled"] - want) / np.maximum(1.0, np.abs(want))).max())
+    print(f"floating arm with a mimic joint, compiled against the runtime: worst {worst:.1e}")
+    assert worst < 1e-12
+
+
+def test_a_robot_past_the_generated_code_limit_says_it_runs_interpreted(tmp_path):
+    """Talos full floating (12 moving mimic joints): its generated q̈ would take 38 491
+    operations, which rustc compiles in 10 min; --compile builds its crate without it and
+    says so."""
+    urdf = robots_dir() / "talos_data/robots/talos_full_v2.urdf"
+    res = subprocess.run([str(cli()), "build", "--urdf", str(urdf), "--out", str(tmp_path), "--floating-base",
+                          "--name", "TalosFullC", "--platforms", "host", "--compile"],
+                         capture_output=True, text=True, env=build_env())
+    assert res.returncode == 0, res.stderr[-2000:]
+    print(res.stdout.strip())
+    assert "no straight-line code: its q̈ would take more than 20000 operations" in res.stdout, res.stdout
+    assert (tmp_path / "TalosFullC.fmu").exists()
