@@ -9,8 +9,8 @@ with the test virtualenv after `build --all`:
     .venv/bin/python scripts/robots-table.py
 
 It uses the helpers of tests/python/test_real_robots.py (which asserts what this reports).
-`mbfmu build --urdf` prints no operation count (the runtime interprets the algorithm; only
-`--compile`'s generated code has one), so the table has no such column.
+The operations column is the count of the straight-line q̈ that `--compile` would generate
+(read from the crate `mbfmu new --from-urdf` writes, which carries that code; no compiler).
 """
 
 from __future__ import annotations
@@ -26,7 +26,10 @@ import numpy as np
 REPO = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO / "tests" / "python"))
 
+import subprocess  # noqa: E402
+
 import fmu_support as fs  # noqa: E402
+from test_linearization import cli  # noqa: E402
 from test_real_robots import (  # noqa: E402
     FLOATING, REFUSED, base_options, build, every_urdf, identifier_of, worst_against_pinocchio,
 )
@@ -41,6 +44,24 @@ def qdd_error(model: fs.Model, urdf: pathlib.Path) -> float:
         return worst_against_pinocchio(model, urdf, inst, np.random.default_rng(7), 10, torques=False)["qdd"]
     finally:
         inst.free()
+
+
+def operations(urdf: pathlib.Path, rel: str, scratch: pathlib.Path, identifier: str, joints: str) -> str:
+    """The operations of the q̈ `--compile` would generate for this robot (the header of the
+    src/dynamics.rs `mbfmu new --from-urdf` writes); past the generator's limit, none is
+    written and the interpreted algorithm runs."""
+    crate = scratch / f"crate_{identifier}"
+    res = subprocess.run([str(cli()), "new", identifier, "--from-urdf", str(urdf), "--dir", str(crate),
+                          *base_options(rel)], capture_output=True, text=True)
+    if res.returncode != 0:
+        return "?"
+    dynamics = crate / "src" / "dynamics.rs"
+    if not dynamics.exists():
+        # None for a robot with no moving joint (a floating body alone: Euler's equations
+        # interpreted), else past the generator's limit.
+        return "— (no joint)" if joints == "0" else "> 20 000 (none generated)"
+    m = re.search(r"`aba`: (\d+) operations", dynamics.read_text())
+    return f"{int(m.group(1)):,}".replace(",", " ") if m else "?"
 
 
 def main() -> None:
@@ -59,7 +80,7 @@ def main() -> None:
                 why = re.sub(r"^mbfmu: (\S+?\.urdf(:\d+)?: |mechanism_runtime: )", "", line)
                 why = re.sub(r"; integration stopped.*", "", why)
                 kind = ("refused: " + REFUSED[rel][1]) if rel in REFUSED else "FAILS"
-                rows.append(f"| `{rel}` | | {base} | {kind} | | | {why.replace('|', '/')} |")
+                rows.append(f"| `{rel}` | | {base} | {kind} | | | | {why.replace('|', '/')} |")
                 print(rel, base, kind)
                 continue
             joints = re.search(r"\(([^)]*) joints", res.stdout).group(1)
@@ -67,8 +88,9 @@ def main() -> None:
             model = fs.Model(identifier, fmu)
             err = qdd_error(model, urdf)
             size = fmu.stat().st_size / 1e6
-            rows.append(f"| `{rel}` | {joints} | {base} | builds, runs | {seconds:.1f} s | {size:.1f} MB | {err:.1e} |")
-            print(rel, joints, base, f"{seconds:.1f} s", f"{err:.1e}")
+            ops = operations(urdf, rel, out, identifier, joints)
+            rows.append(f"| `{rel}` | {joints} | {base} | builds, runs | {seconds:.1f} s | {size:.1f} MB | {ops} | {err:.1e} |")
+            print(rel, joints, base, f"{seconds:.1f} s", ops, f"{err:.1e}")
     (REPO / "docs" / "robots.md").write_text(page(rows))
     print(f"wrote docs/robots.md: {sum('builds, runs' in r for r in rows)} of {len(rows)} build")
 
@@ -121,11 +143,13 @@ their friction (the Allegro hands, which fell onto their stops in 68–71 s of r
 before friction, now stay held and build in 1 s). A refused file's column says why, in the build's own words. Joint limits are end
 stops (`limit_events = stops`, the default): a fixed robot that falls onto its limits in
 the default experiment has its reference run go through the impacts. Builds of 10 s or
-more: {slow or "none"}. `mbfmu build --urdf` prints no operation count (the runtime
-interprets the algorithm), so there is no such column.
+more: {slow or "none"}. Operations: those of the straight-line q̈ (and base
+acceleration) that `--compile` generates for the robot (the runtime interprets the same
+algorithm); past 20 000 it generates none (rustc would take minutes) and the compiled
+FMU runs the interpreted algorithm too.
 
-| file | joints | base | result | build | FMU | q̈ error / why |
-|---|---|---|---|---|---|---|
+| file | joints | base | result | build | FMU | operations | q̈ error / why |
+|---|---|---|---|---|---|---|---|
 """ + "\n".join(rows) + "\n"
 
 
