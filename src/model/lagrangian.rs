@@ -643,7 +643,12 @@ fn velocity_constraint_drift<L: Lagrangian, S: Scalar>(
 /// `γ = q̇ᵀ ∇²Φᵢ q̇ + 2 (∂Gᵢ/∂t) q̇ + ∂²Φᵢ/∂t²` for each constraint (the second derivative
 /// of Φ along the motion, less G q̈): one hyper-dual evaluation of Φ at
 /// `(q + (ε₁ + ε₂) q̇, t + ε₁ + ε₂)`.
-fn constraint_curvature<L: Lagrangian, S: Scalar>(t: f64, q: &[S], qd: &[S], p: &[S]) -> Vec<S> {
+pub fn constraint_curvature<L: Lagrangian, S: Scalar>(
+    t: f64,
+    q: &[S],
+    qd: &[S],
+    p: &[S],
+) -> Vec<S> {
     let qh: Vec<HyperDual<S>> = q
         .iter()
         .zip(qd)

@@ -33,7 +33,7 @@
 
 use super::dynamics::{Axis, Model};
 use super::mechanism::{Error, JointKind, Mechanism};
-use super::{friction, stops};
+use super::{closed, friction, stops};
 use crate::model::lagrangian::Lagrangian;
 use crate::model::{Scalar, Scene, Var};
 use num_dual::{Dual, Dual64};
@@ -1392,6 +1392,64 @@ fn floating_accelerations<D: Declared, S: Scalar>(q: &[S], v: &[S], u: &[S], a: 
     a[n..n + 6].copy_from_slice(&am[nm..]);
 }
 
+/// Whether a mechanism's loop closures run on its tree's dynamics ([`closed`]): a fixed
+/// base without mimic joints (the others keep the λ-method on the energies).
+fn closes_on_the_tree(model: &Model) -> bool {
+    model.free_base.is_none() && !model.has_mimics()
+}
+
+/// The mass matrix in the coordinates' order (row-major), by CRBA.
+fn coordinate_mass<S: Scalar>(b: &Built, q: &[S]) -> Vec<S> {
+    let n = b.order.len();
+    let qm = b.positions_to_model(q);
+    let mut full = vec![S::zero(); n * n];
+    with_workspace(&b.model, |data| b.model.crba_in(data, &qm, &mut full));
+    let mut m = vec![S::zero(); n * n];
+    for (k, &i) in b.order.iter().enumerate() {
+        for (l, &j) in b.order.iter().enumerate() {
+            m[k * n + l] = full[i * n + j];
+        }
+    }
+    m
+}
+
+/// q̈ and the closures' multipliers λ (`M q̈ + Gᵀ λ = f`, as the λ-method's) of a tree
+/// mechanism with loop closures: M by CRBA, the bias by RNEA, springs as joint forces,
+/// `G` and `γ` of the closures by dual numbers through their forward kinematics, solved
+/// by [`closed::solve`] (redundant or singular closures included).
+fn closed_accelerations<D: Declared, S: Scalar>(
+    t: f64,
+    (q, qd, u, p): (&[S], &[S], &[S], &[S]),
+    qdd: &mut [S],
+    lambda: &mut [S],
+) {
+    use crate::model::lagrangian::{constraint_curvature, constraint_jacobian};
+    let b = D::built();
+    let n = b.order.len();
+    let (qm, qdm) = (b.positions_to_model(q), b.velocities_to_model(qd));
+    let mut bias = vec![S::zero(); n];
+    with_workspace(&b.model, |data| {
+        b.model
+            .rnea_in(data, &qm, &qdm, &vec![S::zero(); n], &mut bias)
+    });
+    let springs = spring_gradient(&b.model, &qm);
+    let mut f = vec![S::zero(); n];
+    <Robot<D> as Lagrangian>::forces(t, q, qd, u, p, &mut f);
+    for (k, &i) in b.order.iter().enumerate() {
+        f[k] -= bias[i] + springs[i];
+    }
+    let g = constraint_jacobian::<Robot<D>, S>(t, q, p);
+    let c: Vec<S> = constraint_curvature::<Robot<D>, S>(t, q, qd, p)
+        .into_iter()
+        .map(|x| -x)
+        .collect();
+    let mut mu = vec![S::zero(); g.len()];
+    closed::solve(&mut coordinate_mass(b, q), &g, &f, &c, qdd, &mut mu);
+    for (l, m) in lambda.iter_mut().zip(&mu) {
+        *l = -*m;
+    }
+}
+
 /// A declared mechanism as a [`Lagrangian`] (hence a `System` and an FMU).
 pub struct Robot<D>(PhantomData<D>);
 
@@ -1536,21 +1594,49 @@ impl<D: Declared> Lagrangian for Robot<D> {
     }
 
     /// A tree: q̈ by the articulated-body algorithm (springs as joint forces
-    /// `τ − ∂V_springs/∂q`). With loop closures: `false`, so that the λ-method runs on the
-    /// energies and the constraints (and the states are projected after every step).
+    /// `τ − ∂V_springs/∂q`). With loop closures, on a fixed base without mimic joints: the
+    /// tree's M and bias with the closures' rank-revealing solve ([`closed_accelerations`]);
+    /// otherwise `false`, so that the λ-method runs on the energies and the constraints.
     fn generated_eom<S: Scalar>(
-        _t: f64,
+        t: f64,
         q: &[S],
         qd: &[S],
         u: &[S],
         p: &[S],
         qdd: &mut [S],
-        _lambda: &mut [S],
+        lambda: &mut [S],
     ) -> bool {
         if D::CONSTRAINTS > 0 {
-            return false;
+            if !closes_on_the_tree(&D::built().model) {
+                return false;
+            }
+            closed_accelerations::<D, S>(t, (q, qd, u, p), qdd, lambda);
+            return true;
         }
         accelerations::<D, S>((q, qd, u, p), qdd, (None, None));
+        true
+    }
+
+    /// With loop closures on the tree ([`closes_on_the_tree`]): onto the closures by the
+    /// rank-revealing solve ([`closed::project`]), which a redundant or singular G does not
+    /// stop.
+    fn generated_projection(p: &[f64], x: &mut [f64]) -> bool {
+        let b = D::built();
+        if D::CONSTRAINTS == 0 || !closes_on_the_tree(&b.model) {
+            return false;
+        }
+        let n = b.order.len();
+        let (q, qd) = x.split_at_mut(n);
+        closed::project(
+            q,
+            qd,
+            |q| coordinate_mass(b, q),
+            |q| {
+                let phi = crate::model::lagrangian::constraint_values::<Self, f64>(0.0, q, p);
+                let g = crate::model::lagrangian::constraint_jacobian::<Self, f64>(0.0, q, p);
+                (phi, g)
+            },
+        );
         true
     }
 

@@ -5,6 +5,7 @@
 //!
 //! A low layer like [`crate::model`]: it knows nothing of FMI, packaging or the CLI.
 
+pub mod closed;
 pub mod codegen;
 pub mod derivatives;
 pub mod dynamics;

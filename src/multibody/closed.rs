@@ -1,0 +1,243 @@
+//! Loop closures on the tree's dynamics: the accelerations and the projection of a
+//! mechanism whose closures may be redundant (Bricard's mechanism: a constraint Jacobian
+//! rank-deficient everywhere) or singular at some configurations (the N four-bar when its
+//! cranks are horizontal: N more degrees of freedom for an instant).
+//!
+//! The tree gives `M` (CRBA) and `f = τ − b` (RNEA); the closures `G = ∂Φ/∂q` and the
+//! curvature `γ = q̇ᵀ∇²Φ q̇`. The accelerations are Gauss's principle: the `q̈` nearest the
+//! tree's own `M⁻¹ f` in the kinetic metric among those with `G q̈ = −γ`,
+//!
+//! ```text
+//! M q̈ = f + Gᵀ μ,   G q̈ = −γ   ⇒   (G M⁻¹ Gᵀ) μ = −γ − G M⁻¹ f,   q̈ = M⁻¹ (f + Gᵀ μ).
+//! ```
+//!
+//! `q̈` is unique whatever G's rank (M is positive definite), μ is not where rows of G are
+//! dependent: the Schur complement `S = G M⁻¹ Gᵀ` is factored by LDLᵀ with diagonal
+//! pivoting (largest pivot first, as LAPACK's pstrf), stopping at the first pivot below
+//! [`RANK_TOLERANCE`] of the largest: the equations left are combinations of those kept
+//! (consistent, for a motion on the closures), and their multipliers are 0. Any solution
+//! of `S μ = r` gives the same `q̈` (`S δ = 0` means `Gᵀ δ = 0`). The decisions look at
+//! the values' real parts only, so dual numbers follow the f64 path.
+//!
+//! The projection after each step moves q onto Φ = 0 by the same solve (the correction of
+//! least kinetic metric), then q̇ onto G q̇ = 0.
+
+use super::dynamics::{ldl_factor_flat, ldl_substitute_flat};
+use crate::model::Scalar;
+
+/// A pivot of `G M⁻¹ Gᵀ` below this fraction of the largest is taken as 0 (its equation
+/// dependent on those before it). At a singular position the dropped direction's pivot σ
+/// goes to 0 with its right-hand side; what dropping it leaves out of q̈ is of the size
+/// `|μ| √σ` in the kinetic metric (`|M^{-1/2} Gᵀ v| = √σ`), 1e-5 |μ| at this tolerance and
+/// only while σ is below it: for a passage at speed, a few 1e-6 s of the motion. Kept, a
+/// pivot of σ amplifies the rounding of its right-hand side by 1/σ, and q̈'s error is
+/// `ε/√σ`: 1e-11 at σ = 1e-10.
+pub const RANK_TOLERANCE: f64 = 1e-10;
+
+/// `q̈` (into `qdd`) and `μ` (into `mu`) of `M q̈ = f + Gᵀ μ`, `G q̈ = c` (see the module
+/// notes): `m` is M (n × n row-major, symmetric positive definite; factored in place),
+/// `g` the k rows of G (each of n), `c` the k right-hand sides. Returns the rank found
+/// for G. Dependent rows get μ = 0.
+pub fn solve<S: Scalar>(
+    m: &mut [S],
+    g: &[Vec<S>],
+    f: &[S],
+    c: &[S],
+    qdd: &mut [S],
+    mu: &mut [S],
+) -> usize {
+    let (n, k) = (f.len(), g.len());
+    ldl_factor_flat(m, n);
+    qdd.copy_from_slice(f);
+    ldl_substitute_flat(m, n, qdd);
+    // Y = M⁻¹ Gᵀ, one column per row of G.
+    let y: Vec<Vec<S>> = g
+        .iter()
+        .map(|row| {
+            let mut col = row.clone();
+            ldl_substitute_flat(m, n, &mut col);
+            col
+        })
+        .collect();
+    let dot = |a: &[S], b: &[S]| a.iter().zip(b).fold(S::zero(), |s, (&x, &y)| s + x * y);
+    let mut schur: Vec<S> = (0..k * k).map(|ij| dot(&g[ij / k], &y[ij % k])).collect();
+    let mut r: Vec<S> = (0..k).map(|i| c[i] - dot(&g[i], qdd)).collect();
+    let rank = pivoted_solve(&mut schur, k, &mut r);
+    mu.copy_from_slice(&r);
+    for (yi, &mi) in y.iter().zip(&r) {
+        for (a, &v) in qdd.iter_mut().zip(yi) {
+            *a += v * mi;
+        }
+    }
+    rank
+}
+
+/// Solves `s x = r` in place (`r` becomes x) for a symmetric positive semidefinite `s`
+/// (k × k row-major, destroyed) by LDLᵀ with diagonal pivoting, stopping at the first
+/// pivot below [`RANK_TOLERANCE`] of the first (largest): the unknowns not reached are 0.
+/// Returns the rank.
+#[allow(clippy::needless_range_loop)] // triangular index arithmetic reads best as indices
+fn pivoted_solve<S: Scalar>(s: &mut [S], k: usize, r: &mut [S]) -> usize {
+    let mut perm: Vec<usize> = (0..k).collect();
+    let at = |i: usize, j: usize| i * k + j;
+    let mut rank = 0;
+    let mut largest = 0.0;
+    // Outer-product LDLᵀ on the permuted matrix: after step j, rows/columns ≥ j + 1 hold
+    // the Schur complement, column j below the diagonal holds L.
+    for j in 0..k {
+        let p = (j..k)
+            .max_by(|&a, &b| {
+                let (x, y) = (s[at(perm[a], perm[a])].re(), s[at(perm[b], perm[b])].re());
+                x.total_cmp(&y)
+            })
+            .expect("j < k");
+        perm.swap(j, p);
+        let d = s[at(perm[j], perm[j])];
+        if j == 0 {
+            largest = d.re();
+        }
+        // (NaN stops too: the rank found so far is what is solved.)
+        if d.re().partial_cmp(&(RANK_TOLERANCE * largest)) != Some(std::cmp::Ordering::Greater) {
+            break;
+        }
+        rank = j + 1;
+        let pj = perm[j];
+        // Column j below the pivot, before it becomes L's.
+        let col: Vec<S> = (j + 1..k).map(|a| s[at(perm[a], pj)]).collect();
+        for a in j + 1..k {
+            let (pa, l) = (perm[a], col[a - j - 1] / d);
+            for b in j + 1..=a {
+                let pb = perm[b];
+                let t = l * col[b - j - 1];
+                s[at(pa, pb)] -= t;
+                if a != b {
+                    s[at(pb, pa)] -= t;
+                }
+            }
+            s[at(pa, pj)] = l;
+        }
+    }
+    // Forward, diagonal and back substitution on the first `rank` permuted unknowns.
+    let mut x: Vec<S> = perm.iter().map(|&i| r[i]).collect();
+    for i in 0..rank {
+        for j in 0..i {
+            let t = s[at(perm[i], perm[j])] * x[j];
+            x[i] -= t;
+        }
+    }
+    for i in 0..rank {
+        x[i] /= s[at(perm[i], perm[i])];
+    }
+    for i in (0..rank).rev() {
+        for j in i + 1..rank {
+            let t = s[at(perm[j], perm[i])] * x[j];
+            x[i] -= t;
+        }
+    }
+    for i in rank..k {
+        x[i] = S::zero();
+    }
+    for (i, &pi) in perm.iter().enumerate() {
+        r[pi] = x[i];
+    }
+    rank
+}
+
+/// Newton iterations of the projection, at most (quadratic from the O(tolerance)
+/// violation one step leaves; more only at a singular position, where they are linear).
+pub const PROJECTION_ITERATIONS: usize = 8;
+
+/// Moves `q` onto `Φ(q) = 0` by Newton steps of least kinetic metric (`M Δq = Gᵀ μ`,
+/// `G Δq = −Φ`, by [`solve`]), until Φ is at rounding of `q`'s size; then `q̇` onto
+/// `G q̇ = 0` the same way. `mass(q)` is M (row-major), `closures(q)` `(Φ, G)`. Leaves the
+/// state as it is where a solve is not finite.
+pub fn project(
+    q: &mut [f64],
+    qd: &mut [f64],
+    mass: impl Fn(&[f64]) -> Vec<f64>,
+    closures: impl Fn(&[f64]) -> (Vec<f64>, Vec<Vec<f64>>),
+) {
+    let n = q.len();
+    let correct = |q: &[f64], g: &[Vec<f64>], defect: &[f64]| -> Option<Vec<f64>> {
+        let c: Vec<f64> = defect.iter().map(|d| -d).collect();
+        let (mut dq, mut mu) = (vec![0.0; n], vec![0.0; g.len()]);
+        solve(&mut mass(q), g, &vec![0.0; n], &c, &mut dq, &mut mu);
+        dq.iter().all(|v| v.is_finite()).then_some(dq)
+    };
+    for _ in 0..PROJECTION_ITERATIONS {
+        let (phi, g) = closures(q);
+        let scale = q.iter().fold(1.0f64, |s, v| s.max(v.abs()));
+        if phi.iter().all(|v| v.abs() <= 4.0 * f64::EPSILON * scale) {
+            break;
+        }
+        let Some(dq) = correct(q, &g, &phi) else {
+            return;
+        };
+        q.iter_mut().zip(&dq).for_each(|(x, d)| *x += d);
+    }
+    let (_, g) = closures(q);
+    let defect: Vec<f64> = g
+        .iter()
+        .map(|row| row.iter().zip(&*qd).map(|(a, b)| a * b).sum())
+        .collect();
+    if let Some(dv) = correct(q, &g, &defect) {
+        qd.iter_mut().zip(&dv).for_each(|(v, d)| *v += d);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A point mass in the plane (M = diag(2, 3)) held on the x axis by the same constraint
+    /// written twice and once scaled (rank 1 of 3 rows): q̈ is the free one with its y
+    /// component removed, whatever the redundancy; the multipliers of the dependent rows
+    /// are 0 and the kept one carries the whole reaction.
+    #[test]
+    fn redundant_rows_give_the_unique_accelerations() {
+        let g = vec![vec![0.0, 1.0], vec![0.0, 2.0], vec![0.0, 1.0]];
+        let (f, c) = ([4.0, -9.0], [0.0, 0.0, 0.0]);
+        let (mut qdd, mut mu) = ([0.0; 2], [0.0; 3]);
+        let rank = solve(&mut [2.0, 0.0, 0.0, 3.0], &g, &f, &c, &mut qdd, &mut mu);
+        assert_eq!(rank, 1);
+        assert_eq!(qdd, [2.0, 0.0]);
+        // The reaction Gᵀ μ holds the weight: 9 N along y.
+        let reaction: f64 = g.iter().zip(&mu).map(|(row, m)| row[1] * m).sum();
+        assert!((reaction - 9.0).abs() < 1e-15, "{mu:?}");
+        assert_eq!(mu.iter().filter(|&&m| m != 0.0).count(), 1);
+    }
+
+    /// A full-rank system against the augmented KKT solve of `crate::model::lagrangian`:
+    /// a 4 × 4 mass matrix with couplings and two independent constraint rows.
+    #[test]
+    fn full_rank_equals_the_augmented_solve() {
+        let m = [
+            [4.0, 1.0, 0.5, 0.0],
+            [1.0, 3.0, 0.2, 0.1],
+            [0.5, 0.2, 2.0, 0.3],
+            [0.0, 0.1, 0.3, 1.0],
+        ];
+        let g = vec![vec![1.0, -1.0, 0.5, 0.0], vec![0.0, 2.0, 1.0, -1.0]];
+        let (f, c) = ([1.0, -2.0, 0.5, 3.0], [0.3, -0.7]);
+        let mut flat: Vec<f64> = m.iter().flatten().copied().collect();
+        let (mut qdd, mut mu) = ([0.0; 4], [0.0; 2]);
+        assert_eq!(solve(&mut flat, &g, &f, &c, &mut qdd, &mut mu), 2);
+        // [M −Gᵀ; G 0] [q̈; μ] = [f; c].
+        let mut a = vec![vec![0.0; 6]; 6];
+        for i in 0..4 {
+            a[i][..4].copy_from_slice(&m[i]);
+            for r in 0..2 {
+                a[i][4 + r] = -g[r][i];
+                a[4 + r][i] = g[r][i];
+            }
+        }
+        let mut b = vec![f[0], f[1], f[2], f[3], c[0], c[1]];
+        crate::model::lagrangian::solve(&mut a, &mut b);
+        for i in 0..4 {
+            assert!((qdd[i] - b[i]).abs() < 1e-14, "{qdd:?} vs {b:?}");
+        }
+        for r in 0..2 {
+            assert!((mu[r] - b[4 + r]).abs() < 1e-14, "{mu:?} vs {b:?}");
+        }
+    }
+}
