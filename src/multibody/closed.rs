@@ -191,6 +191,7 @@ pub fn project(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::multibody::fmu::closure_jacobian;
 
     /// A point mass in the plane (M = diag(2, 3)) held on the x axis by the same constraint
     /// written twice and once scaled (rank 1 of 3 rows): q̈ is the free one with its y
@@ -294,7 +295,7 @@ mod tests {
     /// q̈ of a model with closures, as the FMU forms it: CRBA, RNEA, G and γ by dual
     /// numbers, [`solve`].
     fn accelerations(model: &crate::multibody::Model, q: &[f64], qd: &[f64]) -> Vec<f64> {
-        use num_dual::{Dual64, HyperDual64};
+        use num_dual::HyperDual64;
         let (n, k) = (model.nq(), model.closure_residuals());
         let mut m: Vec<f64> = model.crba(q).into_iter().flatten().collect();
         let f: Vec<f64> = model
@@ -302,16 +303,7 @@ mod tests {
             .iter()
             .map(|b| -b)
             .collect();
-        let mut g = vec![vec![0.0; n]; k];
-        let mut phi = vec![Dual64::from(0.0); k];
-        for j in 0..n {
-            let mut qj: Vec<Dual64> = q.iter().map(|&v| Dual64::from(v)).collect();
-            qj[j].eps = 1.0;
-            model.closure_residuals_at(&qj, &mut phi);
-            for (row, v) in g.iter_mut().zip(&phi) {
-                row[j] = v.eps;
-            }
-        }
+        let g = closure_jacobian(model, q);
         let qh: Vec<HyperDual64> = q
             .iter()
             .zip(qd)
@@ -381,17 +373,7 @@ mod tests {
                 |q| {
                     let mut phi = vec![0.0; model.closure_residuals()];
                     model.closure_residuals_at(q, &mut phi);
-                    let mut g = vec![vec![0.0; nq]; phi.len()];
-                    for j in 0..nq {
-                        let mut qj: Vec<num_dual::Dual64> = q.iter().map(|&v| v.into()).collect();
-                        qj[j].eps = 1.0;
-                        let mut d = vec![num_dual::Dual64::from(0.0); phi.len()];
-                        model.closure_residuals_at(&qj, &mut d);
-                        for (row, v) in g.iter_mut().zip(&d) {
-                            row[j] = v.eps;
-                        }
-                    }
-                    (phi, g)
+                    (phi, closure_jacobian(&model, q))
                 },
             );
             if y_before * q[cranks[0]].cos() < 0.0 {

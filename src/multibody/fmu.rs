@@ -299,7 +299,7 @@ fn leak(s: String) -> &'static str {
 const START_ITERATIONS: usize = 50;
 
 /// `G = ∂Φ/∂q` of the closures at `q` (model order), one dual evaluation per column.
-fn closure_jacobian(model: &Model, q: &[f64]) -> Vec<Vec<f64>> {
+pub(crate) fn closure_jacobian(model: &Model, q: &[f64]) -> Vec<Vec<f64>> {
     let (n, m) = (model.nq(), model.closure_residuals());
     let mut g = vec![vec![0.0; n]; m];
     let mut phi = vec![Dual64::from(0.0); m];
