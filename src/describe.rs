@@ -375,7 +375,11 @@ pub fn respond_mechanism<R: crate::multibody::fmu::OfMechanism>(request: &str) -
             if floating {
                 joints += " and 6 of the floating base";
             }
-            let runs = if m > 0 {
+            let runs = if m > 0 && !floating && mimics == 0 {
+                format!(
+                    "runs its tree's dynamics (CRBA, RNEA) with its loop closures by Gauss's principle (G M⁻¹ Gᵀ factored with diagonal pivoting: redundant or singular closures included): {joints}, {m} loop-closure residuals by forward kinematics, projected after every step"
+                )
+            } else if m > 0 {
                 format!(
                     "runs the λ-method on automatic differentiation of its energies: {joints}, {m} loop-closure residuals by forward kinematics, projected after every step"
                 )
