@@ -22,8 +22,94 @@
 //! The projection after each step moves q onto Φ = 0 by the same solve (the correction of
 //! least kinetic metric), then q̇ onto G q̇ = 0.
 
-use super::dynamics::{ldl_factor_flat, ldl_substitute_flat};
+use super::dynamics::{ldl_factor_flat, ldl_substitute_flat, Model};
+use super::spatial::{add, cross, lift3, mat_vec, sub, V3};
 use crate::model::Scalar;
+
+/// The closures' residuals Φ (into `phi`), their Jacobian G (`g`: one row per residual,
+/// model order, overwritten) and curvature `γ = Ġ q̇` (`curvature`), from one pass of
+/// forward kinematics and each closure point's path to the base: per unit q̇_j a joint
+/// moves a point p of a body it carries at `S_j × (p − o_j) + V_j` (its subspace in the
+/// world, at its origin o_j), and that column's rate is
+/// `(ω_j × S_j) × (p − o_j) + S_j × (ṗ − ȯ_j) + ω_j × V_j` (S_j and V_j turn with the
+/// body j; ω_j and ȯ_j are its angular velocity and origin's velocity). O(bodies + the
+/// closures' path lengths), against one forward-kinematics pass per column by dual
+/// numbers; tests: equal to those to rounding.
+pub fn kinematics<S: Scalar>(
+    model: &Model,
+    q: &[S],
+    qd: &[S],
+    phi: &mut [S],
+    g: &mut [Vec<S>],
+    curvature: &mut [S],
+) {
+    let n = model.nq();
+    let poses = model.forward_kinematics(q);
+    let zero = [S::zero(); 3];
+    // Per body, in the world: the joint's subspace (S, V), angular velocity, origin velocity.
+    let mut joint: Vec<(V3<S>, V3<S>)> = Vec::with_capacity(n);
+    let mut omega: Vec<V3<S>> = Vec::with_capacity(n);
+    let mut velocity: Vec<V3<S>> = Vec::with_capacity(n);
+    for i in 0..n {
+        let (r, o) = &poses[i];
+        let s = mat_vec(r, &lift3(&model.subspace[i].ang));
+        let v = mat_vec(r, &lift3(&model.subspace[i].lin));
+        let scale = |a: &V3<S>| a.map(|x| x * qd[i]);
+        let (w, ov) = match model.parent[i] {
+            None => (scale(&s), scale(&v)),
+            Some(p) => {
+                let lever = sub(o, &poses[p].1);
+                let ov = add(&add(&velocity[p], &cross(&omega[p], &lever)), &scale(&v));
+                (add(&omega[p], &scale(&s)), ov)
+            }
+        };
+        joint.push((s, v));
+        omega.push(w);
+        velocity.push(ov);
+    }
+    let mut k = 0;
+    for c in &model.closures {
+        let mut sep = zero;
+        let mut rows = vec![zero; n];
+        let mut rate = zero;
+        for (body, point, sign) in [(c.body_a, &c.point_a, 1.0), (c.body_b, &c.point_b, -1.0)] {
+            let Some(b) = body else {
+                sep = add(&sep, &lift3::<S>(point).map(|x| x * sign));
+                continue;
+            };
+            let (r, o) = &poses[b];
+            let p = add(o, &mat_vec(r, &lift3(point)));
+            let pd = add(&velocity[b], &cross(&omega[b], &sub(&p, o)));
+            sep = add(&sep, &p.map(|x| x * sign));
+            let mut j = Some(b);
+            while let Some(i) = j {
+                let (s, v) = &joint[i];
+                let arm = sub(&p, &poses[i].1);
+                let column = add(&cross(s, &arm), v);
+                let turn = add(
+                    &add(
+                        &cross(&cross(&omega[i], s), &arm),
+                        &cross(s, &sub(&pd, &velocity[i])),
+                    ),
+                    &cross(&omega[i], v),
+                );
+                for a in 0..3 {
+                    rows[i][a] += column[a] * sign;
+                    rate[a] += turn[a] * (qd[i] * sign);
+                }
+                j = model.parent[i];
+            }
+        }
+        for &axis in &c.axes {
+            phi[k] = sep[axis];
+            for (gj, row) in g[k].iter_mut().zip(&rows) {
+                *gj = row[axis];
+            }
+            curvature[k] = rate[axis];
+            k += 1;
+        }
+    }
+}
 
 /// A pivot of `G M⁻¹ Gᵀ` below this fraction of the largest is taken as 0 (its equation
 /// dependent on those before it). A redundant row's pivot is rounding (≤ k ε cond M ≈
@@ -424,5 +510,80 @@ mod tests {
         println!("N four-bar, N = {n}: {passages} horizontal passages in 4 s; cranks parallel to {:.1e} rad, θ against the reduction {:.1e} rad", worst.0, worst.1);
         assert!(passages >= 3, "{passages}");
         assert!(worst.0 < 1e-9 && worst.1 < 1e-8, "{worst:?}");
+    }
+
+    /// [`kinematics`] against dual numbers through forward kinematics (Φ, G column by
+    /// column, γ = q̇ᵀ∇²Φ q̇ by hyper-dual numbers): a spatial arm (tilted axes, a
+    /// prismatic joint) closed on its own first link in all three axes, and the N four-bar,
+    /// at random states (not on the closures: the formulas hold anywhere).
+    #[test]
+    fn analytical_closure_kinematics_equal_dual_numbers() {
+        use num_dual::{Dual64, HyperDual64};
+        let arm = {
+            let m =
+                crate::multibody::urdf::parse(crate::multibody::floating_tests::ARM, "arm.urdf")
+                    .unwrap()
+                    .closure(
+                        "loop",
+                        "hand",
+                        [0.1, 0.2, 0.3],
+                        "upper",
+                        [0.0, 0.1, -0.2],
+                        "xyz",
+                    )
+                    .dependent(&["shoulder", "slide", "wrist"]);
+            Model::new(&m).unwrap()
+        };
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 4.0 - 2.0
+        };
+        for model in [arm, n_four_bar(3)] {
+            let (n, k) = (model.nq(), model.closure_residuals());
+            for _ in 0..5 {
+                let q: Vec<f64> = (0..n).map(|_| next()).collect();
+                let qd: Vec<f64> = (0..n).map(|_| next()).collect();
+                let (mut phi, mut g, mut curv) =
+                    (vec![0.0; k], vec![vec![0.0; n]; k], vec![0.0; k]);
+                kinematics(&model, &q, &qd, &mut phi, &mut g, &mut curv);
+                let mut want = vec![0.0; k];
+                model.closure_residuals_at(&q, &mut want);
+                for (a, b) in phi.iter().zip(&want) {
+                    assert!((a - b).abs() < 1e-14, "Φ {phi:?} vs {want:?}");
+                }
+                for j in 0..n {
+                    let mut qj: Vec<Dual64> = q.iter().map(|&v| v.into()).collect();
+                    qj[j].eps = 1.0;
+                    let mut d = vec![Dual64::from(0.0); k];
+                    model.closure_residuals_at(&qj, &mut d);
+                    for r in 0..k {
+                        assert!(
+                            (g[r][j] - d[r].eps).abs() < 1e-13,
+                            "G[{r}][{j}]: {} vs {}",
+                            g[r][j],
+                            d[r].eps
+                        );
+                    }
+                }
+                let qh: Vec<HyperDual64> = q
+                    .iter()
+                    .zip(&qd)
+                    .map(|(&a, &v)| HyperDual64::new(a, v, v, 0.0))
+                    .collect();
+                let mut h = vec![HyperDual64::from(0.0); k];
+                model.closure_residuals_at(&qh, &mut h);
+                for r in 0..k {
+                    assert!(
+                        (curv[r] - h[r].eps1eps2).abs() < 1e-12,
+                        "γ[{r}]: {} vs {}",
+                        curv[r],
+                        h[r].eps1eps2
+                    );
+                }
+            }
+        }
     }
 }

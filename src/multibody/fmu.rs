@@ -1413,17 +1413,33 @@ fn coordinate_mass<S: Scalar>(b: &Built, q: &[S]) -> Vec<S> {
     m
 }
 
+/// The closures' G (columns in the coordinates' order) and curvature Ġ q̇ at the model's
+/// `(q, q̇)`, analytically ([`closed::kinematics`]).
+fn coordinate_closures<S: Scalar>(b: &Built, qm: &[S], qdm: &[S]) -> (Vec<Vec<S>>, Vec<S>) {
+    let (n, k) = (b.model.nq(), b.model.closure_residuals());
+    let (mut phi, mut g, mut curvature) = (
+        vec![S::zero(); k],
+        vec![vec![S::zero(); n]; k],
+        vec![S::zero(); k],
+    );
+    closed::kinematics(&b.model, qm, qdm, &mut phi, &mut g, &mut curvature);
+    let g = g
+        .iter()
+        .map(|row| b.order.iter().map(|&i| row[i]).collect())
+        .collect();
+    (g, curvature)
+}
+
 /// q̈ and the closures' multipliers λ (`M q̈ + Gᵀ λ = f`, as the λ-method's) of a tree
 /// mechanism with loop closures: M by CRBA, the bias by RNEA, springs as joint forces,
-/// `G` and `γ` of the closures by dual numbers through their forward kinematics, solved
-/// by [`closed::solve`] (redundant or singular closures included).
+/// `G` and `γ` of the closures analytically ([`closed::kinematics`]), solved by
+/// [`closed::solve`] (redundant or singular closures included).
 fn closed_accelerations<D: Declared, S: Scalar>(
     t: f64,
     (q, qd, u, p): (&[S], &[S], &[S], &[S]),
     qdd: &mut [S],
     lambda: &mut [S],
 ) {
-    use crate::model::lagrangian::{constraint_curvature, constraint_jacobian};
     let b = D::built();
     let n = b.order.len();
     let (qm, qdm) = (b.positions_to_model(q), b.velocities_to_model(qd));
@@ -1438,11 +1454,8 @@ fn closed_accelerations<D: Declared, S: Scalar>(
     for (k, &i) in b.order.iter().enumerate() {
         f[k] -= bias[i] + springs[i];
     }
-    let g = constraint_jacobian::<Robot<D>, S>(t, q, p);
-    let c: Vec<S> = constraint_curvature::<Robot<D>, S>(t, q, qd, p)
-        .into_iter()
-        .map(|x| -x)
-        .collect();
+    let (g, curvature) = coordinate_closures(b, &qm, &qdm);
+    let c: Vec<S> = curvature.into_iter().map(|x| -x).collect();
     let mut mu = vec![S::zero(); g.len()];
     closed::solve(&mut coordinate_mass(b, q), &g, &f, &c, qdd, &mut mu);
     for (l, m) in lambda.iter_mut().zip(&mu) {
@@ -1633,7 +1646,8 @@ impl<D: Declared> Lagrangian for Robot<D> {
             |q| coordinate_mass(b, q),
             |q| {
                 let phi = crate::model::lagrangian::constraint_values::<Self, f64>(0.0, q, p);
-                let g = crate::model::lagrangian::constraint_jacobian::<Self, f64>(0.0, q, p);
+                let qm = b.positions_to_model(q);
+                let (g, _) = coordinate_closures(b, &qm, &vec![0.0; qm.len()]);
                 (phi, g)
             },
         );
