@@ -19,10 +19,14 @@
 //! of `S μ = r` gives the same `q̈` (`S δ = 0` means `Gᵀ δ = 0`). The decisions look at
 //! the values' real parts only, so dual numbers follow the f64 path.
 //!
+//! M is factored from the leaves up along the tree, G's rows are multiplied over their
+//! closures' paths only ([`Structure`]), and the velocity is taken onto `G q̇ = 0` before
+//! the accelerations are formed ([`Factored::tangent`]).
+//!
 //! The projection after each step moves q onto Φ = 0 by the same solve (the correction of
 //! least kinetic metric), then q̇ onto G q̇ = 0.
 
-use super::dynamics::{ldl_factor_flat, ldl_substitute_flat, Model};
+use super::dynamics::Model;
 use super::spatial::{add, cross, lift3, mat_vec, sub, V3};
 use crate::model::Scalar;
 
@@ -123,50 +127,226 @@ pub fn kinematics<S: Scalar>(
 /// microseconds.
 pub const RANK_TOLERANCE: f64 = 1e-12;
 
+/// What [`solve`] exploits, fixed per mechanism: each coordinate's parent in the tree
+/// (parents before children), so that `M[i][j] ≠ 0` only where one is the other's
+/// ancestor and its factorisation `M = Lᵀ D L` from the leaves up (Featherstone's LTDL)
+/// fills nothing else: O(Σ depth²) and each solve O(Σ depth), against n³/6 and n²; and per
+/// row of G the columns that can be nonzero (the joints on the closure's two paths to the
+/// base), so that `G M⁻¹ Gᵀ` costs k² times a path's length, not k² n.
+#[derive(Clone, Debug)]
+pub struct Structure {
+    pub parent: Vec<Option<usize>>,
+    pub columns: Vec<Vec<usize>>,
+}
+
+impl Structure {
+    /// No structure: every coordinate the previous one's child (the factorisation is then
+    /// the dense one), every column in every row.
+    pub fn dense(n: usize, k: usize) -> Self {
+        Structure {
+            parent: (0..n).map(|i| i.checked_sub(1)).collect(),
+            columns: vec![(0..n).collect(); k],
+        }
+    }
+
+    /// Of `model` in coordinates `order` (`order[k]` is coordinate k's model index; a
+    /// mechanism without mimic joints, so every model coordinate is one): the tree's
+    /// parents where the order puts parents first, else the dense chain.
+    pub fn of(model: &Model, order: &[usize]) -> Self {
+        let n = order.len();
+        let at = |i: usize| order.iter().position(|&o| o == i);
+        let tree: Vec<Option<usize>> = order
+            .iter()
+            .map(|&i| model.parent[i].and_then(at))
+            .collect();
+        let parents_first = tree
+            .iter()
+            .enumerate()
+            .all(|(k, p)| p.is_none_or(|p| p < k))
+            && order.len() == model.nq();
+        let parent = if parents_first {
+            tree
+        } else {
+            Structure::dense(n, 0).parent
+        };
+        let mut columns = Vec::new();
+        for c in &model.closures {
+            let mut on_path = vec![false; n];
+            for body in [c.body_a, c.body_b] {
+                let mut j = body;
+                while let Some(i) = j {
+                    if let Some(k) = at(i) {
+                        on_path[k] = true;
+                    }
+                    j = model.parent[i];
+                }
+            }
+            let cols: Vec<usize> = (0..n).filter(|&k| on_path[k]).collect();
+            columns.extend(c.axes.iter().map(|_| cols.clone()));
+        }
+        Structure { parent, columns }
+    }
+}
+
+/// `M = Lᵀ D L` in place (`m` n × n row-major, symmetric positive definite with the tree
+/// sparsity of `parent`): for k from the last coordinate up, `D_k = M_kk` and, for each
+/// ancestor a of k, `L_ka = M_ka / D_k`, `M_ab −= L_ka M_kb` for a and its ancestors b.
+/// L's entries take the strict lower triangle, D the diagonal.
+fn tree_factor<S: Scalar>(m: &mut [S], parent: &[Option<usize>]) {
+    let n = parent.len();
+    for k in (0..n).rev() {
+        let mut i = parent[k];
+        while let Some(a) = i {
+            let l = m[k * n + a] / m[k * n + k];
+            let mut j = Some(a);
+            while let Some(b) = j {
+                let t = l * m[k * n + b];
+                m[a * n + b] -= t;
+                j = parent[b];
+            }
+            m[k * n + a] = l;
+            i = parent[a];
+        }
+    }
+}
+
+/// Solves `Lᵀ D L x = b` in place (`x` holds b) with the factors of [`tree_factor`].
+fn tree_solve<S: Scalar>(m: &[S], parent: &[Option<usize>], x: &mut [S]) {
+    let n = parent.len();
+    for k in (0..n).rev() {
+        let mut i = parent[k];
+        while let Some(a) = i {
+            let t = m[k * n + a] * x[k];
+            x[a] -= t;
+            i = parent[a];
+        }
+    }
+    for k in 0..n {
+        x[k] /= m[k * n + k];
+    }
+    for k in 0..n {
+        let mut i = parent[k];
+        while let Some(a) = i {
+            let t = m[k * n + a] * x[a];
+            x[k] -= t;
+            i = parent[a];
+        }
+    }
+}
+
+/// `M` and `S = G M⁻¹ Gᵀ` factored for one configuration: what [`Factored::accelerations`]
+/// and [`Factored::tangent`] solve with.
+pub struct Factored<'a, S> {
+    structure: &'a Structure,
+    g: &'a [Vec<S>],
+    /// M's `Lᵀ D L` ([`tree_factor`]).
+    m: Vec<S>,
+    /// `Y = M⁻¹ Gᵀ`, one column per row of G.
+    y: Vec<Vec<S>>,
+    /// S's pivoted LDLᵀ ([`pivoted_factor`]), its permutation and rank.
+    schur: Vec<S>,
+    perm: Vec<usize>,
+    rank: usize,
+}
+
+impl<'a, S: Scalar> Factored<'a, S> {
+    /// Factors `m` (M, n × n row-major, symmetric positive definite) and the Schur
+    /// complement of the k rows `g` of G, with their sparsity `structure`.
+    pub fn new(mut m: Vec<S>, structure: &'a Structure, g: &'a [Vec<S>]) -> Self {
+        let (parent, k) = (&structure.parent, g.len());
+        tree_factor(&mut m, parent);
+        let y: Vec<Vec<S>> = g
+            .iter()
+            .map(|row| {
+                let mut col = row.clone();
+                tree_solve(&m, parent, &mut col);
+                col
+            })
+            .collect();
+        let mut f = Factored {
+            structure,
+            g,
+            m,
+            y,
+            schur: Vec::new(),
+            perm: Vec::new(),
+            rank: 0,
+        };
+        f.schur = (0..k * k)
+            .map(|ij| f.row_dot(ij / k, &f.y[ij % k]))
+            .collect();
+        let (perm, rank) = pivoted_factor(&mut f.schur, k);
+        (f.perm, f.rank) = (perm, rank);
+        f
+    }
+
+    /// The rank found for G.
+    pub fn rank(&self) -> usize {
+        self.rank
+    }
+
+    /// Row i of G against `b`, over the row's columns only.
+    fn row_dot(&self, i: usize, b: &[S]) -> S {
+        self.structure.columns[i]
+            .iter()
+            .fold(S::zero(), |s, &l| s + self.g[i][l] * b[l])
+    }
+
+    /// `x += Y S⁺ r` for `r` given as `c − G x` (`c` None: `−G x`), returning S⁺ r.
+    fn correct(&self, c: Option<&[S]>, x: &mut [S]) -> Vec<S> {
+        let k = self.g.len();
+        let mut r: Vec<S> = (0..k)
+            .map(|i| c.map_or(S::zero(), |c| c[i]) - self.row_dot(i, x))
+            .collect();
+        pivoted_substitute(&self.schur, k, (&self.perm, self.rank), &mut r);
+        for (yi, &mi) in self.y.iter().zip(&r) {
+            for (a, &v) in x.iter_mut().zip(yi) {
+                *a += v * mi;
+            }
+        }
+        r
+    }
+
+    /// `q̈` (into `qdd`) and `μ` (into `mu`) of `M q̈ = f + Gᵀ μ`, `G q̈ = c` (see the
+    /// module notes). Dependent rows get μ = 0.
+    pub fn accelerations(&self, f: &[S], c: &[S], qdd: &mut [S], mu: &mut [S]) {
+        qdd.copy_from_slice(f);
+        tree_solve(&self.m, &self.structure.parent, qdd);
+        mu.copy_from_slice(&self.correct(Some(c), qdd));
+    }
+
+    /// `q̇` moved onto `G q̇ = 0` (the change of least kinetic metric): near a singular
+    /// position a velocity off the closures by rounding along a direction G nearly loses
+    /// would be answered by accelerations ~1/distance² large; the accelerations of the
+    /// velocity on them are the branch's.
+    pub fn tangent(&self, qd: &mut [S]) {
+        self.correct(None, qd);
+    }
+}
+
 /// `q̈` (into `qdd`) and `μ` (into `mu`) of `M q̈ = f + Gᵀ μ`, `G q̈ = c` (see the module
-/// notes): `m` is M (n × n row-major, symmetric positive definite; factored in place),
-/// `g` the k rows of G (each of n), `c` the k right-hand sides. Returns the rank found
-/// for G. Dependent rows get μ = 0.
+/// notes): `m` is M (n × n row-major, symmetric positive definite), `g` the k rows of G
+/// (each of n), `c` the k right-hand sides, `structure` their sparsity. Returns the rank
+/// found for G. Dependent rows get μ = 0.
 pub fn solve<S: Scalar>(
-    m: &mut [S],
+    m: Vec<S>,
+    structure: &Structure,
     g: &[Vec<S>],
     f: &[S],
     c: &[S],
     qdd: &mut [S],
     mu: &mut [S],
 ) -> usize {
-    let (n, k) = (f.len(), g.len());
-    ldl_factor_flat(m, n);
-    qdd.copy_from_slice(f);
-    ldl_substitute_flat(m, n, qdd);
-    // Y = M⁻¹ Gᵀ, one column per row of G.
-    let y: Vec<Vec<S>> = g
-        .iter()
-        .map(|row| {
-            let mut col = row.clone();
-            ldl_substitute_flat(m, n, &mut col);
-            col
-        })
-        .collect();
-    let dot = |a: &[S], b: &[S]| a.iter().zip(b).fold(S::zero(), |s, (&x, &y)| s + x * y);
-    let mut schur: Vec<S> = (0..k * k).map(|ij| dot(&g[ij / k], &y[ij % k])).collect();
-    let mut r: Vec<S> = (0..k).map(|i| c[i] - dot(&g[i], qdd)).collect();
-    let rank = pivoted_solve(&mut schur, k, &mut r);
-    mu.copy_from_slice(&r);
-    for (yi, &mi) in y.iter().zip(&r) {
-        for (a, &v) in qdd.iter_mut().zip(yi) {
-            *a += v * mi;
-        }
-    }
-    rank
+    let factored = Factored::new(m, structure, g);
+    factored.accelerations(f, c, qdd, mu);
+    factored.rank()
 }
 
-/// Solves `s x = r` in place (`r` becomes x) for a symmetric positive semidefinite `s`
-/// (k × k row-major, destroyed) by LDLᵀ with diagonal pivoting, stopping at the first
-/// pivot below [`RANK_TOLERANCE`] of the first (largest): the unknowns not reached are 0.
-/// Returns the rank.
+/// LDLᵀ with diagonal pivoting of a symmetric positive semidefinite `s` (k × k row-major,
+/// in place), stopping at the first pivot below [`RANK_TOLERANCE`] of the first
+/// (largest). Returns the permutation and the rank.
 #[allow(clippy::needless_range_loop)] // triangular index arithmetic reads best as indices
-fn pivoted_solve<S: Scalar>(s: &mut [S], k: usize, r: &mut [S]) -> usize {
+fn pivoted_factor<S: Scalar>(s: &mut [S], k: usize) -> (Vec<usize>, usize) {
     let mut perm: Vec<usize> = (0..k).collect();
     let at = |i: usize, j: usize| i * k + j;
     let mut rank = 0;
@@ -206,6 +386,14 @@ fn pivoted_solve<S: Scalar>(s: &mut [S], k: usize, r: &mut [S]) -> usize {
             s[at(pa, pj)] = l;
         }
     }
+    (perm, rank)
+}
+
+/// Solves `s x = r` in place (`r` becomes x) with [`pivoted_factor`]'s factors: the
+/// unknowns past the rank are 0.
+#[allow(clippy::needless_range_loop)]
+fn pivoted_substitute<S: Scalar>(s: &[S], k: usize, (perm, rank): (&[usize], usize), r: &mut [S]) {
+    let at = |i: usize, j: usize| i * k + j;
     // Forward, diagonal and back substitution on the first `rank` permuted unknowns.
     let mut x: Vec<S> = perm.iter().map(|&i| r[i]).collect();
     for i in 0..rank {
@@ -229,7 +417,6 @@ fn pivoted_solve<S: Scalar>(s: &mut [S], k: usize, r: &mut [S]) -> usize {
     for (i, &pi) in perm.iter().enumerate() {
         r[pi] = x[i];
     }
-    rank
 }
 
 /// Newton iterations of the projection, at most (quadratic from the O(tolerance)
@@ -243,6 +430,7 @@ pub const PROJECTION_ITERATIONS: usize = 8;
 pub fn project(
     q: &mut [f64],
     qd: &mut [f64],
+    structure: &Structure,
     mass: impl Fn(&[f64]) -> Vec<f64>,
     closures: impl Fn(&[f64]) -> (Vec<f64>, Vec<Vec<f64>>),
 ) {
@@ -250,7 +438,7 @@ pub fn project(
     let correct = |q: &[f64], g: &[Vec<f64>], defect: &[f64]| -> Option<Vec<f64>> {
         let c: Vec<f64> = defect.iter().map(|d| -d).collect();
         let (mut dq, mut mu) = (vec![0.0; n], vec![0.0; g.len()]);
-        solve(&mut mass(q), g, &vec![0.0; n], &c, &mut dq, &mut mu);
+        solve(mass(q), structure, g, &vec![0.0; n], &c, &mut dq, &mut mu);
         dq.iter().all(|v| v.is_finite()).then_some(dq)
     };
     for _ in 0..PROJECTION_ITERATIONS {
@@ -288,7 +476,15 @@ mod tests {
         let g = vec![vec![0.0, 1.0], vec![0.0, 2.0], vec![0.0, 1.0]];
         let (f, c) = ([4.0, -9.0], [0.0, 0.0, 0.0]);
         let (mut qdd, mut mu) = ([0.0; 2], [0.0; 3]);
-        let rank = solve(&mut [2.0, 0.0, 0.0, 3.0], &g, &f, &c, &mut qdd, &mut mu);
+        let rank = solve(
+            vec![2.0, 0.0, 0.0, 3.0],
+            &Structure::dense(2, 3),
+            &g,
+            &f,
+            &c,
+            &mut qdd,
+            &mut mu,
+        );
         assert_eq!(rank, 1);
         assert_eq!(qdd, [2.0, 0.0]);
         // The reaction Gᵀ μ holds the weight: 9 N along y.
@@ -309,9 +505,20 @@ mod tests {
         ];
         let g = vec![vec![1.0, -1.0, 0.5, 0.0], vec![0.0, 2.0, 1.0, -1.0]];
         let (f, c) = ([1.0, -2.0, 0.5, 3.0], [0.3, -0.7]);
-        let mut flat: Vec<f64> = m.iter().flatten().copied().collect();
+        let flat: Vec<f64> = m.iter().flatten().copied().collect();
         let (mut qdd, mut mu) = ([0.0; 4], [0.0; 2]);
-        assert_eq!(solve(&mut flat, &g, &f, &c, &mut qdd, &mut mu), 2);
+        assert_eq!(
+            solve(
+                flat.clone(),
+                &Structure::dense(4, 2),
+                &g,
+                &f,
+                &c,
+                &mut qdd,
+                &mut mu
+            ),
+            2
+        );
         // [M −Gᵀ; G 0] [q̈; μ] = [f; c].
         let mut a = vec![vec![0.0; 6]; 6];
         for i in 0..4 {
@@ -383,7 +590,7 @@ mod tests {
     fn accelerations(model: &crate::multibody::Model, q: &[f64], qd: &[f64]) -> Vec<f64> {
         use num_dual::HyperDual64;
         let (n, k) = (model.nq(), model.closure_residuals());
-        let mut m: Vec<f64> = model.crba(q).into_iter().flatten().collect();
+        let m: Vec<f64> = model.crba(q).into_iter().flatten().collect();
         let f: Vec<f64> = model
             .rnea(q, qd, &vec![0.0; n])
             .iter()
@@ -399,7 +606,16 @@ mod tests {
         model.closure_residuals_at(&qh, &mut curv);
         let c: Vec<f64> = curv.iter().map(|v| -v.eps1eps2).collect();
         let (mut qdd, mut mu) = (vec![0.0; n], vec![0.0; k]);
-        solve(&mut m, &g, &f, &c, &mut qdd, &mut mu);
+        let order: Vec<usize> = (0..n).collect();
+        solve(
+            m,
+            &Structure::of(model, &order),
+            &g,
+            &f,
+            &c,
+            &mut qdd,
+            &mut mu,
+        );
         qdd
     }
 
@@ -455,6 +671,7 @@ mod tests {
             project(
                 &mut q,
                 &mut qd,
+                &Structure::of(&model, &(0..nq).collect::<Vec<_>>()),
                 |q| model.crba(q).into_iter().flatten().collect(),
                 |q| {
                     let mut phi = vec![0.0; model.closure_residuals()];
@@ -510,6 +727,66 @@ mod tests {
         println!("N four-bar, N = {n}: {passages} horizontal passages in 4 s; cranks parallel to {:.1e} rad, θ against the reduction {:.1e} rad", worst.0, worst.1);
         assert!(passages >= 3, "{passages}");
         assert!(worst.0 < 1e-9 && worst.1 < 1e-8, "{worst:?}");
+    }
+
+    /// The tree's structure (LTDL from the leaves, G's rows over their paths only) gives
+    /// the dense solve's q̈ and μ: the N four-bar (N = 3) at random states, off the
+    /// closures and on no branch (the formulas hold anywhere), and a declared order that
+    /// puts a child before its parent falls back to the dense chain.
+    #[test]
+    fn the_trees_structure_gives_the_dense_solution() {
+        let model = n_four_bar(3);
+        let (n, k) = (model.nq(), model.closure_residuals());
+        let mut rng = 0x2545f4914f6cdd1du64;
+        let mut uniform = || {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            (rng >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let natural: Vec<usize> = (0..n).collect();
+        let tree = Structure::of(&model, &natural);
+        assert!(
+            tree.parent.iter().filter(|p| p.is_none()).count() > 1,
+            "a tree, not a chain"
+        );
+        assert!(
+            tree.columns.iter().all(|c| c.len() <= 3),
+            "{:?}",
+            tree.columns
+        );
+        let mut reversed = natural.clone();
+        reversed.reverse();
+        assert_eq!(
+            Structure::of(&model, &reversed).parent,
+            Structure::dense(n, 0).parent
+        );
+        for _ in 0..5 {
+            let q: Vec<f64> = (0..n).map(|_| 3.0 * uniform()).collect();
+            let g = closure_jacobian(&model, &q);
+            let f: Vec<f64> = (0..n).map(|_| uniform()).collect();
+            let c: Vec<f64> = (0..k).map(|_| uniform()).collect();
+            let mut out = Vec::new();
+            for s in [&tree, &Structure::dense(n, k)] {
+                let m: Vec<f64> = model.crba(&q).into_iter().flatten().collect();
+                let (mut qdd, mut mu) = (vec![0.0; n], vec![0.0; k]);
+                solve(m, s, &g, &f, &c, &mut qdd, &mut mu);
+                out.push((qdd, mu));
+            }
+            let scale = out[1]
+                .0
+                .iter()
+                .chain(&out[1].1)
+                .fold(1.0f64, |a, v| a.max(v.abs()));
+            for (a, b) in out[0]
+                .0
+                .iter()
+                .chain(&out[0].1)
+                .zip(out[1].0.iter().chain(&out[1].1))
+            {
+                assert!((a - b).abs() < 1e-11 * scale, "{a} vs {b} (scale {scale})");
+            }
+        }
     }
 
     /// [`kinematics`] against dual numbers through forward kinematics (Φ, G column by

@@ -239,6 +239,8 @@ pub struct Built {
     /// [`codegen::fingerprint`](super::codegen::fingerprint) of `model`: generated code
     /// runs only on the model it was generated from ([`Declared::GENERATED_FROM`]).
     pub fingerprint: u64,
+    /// The tree's and the closures' sparsity in coordinate order, for [`closed::solve`].
+    pub structure: closed::Structure,
 }
 
 /// Index of the `limit_events` parameter ([`LimitMode`]'s code).
@@ -527,6 +529,35 @@ impl Built {
         for (name, v) in &mechanism.torques {
             hold[index_of(name)] = *v;
         }
+        // The start velocities: as declared (else 0), a mimic joint's its driver's times
+        // the multiplier, the dependent ones solved from the others (G_dep q̇_dep =
+        // −G_ind q̇_ind) so that the modelDescription's start values are consistent.
+        let mut speed = vec![0.0; n];
+        for (name, v) in &mechanism.start_velocity {
+            speed[index_of(name)] = *v;
+        }
+        for &i in &mimics {
+            let (d, r) = model.driver(i);
+            speed[i] = r * speed[d];
+        }
+        if m > 0 && speed.iter().any(|v| *v != 0.0) {
+            for &j in &dependent_model {
+                speed[j] = 0.0;
+            }
+            let g = closure_jacobian(&model, &start);
+            let mut a: Vec<Vec<f64>> = g
+                .iter()
+                .map(|row| dependent_model.iter().map(|&j| row[j]).collect())
+                .collect();
+            let mut rhs: Vec<f64> = g
+                .iter()
+                .map(|row| -row.iter().zip(&speed).map(|(g, v)| g * v).sum::<f64>())
+                .collect();
+            crate::model::lagrangian::solve(&mut a, &mut rhs);
+            for (&j, v) in dependent_model.iter().zip(&rhs) {
+                speed[j] = *v + 0.0; // (no −0 in the modelDescription)
+            }
+        }
         // Coordinate order from here.
         let permute = |v: &[f64]| -> Vec<f64> { order.iter().map(|&i| v[i]).collect() };
         // A mimic joint's damping acts on the joint it follows: −r² d q̇ (Q = τ − d q̇ of the
@@ -547,6 +578,7 @@ impl Built {
         }
         let model_start = start.clone();
         let (start, hold, damping) = (permute(&start), permute(&hold), permute(&damping_model));
+        let speed = permute(&speed);
         let friction = if mechanism.closures.is_empty() {
             permute(&friction_model)
         } else {
@@ -578,7 +610,7 @@ impl Built {
                 j.child, j.parent
             )
             .into();
-            let mut qd = Var::new("", Some(v), 0.0, "").nominal(1.0);
+            let mut qd = Var::new("", Some(v), speed[k], "").nominal(1.0);
             qd.name = format!("{name}_dot").into();
             qd.description = format!("Velocity of joint {name}{solved}").into();
             if dependent[k] {
@@ -825,6 +857,7 @@ impl Built {
             damping,
             friction,
             fingerprint: super::codegen::fingerprint(&model),
+            structure: closed::Structure::of(&model, &order),
             model,
             mechanism,
             order,
@@ -1431,9 +1464,12 @@ fn coordinate_closures<S: Scalar>(b: &Built, qm: &[S], qdm: &[S]) -> (Vec<Vec<S>
 }
 
 /// q̈ and the closures' multipliers λ (`M q̈ + Gᵀ λ = f`, as the λ-method's) of a tree
-/// mechanism with loop closures: M by CRBA, the bias by RNEA, springs as joint forces,
-/// `G` and `γ` of the closures analytically ([`closed::kinematics`]), solved by
-/// [`closed::solve`] (redundant or singular closures included).
+/// mechanism with loop closures: M by CRBA, `G` of the closures analytically
+/// ([`closed::kinematics`]), both factored ([`closed::Factored`]); the velocity taken onto
+/// `G q̇ = 0` first (a no-op on the closures; off them by an integrator's rounding, near a
+/// singular position, what keeps the accelerations the branch's), then the bias by RNEA,
+/// springs as joint forces and `γ` at that velocity, solved (redundant or singular
+/// closures included).
 fn closed_accelerations<D: Declared, S: Scalar>(
     t: f64,
     (q, qd, u, p): (&[S], &[S], &[S], &[S]),
@@ -1442,7 +1478,12 @@ fn closed_accelerations<D: Declared, S: Scalar>(
 ) {
     let b = D::built();
     let n = b.order.len();
-    let (qm, qdm) = (b.positions_to_model(q), b.velocities_to_model(qd));
+    let qm = b.positions_to_model(q);
+    let (g, _) = coordinate_closures(b, &qm, &vec![S::zero(); n]);
+    let factored = closed::Factored::new(coordinate_mass(b, q), &b.structure, &g);
+    let mut qd = qd.to_vec();
+    factored.tangent(&mut qd);
+    let qdm = b.velocities_to_model(&qd);
     let mut bias = vec![S::zero(); n];
     with_workspace(&b.model, |data| {
         b.model
@@ -1450,14 +1491,14 @@ fn closed_accelerations<D: Declared, S: Scalar>(
     });
     let springs = spring_gradient(&b.model, &qm);
     let mut f = vec![S::zero(); n];
-    <Robot<D> as Lagrangian>::forces(t, q, qd, u, p, &mut f);
+    <Robot<D> as Lagrangian>::forces(t, q, &qd, u, p, &mut f);
     for (k, &i) in b.order.iter().enumerate() {
         f[k] -= bias[i] + springs[i];
     }
-    let (g, curvature) = coordinate_closures(b, &qm, &qdm);
+    let (_, curvature) = coordinate_closures(b, &qm, &qdm);
     let c: Vec<S> = curvature.into_iter().map(|x| -x).collect();
     let mut mu = vec![S::zero(); g.len()];
-    closed::solve(&mut coordinate_mass(b, q), &g, &f, &c, qdd, &mut mu);
+    factored.accelerations(&f, &c, qdd, &mut mu);
     for (l, m) in lambda.iter_mut().zip(&mu) {
         *l = -*m;
     }
@@ -1643,6 +1684,7 @@ impl<D: Declared> Lagrangian for Robot<D> {
         closed::project(
             q,
             qd,
+            &b.structure,
             |q| coordinate_mass(b, q),
             |q| {
                 let phi = crate::model::lagrangian::constraint_values::<Self, f64>(0.0, q, p);

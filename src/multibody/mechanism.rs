@@ -329,6 +329,9 @@ pub struct Mechanism {
     /// Start positions of joints (the rest start at 0, or mid-limits); with closures the
     /// dependent ones are a first guess, solved from the others.
     pub start: Vec<(String, f64)>,
+    /// Start velocities of joints (the rest start at rest); with closures the dependent
+    /// ones are solved from the others (consistent initialisation).
+    pub start_velocity: Vec<(String, f64)>,
     /// Start values of joint inputs `tau_J` (the rest hold the start configuration).
     pub torques: Vec<(String, f64)>,
     /// The order of the coordinates, by joint name (empty: depth first from the root, the
@@ -439,6 +442,7 @@ impl Mechanism {
             springs: Vec::new(),
             dependent: Vec::new(),
             start: Vec::new(),
+            start_velocity: Vec::new(),
             torques: Vec::new(),
             order: Vec::new(),
             floating_base: false,
@@ -557,6 +561,12 @@ impl Mechanism {
     /// The start position of a joint (rad or m).
     pub fn start(mut self, joint: &str, value: f64) -> Self {
         self.start.push((joint.to_string(), value));
+        self
+    }
+
+    /// The start velocity of a joint (rad/s or m/s).
+    pub fn start_velocity(mut self, joint: &str, value: f64) -> Self {
+        self.start_velocity.push((joint.to_string(), value));
         self
     }
 
@@ -958,6 +968,12 @@ impl Mechanism {
                 return Err(Error::joint(j, format!("start position {v} is not finite")));
             }
         }
+        for (j, v) in &self.start_velocity {
+            moving("started", j)?;
+            if !v.is_finite() {
+                return Err(Error::joint(j, format!("start velocity {v} is not finite")));
+            }
+        }
         for (j, v) in &self.torques {
             moving("driven", j)?;
             if !v.is_finite() {
@@ -1142,6 +1158,7 @@ impl Mechanism {
                 springs,
                 dependent: self.dependent.clone(),
                 start: self.start.clone(),
+                start_velocity: self.start_velocity.clone(),
                 torques: self.torques.clone(),
                 floating_base: self.floating_base,
                 order: self.order.clone(),

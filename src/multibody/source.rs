@@ -200,6 +200,9 @@ pub fn builder(m: &Mechanism) -> String {
     for (j, v) in &m.start {
         s += &format!("\n        .start({j:?}, {v:?})");
     }
+    for (j, v) in &m.start_velocity {
+        s += &format!("\n        .start_velocity({j:?}, {v:?})");
+    }
     for (j, v) in &m.torques {
         s += &format!("\n        .torque({j:?}, {v:?})");
     }

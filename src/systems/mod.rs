@@ -5,6 +5,7 @@ mod compound_pendulum;
 mod double_pendulum;
 pub mod four_bar;
 mod mass_spring_damper;
+pub mod n_four_bar;
 mod nonlinear_bicycle;
 mod projectile;
 mod pulled_pendulum;
@@ -24,6 +25,7 @@ pub use compound_pendulum::CompoundPendulum;
 pub use double_pendulum::DoublePendulum;
 pub use four_bar::FourBar;
 pub use mass_spring_damper::MassSpringDamper;
+pub use n_four_bar::NFourBar;
 pub use nonlinear_bicycle::NonlinearBicycle;
 pub use projectile::Projectile;
 pub use pulled_pendulum::PulledPendulum;
@@ -95,5 +97,6 @@ mod tests {
         writes_every_component::<PulledPendulum>();
         writes_every_component::<FourBar>();
         writes_every_component::<AndrewsSqueezer>();
+        writes_every_component::<NFourBar>();
     }
 }
