@@ -465,6 +465,7 @@ pub fn project(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::multibody::codegen::tests::Rng;
     use crate::multibody::fmu::closure_jacobian;
 
     /// A point mass in the plane (M = diag(2, 3)) held on the x axis by the same constraint
@@ -737,13 +738,8 @@ mod tests {
     fn the_trees_structure_gives_the_dense_solution() {
         let model = n_four_bar(3);
         let (n, k) = (model.nq(), model.closure_residuals());
-        let mut rng = 0x2545f4914f6cdd1du64;
-        let mut uniform = || {
-            rng ^= rng << 13;
-            rng ^= rng >> 7;
-            rng ^= rng << 17;
-            (rng >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut rng = Rng(0x2545f4914f6cdd1d);
+        let mut uniform = || rng.uniform(-1.0, 1.0);
         let natural: Vec<usize> = (0..n).collect();
         let tree = Structure::of(&model, &natural);
         assert!(
@@ -811,13 +807,8 @@ mod tests {
                     .dependent(&["shoulder", "slide", "wrist"]);
             Model::new(&m).unwrap()
         };
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 4.0 - 2.0
-        };
+        let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+        let mut next = || rng.uniform(-2.0, 2.0);
         for model in [arm, n_four_bar(3)] {
             let (n, k) = (model.nq(), model.closure_residuals());
             for _ in 0..5 {

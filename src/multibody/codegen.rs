@@ -976,4 +976,4 @@ pub fn robot_dynamics(
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

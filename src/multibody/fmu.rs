@@ -438,6 +438,12 @@ impl Built {
             ));
         }
         let m = model.closure_residuals();
+        // G's columns of the dependent joints (the closures' Jacobian in them).
+        let dependent_columns = |g: &[Vec<f64>]| -> Vec<Vec<f64>> {
+            g.iter()
+                .map(|row| dependent_model.iter().map(|&j| row[j]).collect())
+                .collect()
+        };
         if m > 0 {
             // Newton on the closures for the dependent coordinates, the others as set.
             let mut phi = vec![0.0; m];
@@ -448,11 +454,7 @@ impl Built {
                     converged = true;
                     break;
                 }
-                let g = closure_jacobian(&model, &start);
-                let mut a: Vec<Vec<f64>> = g
-                    .iter()
-                    .map(|row| dependent_model.iter().map(|&j| row[j]).collect())
-                    .collect();
+                let mut a = dependent_columns(&closure_jacobian(&model, &start));
                 let mut step: Vec<f64> = phi.iter().map(|v| -v).collect();
                 crate::model::lagrangian::solve(&mut a, &mut step);
                 if !step.iter().all(|v| v.is_finite()) {
@@ -487,8 +489,14 @@ impl Built {
             .zip(spring_gradient(&model, &start))
             .map(|(g, s)| g + s)
             .collect();
+        // G at the closed start configuration (the holding torques and start velocities).
+        let g_start = if m > 0 {
+            closure_jacobian(&model, &start)
+        } else {
+            Vec::new()
+        };
         if m > 0 {
-            let g = closure_jacobian(&model, &start);
+            let g = &g_start;
             let mut a: Vec<Vec<f64>> = dependent_model
                 .iter()
                 .map(|&j| g.iter().map(|row| row[j]).collect())
@@ -544,12 +552,8 @@ impl Built {
             for &j in &dependent_model {
                 speed[j] = 0.0;
             }
-            let g = closure_jacobian(&model, &start);
-            let mut a: Vec<Vec<f64>> = g
-                .iter()
-                .map(|row| dependent_model.iter().map(|&j| row[j]).collect())
-                .collect();
-            let mut rhs: Vec<f64> = g
+            let mut a = dependent_columns(&g_start);
+            let mut rhs: Vec<f64> = g_start
                 .iter()
                 .map(|row| -row.iter().zip(&speed).map(|(g, v)| g * v).sum::<f64>())
                 .collect();

@@ -1,11 +1,12 @@
 use super::*;
 use crate::multibody::generated;
 
-/// A small deterministic generator (xorshift), as in the multibody tests.
-struct Rng(u64);
+/// A small deterministic generator (xorshift), uniform in [lo, hi): also the closed-loop
+/// tests'.
+pub(crate) struct Rng(pub(crate) u64);
 
 impl Rng {
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+    pub(crate) fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
         self.0 ^= self.0 << 13;
         self.0 ^= self.0 >> 7;
         self.0 ^= self.0 << 17;
