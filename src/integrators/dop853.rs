@@ -234,6 +234,53 @@ impl Pair for Dop853 {
         hs.abs() * err5 * (1.0 / (n.max(1) as f64 * deno)).sqrt()
     }
 
+    const ESTIMATES: usize = 2;
+
+    /// `h·e5` and `h·e3`, the terms of [`Pair::error`].
+    fn estimates(k: &[&[f64]], hs: f64, out: &mut [Vec<f64>]) {
+        let &[k1, _, _, _, _, k6, k7, k8, k9, k10, k11, k12] = k else {
+            unreachable!("DOP853 has 12 stages")
+        };
+        let [e5, e3] = out else {
+            unreachable!("two estimates")
+        };
+        for i in 0..e5.len() {
+            let bsum = B1 * k1[i]
+                + B6 * k6[i]
+                + B7 * k7[i]
+                + B8 * k8[i]
+                + B9 * k9[i]
+                + B10 * k10[i]
+                + B11 * k11[i]
+                + B12 * k12[i];
+            e3[i] = hs * (bsum - BHH1 * k1[i] - BHH2 * k9[i] - BHH3 * k12[i]);
+            e5[i] = hs
+                * (ER1 * k1[i]
+                    + ER6 * k6[i]
+                    + ER7 * k7[i]
+                    + ER8 * k8[i]
+                    + ER9 * k9[i]
+                    + ER10 * k10[i]
+                    + ER11 * k11[i]
+                    + ER12 * k12[i]);
+        }
+    }
+
+    /// [`Pair::error`]'s norm with `h` inside the terms: `S5 / √(n (S5 + w S3))`.
+    fn error_of(x: &[f64], y: &[f64], e: &[Vec<f64>], settings: &Settings) -> f64 {
+        let (mut s5, mut s3) = (0.0, 0.0);
+        for i in 0..x.len() {
+            let sk = settings.atol[i] + settings.rtol * x[i].abs().max(y[i].abs());
+            s5 += (e[0][i] / sk).powi(2);
+            s3 += (e[1][i] / sk).powi(2);
+        }
+        let deno = s5 + ERR3_WEIGHT * s3;
+        if deno <= 0.0 {
+            return 0.0;
+        }
+        s5 / (x.len().max(1) as f64 * deno).sqrt()
+    }
+
     /// The step's record (see [`Ahead::step`]) for its extension.
     fn record(x: &[f64], w: &Stages, k1: &[f64], f1: &[f64], _: f64, record: &mut Vec<f64>) {
         record.clear();
@@ -485,10 +532,20 @@ pub fn advance_dense_in(ahead: &mut Ahead, c: DenseCall<Scratch>) -> Result<(), 
         t0,
         err_prev,
     } = &mut ahead.point;
+    let on_manifold = c.problem.error_on_manifold;
     let (rhs, point) = (&mut *c.problem.rhs, (t, &mut x[..], f));
     let (settings, memory, work) = (c.settings, c.memory, c.work);
     let rk = &mut work.rk;
-    let past = step_past::<Dop853>(rhs, c.project, point, *err_prev, ends, settings, memory, rk)?;
+    let past = step_past::<Dop853>(
+        rhs,
+        (c.project, on_manifold),
+        point,
+        *err_prev,
+        ends,
+        settings,
+        memory,
+        rk,
+    )?;
     if let Some(last) = past {
         *t0 = last.t0;
         std::mem::swap(&mut ahead.step, &mut rk.record);

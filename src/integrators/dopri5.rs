@@ -103,6 +103,28 @@ impl Pair for Dopri5 {
         (sum / x.len().max(1) as f64).sqrt()
     }
 
+    const ESTIMATES: usize = 1;
+
+    /// `h·Σ eᵢ kᵢ`, the terms of [`Pair::error`].
+    fn estimates(k: &[&[f64]], hs: f64, out: &mut [Vec<f64>]) {
+        let &[k1, _, k3, k4, k5, k6, k7] = k else {
+            unreachable!("DOPRI5 has 7 stages")
+        };
+        for (i, e) in out[0].iter_mut().enumerate() {
+            *e = hs * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
+        }
+    }
+
+    fn error_of(x: &[f64], y: &[f64], e: &[Vec<f64>], settings: &Settings) -> f64 {
+        let sum: f64 = (e[0].iter().enumerate())
+            .map(|(i, e)| {
+                let sk = settings.atol[i] + settings.rtol * x[i].abs().max(y[i].abs());
+                (e / sk).powi(2)
+            })
+            .sum();
+        (sum / x.len().max(1) as f64).sqrt()
+    }
+
     fn accepted(memory: &mut Memory, hs: f64, t_new: f64, w: &Stages) {
         let stiffness = &mut memory.stiffness;
         stiffness.observe(hs, (&w.k[5], &w.k[4]), (&w.y, &w.kept), t_new);
@@ -290,10 +312,18 @@ pub fn advance_dense_in(ahead: &mut Ahead, c: DenseCall<Scratch>) -> Result<(), 
         t0,
         err_prev,
     } = &mut ahead.point;
+    let on_manifold = c.problem.error_on_manifold;
     let (rhs, point, ends) = (&mut *c.problem.rhs, (t, &mut x[..], f), (t_out, t_limit));
     let (settings, memory, work) = (c.settings, c.memory, c.work);
     let past = step_past::<Dopri5>(
-        rhs, c.project, point, *err_prev, ends, settings, memory, work,
+        rhs,
+        (c.project, on_manifold),
+        point,
+        *err_prev,
+        ends,
+        settings,
+        memory,
+        work,
     )?;
     if let Some(last) = past {
         *t0 = last.t0;

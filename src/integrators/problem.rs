@@ -93,6 +93,11 @@ pub struct Problem<'a> {
     /// f reads inputs that move along a polynomial of degree ≤ 2 in t over the call
     /// (fmi2SetRealInputDerivatives): ExactLinear then follows that polynomial exactly.
     pub inputs_move: bool,
+    /// The system projects its state onto constraints after every step: the adaptive
+    /// methods then measure each step's local error between the projected solution and
+    /// the projected embedded one (the error the projection leaves), not off the manifold
+    /// where the projection removes it anyway.
+    pub error_on_manifold: bool,
 }
 
 impl<'a> Problem<'a> {
@@ -104,6 +109,7 @@ impl<'a> Problem<'a> {
             second_order: None,
             mechanics: None,
             inputs_move: false,
+            error_on_manifold: false,
         }
     }
 

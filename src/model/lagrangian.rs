@@ -203,6 +203,11 @@ pub trait Lagrangian: 'static {
         false
     }
 
+    /// [`System::error_on_manifold`]. Default: false.
+    fn error_on_manifold() -> bool {
+        false
+    }
+
     /// The projection after each step ([`project_onto_constraints`]) on the generated M
     /// and constraint rows, without heap; `false` (the default): none, automatic
     /// differentiation instead. Written by the same `generated_eom!` line.
@@ -768,6 +773,10 @@ impl<L: Lagrangian> System for L {
     /// `(q, q̇)` halves unless there are surplus coordinates.
     fn second_order() -> bool {
         L::surplus_coordinates() == 0
+    }
+
+    fn error_on_manifold() -> bool {
+        <L as Lagrangian>::error_on_manifold()
     }
 
     fn name() -> &'static str {

@@ -283,6 +283,16 @@ pub trait System: 'static {
         false
     }
 
+    /// True when [`System::project`] maps the state onto constraints whose neighbourhood
+    /// the projection leaves: the adaptive methods then measure each step's error between
+    /// projected solutions ([`crate::integrators::Problem::error_on_manifold`]). Near a
+    /// singular position of a closed loop the constraint forces carry rounding amplified by
+    /// 1/distance², all of it off the manifold; measured raw, it shrinks the steps until the
+    /// work bound is spent. (A function: a mechanism loaded at run time decides it.)
+    fn error_on_manifold() -> bool {
+        false
+    }
+
     /// What one evaluation of f costs per state, relative to the systems doStep's work bound
     /// was measured on (≤ 0.2 µs per state: `mbfmu speed`): the bound on one doStep's work
     /// is divided by it. 1 (the default) for equations generated or written by hand; larger

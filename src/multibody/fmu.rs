@@ -1675,6 +1675,12 @@ impl<D: Declared> Lagrangian for Robot<D> {
         true
     }
 
+    /// With loop closures on the tree: the projection below moves the state, and its
+    /// singular positions (the N four-bar's) amplify rounding off the closures.
+    fn error_on_manifold() -> bool {
+        D::CONSTRAINTS > 0 && closes_on_the_tree(&D::built().model)
+    }
+
     /// With loop closures on the tree ([`closes_on_the_tree`]): onto the closures by the
     /// rank-revealing solve ([`closed::project`]), which a redundant or singular G does not
     /// stop.

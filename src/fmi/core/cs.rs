@@ -471,6 +471,7 @@ fn integrate_general<M: System>(
         // (the cast shortens the trait object's lifetime to the borrow's)
         mechanics: mechanics.as_deref_mut().map(|m| m as &mut dyn Mechanics),
         inputs_move: inputs.moving(),
+        error_on_manifold: M::error_on_manifold(),
     };
     let memory = &mut d.memory;
     // Dense output runs past the communication point with this step's f: with moving
