@@ -32,12 +32,13 @@ pub const D: f64 = 0.4;
 pub const MASSES: [f64; 3] = [0.2, 0.7, 0.6];
 /// The bars' square section (m).
 const SECTION: f64 = 0.01;
-/// The start crank angle (rad): held there by `tau_crank`'s start value, a stable
-/// equilibrium (V(θ2) is convex there, V'' ≈ 0.75 J; at θ2 = 1 rad it is concave and a
-/// held start would drift off at rounding, growing like e^{~10 t}).
+/// The crank angle (rad) at which [`mechanism`] holds the linkage at rest by
+/// `tau_crank`'s start value, a stable equilibrium (V(θ2) is convex there, V'' ≈ 0.75 J; at
+/// θ2 = 1 rad it is concave and a held start would drift off at rounding, growing like
+/// e^{~10 t}).
 pub const CRANK_START: f64 = -1.5;
-/// The crank angle and speed (rad, rad/s) the `run` scene starts from: enough to carry it
-/// over the top.
+/// The crank angle and speed (rad, rad/s) the FMU (its default experiment and its `run`
+/// scene) starts from, no torques: enough to carry it over the top again and again.
 pub const RUN_START: f64 = 1.0;
 pub const RUN_SPEED: f64 = 10.0;
 
@@ -92,11 +93,32 @@ pub fn mechanism() -> Mechanism {
         .start("rocker", 2.39)
 }
 
+/// The four-bar of the FMU: [`mechanism`] started at θ2 = [`RUN_START`] turning at
+/// [`RUN_SPEED`] with no torques, so that its default experiment moves (the dependent
+/// positions from their closed form, as Newton's first guess on the open branch; their
+/// rates are solved from the crank's).
+pub fn running() -> Mechanism {
+    let rocker = freudenstein_rocker(RUN_START);
+    mechanism()
+        .start("crank", RUN_START)
+        .start("coupler", open_coupler(RUN_START, rocker))
+        .start("rocker", rocker)
+        .start_velocity("crank", RUN_SPEED)
+        .torque("crank", 0.0)
+}
+
+/// The coupler's angle relative to the crank (rad) where the crank is at `crank` and the
+/// rocker at `rocker`: the direction from A to B.
+fn open_coupler(crank: f64, rocker: f64) -> f64 {
+    let (bx, by) = (D + C * rocker.cos(), C * rocker.sin());
+    (by - A * crank.sin()).atan2(bx - A * crank.cos()) - crank
+}
+
 crate::mechanism_fmu!(
     /// The four-bar's declaration (its FMU model is [`FourBar`]).
     pub FourBarMechanism,
     "FourBar",
-    mechanism,
+    running,
     constraints = 2,
     notes = [
         "Planar four-bar, Grashof crank-rocker: crank a = 0.1 m about O2 = (0, 0), coupler b = 0.35 m, rocker c = 0.3 m about O4 = (0.4, 0); uniform bars of 0.2, 0.7, 0.6 kg; gravity along −y",
@@ -107,13 +129,29 @@ crate::mechanism_fmu!(
         const DESCRIPTION: &'static str =
             "Planar four-bar linkage (Grashof crank-rocker) declared as bodies, joints and one loop closure, with gravity and a crank torque";
 
-        fn scenes(mut generated: Vec<crate::model::Scene>) -> Vec<crate::model::Scene> {
-            // Far from the start configuration: the dependent positions are set too (their
-            // closed form, which initialisation keeps), so that Newton starts on the open
-            // branch.
+        fn scenes(generated: Vec<crate::model::Scene>) -> Vec<crate::model::Scene> {
+            // `step` from the linkage held at θ2 = CRANK_START (held at the running start,
+            // 1 rad, the equilibrium is unstable), its dependent positions said too:
+            // Newton from the running start does not reach them.
+            let rocker = freudenstein_rocker(CRANK_START);
+            let held_step = HeldFourBar::built()
+                .scenes
+                .iter()
+                .find(|s| s.name == "step")
+                .cloned()
+                .map(|s| {
+                    s.set("coupler", open_coupler(CRANK_START, rocker))
+                        .set("rocker", rocker)
+                });
+            let mut generated: Vec<crate::model::Scene> = generated
+                .into_iter()
+                .flat_map(|s| if s.name == "step" { held_step.clone() } else { Some(s) })
+                .collect();
+            // The default experiment's start, every value said (scripts name this scene):
+            // the dependent positions too (their closed form, which initialisation keeps),
+            // so that Newton starts on the open branch.
             let rocker = freudenstein_rocker(RUN_START);
-            let (bx, by) = (D + C * rocker.cos(), C * rocker.sin());
-            let coupler = (by - A * RUN_START.sin()).atan2(bx - A * RUN_START.cos()) - RUN_START;
+            let coupler = open_coupler(RUN_START, rocker);
             generated.push(
                 crate::model::Scene::new(
                     "run",
@@ -131,6 +169,15 @@ crate::mechanism_fmu!(
             generated
         }
     }
+);
+
+crate::mechanism_fmu!(
+    /// The linkage held at rest at θ2 = [`CRANK_START`] by its start torques ([`mechanism`]):
+    /// what FourBar's `step` scene starts from.
+    pub HeldFourBar,
+    "FourBar",
+    mechanism,
+    constraints = 2
 );
 
 /// The four-bar as a model: a [`Robot`] of its declaration.
