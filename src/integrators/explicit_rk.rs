@@ -637,6 +637,10 @@ fn run<P: Pair>(
                 let k = stages(k1, &w.k);
                 let (xy, k) = ((&x[..], &w.y[..]), &k[..=P::STAGES.len()]);
                 err = w.manifold.error::<P>(*project, t_new, xy, k, hs, settings);
+                if err.is_nan() {
+                    // A projection that broke down: nothing to judge, nothing accepted.
+                    return Err(Failure::NonFinite { t: t0 });
+                }
                 true
             }
             _ => false,
@@ -730,6 +734,39 @@ mod tests {
             &settings,
         );
         (raw, through)
+    }
+
+    /// A projection that breaks down (NaN after t = 0.5) stops DOPRI5 and DOP853 as a NaN
+    /// derivative does: NonFinite, the state left at the last step accepted, finite.
+    #[test]
+    fn a_projection_giving_nan_stops_the_method_at_the_last_good_state() {
+        for method in [
+            crate::integrators::Method::Dopri5,
+            crate::integrators::Method::Dop853,
+        ] {
+            let mut rhs = |_: f64, y: &[f64], d: &mut [f64]| d[0] = -y[0];
+            let mut problem = crate::integrators::problem::Problem::new(&mut rhs);
+            problem.error_on_manifold = true;
+            let mut project = |t: f64, x: &mut [f64]| {
+                if t > 0.5 {
+                    x[0] = f64::NAN;
+                }
+            };
+            let settings = crate::integrators::test_support::adaptive(method, 1e-8, 1, 10.0);
+            let mut memory = Memory::default();
+            let (mut t, mut x) = (0.0, [1.0]);
+            let r = crate::integrators::advance_dense(
+                &mut problem,
+                &mut project,
+                (&mut t, &mut x),
+                (1.0, 1.0),
+                &settings,
+                &mut memory,
+                &mut crate::integrators::Workspace::default(),
+            );
+            assert!(matches!(r, Err(Failure::NonFinite { .. })), "{r:?}");
+            assert!(x[0].is_finite() && t <= 0.5, "{t} {x:?}");
+        }
     }
 
     /// Measured on the manifold with nothing to project, each pair's error is the one it
