@@ -119,6 +119,31 @@ const A1211: f64 = 6.43392746015763530355970484046e-1;
 /// if `memory.h == 0`: on success `rhs_evals = [memory.h == 0] + 12·steps + 11·rejected`.
 pub(super) struct Dop853;
 
+/// Component `i` of DOP853's two error estimates over h, (e5, e3) (dop853.f's ERR and
+/// ERR2), for [`Pair::error`] and [`Pair::estimates`].
+fn error_terms(k: &[&[f64]], i: usize) -> (f64, f64) {
+    let &[k1, _, _, _, _, k6, k7, k8, k9, k10, k11, k12] = k else {
+        unreachable!("DOP853 has 12 stages")
+    };
+    let bsum = B1 * k1[i]
+        + B6 * k6[i]
+        + B7 * k7[i]
+        + B8 * k8[i]
+        + B9 * k9[i]
+        + B10 * k10[i]
+        + B11 * k11[i]
+        + B12 * k12[i];
+    let e3 = bsum - BHH1 * k1[i] - BHH2 * k9[i] - BHH3 * k12[i];
+    let e5 = ER1 * k1[i]
+        + ER6 * k6[i]
+        + ER7 * k7[i]
+        + ER8 * k8[i]
+        + ER9 * k9[i]
+        + ER10 * k10[i]
+        + ER11 * k11[i]
+        + ER12 * k12[i];
+    (e5, e3)
+}
 impl Pair for Dop853 {
     const NAME: &'static str = "DOP853";
     const ORDER: i32 = ORDER;
@@ -200,30 +225,11 @@ impl Pair for Dop853 {
 
     /// dop853.f's combined error estimate err5²/√(err5² + 0.01·err3²) in Hairer's RMS norm.
     fn error(x: &[f64], y: &[f64], k: &[&[f64]], hs: f64, settings: &Settings) -> f64 {
-        let &[k1, _, _, _, _, k6, k7, k8, k9, k10, k11, k12] = k else {
-            unreachable!("DOP853 has 12 stages")
-        };
         let n = x.len();
         let (mut err5, mut err3) = (0.0, 0.0);
         for i in 0..n {
             let sk = settings.atol[i] + settings.rtol * x[i].abs().max(y[i].abs());
-            let bsum = B1 * k1[i]
-                + B6 * k6[i]
-                + B7 * k7[i]
-                + B8 * k8[i]
-                + B9 * k9[i]
-                + B10 * k10[i]
-                + B11 * k11[i]
-                + B12 * k12[i];
-            let e3 = bsum - BHH1 * k1[i] - BHH2 * k9[i] - BHH3 * k12[i];
-            let e5 = ER1 * k1[i]
-                + ER6 * k6[i]
-                + ER7 * k7[i]
-                + ER8 * k8[i]
-                + ER9 * k9[i]
-                + ER10 * k10[i]
-                + ER11 * k11[i]
-                + ER12 * k12[i];
+            let (e5, e3) = error_terms(k, i);
             err3 += (e3 / sk).powi(2);
             err5 += (e5 / sk).powi(2);
         }
@@ -238,31 +244,13 @@ impl Pair for Dop853 {
 
     /// `h·e5` and `h·e3`, the terms of [`Pair::error`].
     fn estimates(k: &[&[f64]], hs: f64, out: &mut [Vec<f64>]) {
-        let &[k1, _, _, _, _, k6, k7, k8, k9, k10, k11, k12] = k else {
-            unreachable!("DOP853 has 12 stages")
-        };
         let [e5, e3] = out else {
             unreachable!("two estimates")
         };
         for i in 0..e5.len() {
-            let bsum = B1 * k1[i]
-                + B6 * k6[i]
-                + B7 * k7[i]
-                + B8 * k8[i]
-                + B9 * k9[i]
-                + B10 * k10[i]
-                + B11 * k11[i]
-                + B12 * k12[i];
-            e3[i] = hs * (bsum - BHH1 * k1[i] - BHH2 * k9[i] - BHH3 * k12[i]);
-            e5[i] = hs
-                * (ER1 * k1[i]
-                    + ER6 * k6[i]
-                    + ER7 * k7[i]
-                    + ER8 * k8[i]
-                    + ER9 * k9[i]
-                    + ER10 * k10[i]
-                    + ER11 * k11[i]
-                    + ER12 * k12[i]);
+            let (t5, t3) = error_terms(k, i);
+            e5[i] = hs * t5;
+            e3[i] = hs * t3;
         }
     }
 

@@ -58,6 +58,14 @@ const E7: f64 = -1.0 / 40.0;
 /// `rhs_evals = 1 + [memory.h == 0] + 6·(steps + rejected)` for the call.
 pub(super) struct Dopri5;
 
+/// Component `i` of Σ eᵢ kᵢ, the difference of the 5th- and 4th-order solutions over h
+/// (dopri5.f's error estimate), for [`Pair::error`] and [`Pair::estimates`].
+fn error_term(k: &[&[f64]], i: usize) -> f64 {
+    let &[k1, _, k3, k4, k5, k6, k7] = k else {
+        unreachable!("DOPRI5 has 7 stages")
+    };
+    E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]
+}
 impl Pair for Dopri5 {
     const NAME: &'static str = "DOPRI5";
     const ORDER: i32 = 5;
@@ -90,13 +98,9 @@ impl Pair for Dopri5 {
     /// Hairer's RMS norm of the local error estimate `h·Σ eᵢ kᵢ` with weights
     /// `atol + rtol·max(|x|, |y|)` (scipy's RK45 uses the same norm).
     fn error(x: &[f64], y: &[f64], k: &[&[f64]], hs: f64, settings: &Settings) -> f64 {
-        let &[k1, _, k3, k4, k5, k6, k7] = k else {
-            unreachable!("DOPRI5 has 7 stages")
-        };
         let mut sum = 0.0;
         for i in 0..x.len() {
-            let e =
-                hs * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
+            let e = hs * error_term(k, i);
             let sk = settings.atol[i] + settings.rtol * x[i].abs().max(y[i].abs());
             sum += (e / sk).powi(2);
         }
@@ -107,11 +111,8 @@ impl Pair for Dopri5 {
 
     /// `h·Σ eᵢ kᵢ`, the terms of [`Pair::error`].
     fn estimates(k: &[&[f64]], hs: f64, out: &mut [Vec<f64>]) {
-        let &[k1, _, k3, k4, k5, k6, k7] = k else {
-            unreachable!("DOPRI5 has 7 stages")
-        };
         for (i, e) in out[0].iter_mut().enumerate() {
-            *e = hs * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
+            *e = hs * error_term(k, i);
         }
     }
 
