@@ -192,6 +192,69 @@ fn mass_matrix_forces_and_constraints_equal_the_test_sets_formulas() {
     assert!(wm < 1e-13 && wf < 1e-12 && wg < 1e-14 && wgp < 1e-14);
 }
 
+/// RATTLE's mass matrix and constraint rows by the tree's own algorithms (CRBA, the
+/// closures' kinematics: `Lagrangian::mass_matrix_by_algorithm`,
+/// `constraint_rows_by_algorithm`) are the test set's formulas too, its force `Q + ∂L/∂q`
+/// by RNEA and a dual CRBA (`force_by_algorithm`) is automatic differentiation's, and T
+/// has no term linear in q̇ (RATTLE's b = 0).
+#[test]
+fn rattles_mass_matrix_and_constraint_rows_by_algorithm_are_the_test_sets() {
+    let (u, p) = (inputs(), params());
+    let mut rng = Rng(0x7a77_1e5e);
+    let (mut wm, mut wf, mut wg, mut wgp) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    for _ in 0..50 {
+        let q: Vec<f64> = (0..7).map(|_| rng.uniform(-3.0, 3.0)).collect();
+        let qd: Vec<f64> = (0..7).map(|_| rng.uniform(-500.0, 500.0)).collect();
+        let (m, _, g, gp) = test_set(&q, &qd);
+        // F = Q + ∂L/∂q, against one dual evaluation of L per coordinate.
+        let by_ad = lagrangian::generalized_force::<R>(0.0, &q, &qd, &u, &p);
+        let mut ours_f = [0.0; 7];
+        assert!(<R as Lagrangian>::force_by_algorithm(
+            0.0,
+            &q,
+            &qd,
+            &u,
+            &p,
+            &mut ours_f
+        ));
+        let f_scale = by_ad.iter().fold(MOM, |s, v| s.max(v.abs()));
+        for (a, b) in ours_f.iter().zip(&by_ad) {
+            wf = wf.max((a - b).abs() / f_scale);
+        }
+        let (mut ours_m, mut ours_g, mut ours_gp) = ([0.0; 49], [0.0; 6], [0.0; 42]);
+        assert!(<R as Lagrangian>::mass_matrix_by_algorithm(
+            &q,
+            &p,
+            &mut ours_m
+        ));
+        assert!(<R as Lagrangian>::constraint_rows_by_algorithm(
+            &q,
+            &p,
+            &mut ours_g,
+            &mut ours_gp
+        ));
+        let m_scale = m.iter().flatten().fold(0.0f64, |s, v| s.max(v.abs()));
+        for i in 0..7 {
+            for j in 0..7 {
+                wm = wm.max((ours_m[i * 7 + j] - m[i][j]).abs() / m_scale);
+            }
+        }
+        for r in 0..6 {
+            wg = wg.max((ours_g[r] - g[r]).abs() / D);
+            for j in 0..7 {
+                wgp = wgp.max((ours_gp[r * 7 + j] - gp[r][j]).abs() / D);
+            }
+        }
+    }
+    println!("METRIC AndrewsSqueezer RATTLE's M, g, G by algorithm vs the test set, F vs automatic differentiation (relative): M {wm:.2e}, g {wg:.2e}, G {wgp:.2e}, F {wf:.2e}");
+    // Rounding of two evaluation orders, as above.
+    assert!(
+        wm < 1e-13 && wg < 1e-14 && wgp < 1e-14 && wf < 1e-12,
+        "{wm} {wg} {wgp} {wf}"
+    );
+    assert!(<R as Lagrangian>::kinetic_is_quadratic());
+}
+
 /// The test set's consistent initial values also give the accelerations and multipliers
 /// at t = 0 (its y₁₅…y₂₇): the λ-method on the mechanism gives them again.
 #[test]

@@ -152,7 +152,10 @@ pub struct Scratch {
 
 /// RATTLE for one [`FixedCall`] (its step `h` not positive and finite: one step), on the
 /// state `x = (q, q̇)` of the FMU: converted to `p` at the start and
-/// back at the end of the call. `stats.rhs_evals` counts evaluations of `F`.
+/// back at the end of the call. `stats.rhs_evals` counts evaluations of `F`, and
+/// `stats.jacobians` the Newton matrices (one a step, by 2n + m residuals, each with its
+/// factorisation of M: what dominates the step's cost on many coordinates, and what the
+/// work bound must see).
 ///
 /// In the scratch of `w`: the method allocates nothing once `w` has held these sizes (what
 /// `mech` does is its own).
@@ -371,6 +374,7 @@ fn step(
             jac[j * size + i] = (rj[i] - r[i]) / delta;
         }
     }
+    stats.jacobians += 1;
     newton_lu.factor(size, |i, j| jac[j * size + i]);
     if !newton_lu.is_invertible() {
         return Err(fail(0));

@@ -203,6 +203,47 @@ pub trait Lagrangian: 'static {
         false
     }
 
+    /// RATTLE's mass matrix M(q) (n × n, row-major, into `m`) by the system's own
+    /// algorithm (a tree's CRBA), returning `true` when it has one. `false` (the default):
+    /// M by automatic differentiation of T, one hyper-dual evaluation per entry (n²/2
+    /// passes of T: seconds a RATTLE step for 81 coordinates).
+    fn mass_matrix_by_algorithm(_q: &[f64], _p: &[f64], _m: &mut [f64]) -> bool {
+        false
+    }
+
+    /// RATTLE's generalised force `F = Q + ∂L/∂q` (into `f`) by the system's own
+    /// algorithm (a tree's RNEA), returning `true` when it has one; `false` (the default):
+    /// ∂L/∂q by one dual evaluation of L per coordinate.
+    fn force_by_algorithm(
+        _t: f64,
+        _q: &[f64],
+        _qd: &[f64],
+        _u: &[f64],
+        _p: &[f64],
+        _f: &mut [f64],
+    ) -> bool {
+        false
+    }
+
+    /// True when T = ½ q̇ᵀ M(q) q̇ exactly, with no term linear in q̇: RATTLE's momentum
+    /// offset `b(q)` is then 0 without n evaluations of T. Default: false.
+    fn kinetic_is_quadratic() -> bool {
+        false
+    }
+
+    /// RATTLE's constraint values `g(q)` and rows `G = ∂g/∂q` (m × n, row-major) by the
+    /// system's own algorithm (a tree's closure kinematics), returning `true` when it has
+    /// one; `false` (the default): G by automatic differentiation of
+    /// [`constraints`](Lagrangian::constraints).
+    fn constraint_rows_by_algorithm(
+        _q: &[f64],
+        _p: &[f64],
+        _g: &mut [f64],
+        _jac: &mut [f64],
+    ) -> bool {
+        false
+    }
+
     /// [`System::error_on_manifold`]. Default: false.
     fn error_on_manifold() -> bool {
         false
@@ -528,6 +569,9 @@ impl<L: Lagrangian> Mechanics for LagrangianMechanics<'_, L> {
     }
 
     fn mass_matrix(&mut self, q: &[f64], m: &mut [f64]) {
+        if L::mass_matrix_by_algorithm(q, self.p, m) {
+            return;
+        }
         let n = q.len();
         // T quadratic in q̇: M does not depend on q̇.
         for (i, row) in mass_matrix::<L, f64>(0.0, q, &vec![0.0; n], self.p)
@@ -539,14 +583,24 @@ impl<L: Lagrangian> Mechanics for LagrangianMechanics<'_, L> {
     }
 
     fn momentum_offset(&mut self, q: &[f64], b: &mut [f64]) {
+        if L::kinetic_is_quadratic() {
+            b.fill(0.0);
+            return;
+        }
         b.copy_from_slice(&momentum_offset::<L>(q, self.p));
     }
 
     fn force(&mut self, t: f64, q: &[f64], qd: &[f64], f: &mut [f64]) {
+        if L::force_by_algorithm(t, q, qd, self.u, self.p, f) {
+            return;
+        }
         f.copy_from_slice(&generalized_force::<L>(t, q, qd, self.u, self.p));
     }
 
     fn constraints(&mut self, q: &[f64], g: &mut [f64], jac: &mut [f64]) {
+        if L::constraint_rows_by_algorithm(q, self.p, g, jac) {
+            return;
+        }
         let n = q.len();
         g.copy_from_slice(&constraint_values::<L, f64>(0.0, q, self.p));
         for (i, row) in constraint_jacobian::<L, f64>(0.0, q, self.p)

@@ -1681,6 +1681,85 @@ impl<D: Declared> Lagrangian for Robot<D> {
         D::CONSTRAINTS > 0 && closes_on_the_tree(&D::built().model)
     }
 
+    /// On a fixed base without mimic joints ([`closes_on_the_tree`]): M by CRBA.
+    fn mass_matrix_by_algorithm(q: &[f64], _p: &[f64], m: &mut [f64]) -> bool {
+        let b = D::built();
+        if !closes_on_the_tree(&b.model) {
+            return false;
+        }
+        m.copy_from_slice(&coordinate_mass(b, &q[..b.order.len()]));
+        true
+    }
+
+    /// On a fixed base without mimic joints: `F = Q + Ṁ q̇ − RNEA(q, q̇, 0) − ∂V_springs/∂q`.
+    /// Lagrange's `M q̈ + Ṁ q̇ − ∂T/∂q + ∂V/∂q = Q` against RNEA's `M q̈ + C q̇ + g` gives
+    /// `∂T/∂q = Ṁ q̇ − C q̇`; Ṁ is one CRBA on dual numbers along q̇ (O(bodies · depth)
+    /// against one dual pass of L per coordinate).
+    fn force_by_algorithm(
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+        u: &[f64],
+        p: &[f64],
+        f: &mut [f64],
+    ) -> bool {
+        let b = D::built();
+        if !closes_on_the_tree(&b.model) {
+            return false;
+        }
+        Self::forces(t, q, qd, u, p, f);
+        let (qm, qdm) = (b.positions_to_model(q), b.velocities_to_model(qd));
+        let nm = b.model.nq();
+        let along: Vec<Dual64> = qm
+            .iter()
+            .zip(qdm.iter())
+            .map(|(&x, &v)| Dual64::new(x, v))
+            .collect();
+        let mut m_dot = vec![Dual64::from(0.0); nm * nm];
+        with_workspace(&b.model, |data| b.model.crba_in(data, &along, &mut m_dot));
+        let mut bias = vec![0.0; nm];
+        with_workspace(&b.model, |data| {
+            b.model.rnea_in(data, &qm, &qdm, &vec![0.0; nm], &mut bias)
+        });
+        let springs = spring_gradient(&b.model, &qm);
+        for (k, &i) in b.order.iter().enumerate() {
+            let row = &m_dot[i * nm..(i + 1) * nm];
+            let m_dot_qd: f64 = row.iter().zip(qdm.iter()).map(|(m, v)| m.eps * v).sum();
+            f[k] += m_dot_qd - bias[i] - springs[i];
+        }
+        true
+    }
+
+    /// A fixed base's T is ½ q̇ᵀ M q̇ (a floating base's too, but its velocities are not
+    /// its coordinates' rates, and mimic joints' T is over the model's coordinates).
+    fn kinetic_is_quadratic() -> bool {
+        closes_on_the_tree(&D::built().model)
+    }
+
+    /// On a fixed base without mimic joints: the closures' Φ and G by their kinematics
+    /// ([`closed::kinematics`]), the columns in the coordinates' order.
+    fn constraint_rows_by_algorithm(q: &[f64], _p: &[f64], g: &mut [f64], jac: &mut [f64]) -> bool {
+        let b = D::built();
+        if !closes_on_the_tree(&b.model) {
+            return false;
+        }
+        if g.is_empty() {
+            return true;
+        }
+        let n = b.order.len();
+        let qm = b.positions_to_model(q);
+        let (nm, k) = (b.model.nq(), g.len());
+        let mut rows = vec![vec![0.0; nm]; k];
+        let mut curvature = vec![0.0; k];
+        closed::kinematics(&b.model, &qm, &vec![0.0; nm], g, &mut rows, &mut curvature);
+        for (row, out) in rows.iter().zip(jac.chunks_exact_mut(n)) {
+            for (o, &i) in out.iter_mut().zip(&b.order) {
+                *o = row[i];
+            }
+        }
+        true
+    }
+
     /// With loop closures on the tree ([`closes_on_the_tree`]): onto the closures by the
     /// rank-revealing solve ([`closed::project`]), which a redundant or singular G does not
     /// stop.
