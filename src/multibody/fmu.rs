@@ -1542,10 +1542,13 @@ impl<D: Declared> Lagrangian for Robot<D> {
     const TIME_IN_FORCES_OR_OUTPUTS: bool = false;
     /// One per loop-closure axis.
     const CONSTRAINTS: usize = D::CONSTRAINTS;
-    /// With closures the λ-method runs on automatic differentiation of T (hyper-dual
-    /// numbers, allocations in the kinematics): ~7 µs per state for AndrewsSqueezer, against
-    /// ≤ 0.2 µs for the systems the doStep work bound was set on.
-    const EVALUATION_WEIGHT: u64 = if D::CONSTRAINTS > 0 { 50 } else { 1 };
+    /// With closures f is the tree's M and bias with the closures' G, Ġq̇ and the
+    /// rank-revealing solve: measured 0.51 µs per state for AndrewsSqueezer (7.1 µs, 14
+    /// states) and 0.23 µs for FourBar (`mbfmu speed`), against 0.11 µs for
+    /// NonlinearBicycle, the costliest per state of the systems the doStep work bound was
+    /// set on (docs/methods.md): 0.51 / 0.11 rounded up. (It was 50 while closures ran on
+    /// automatic differentiation of T, ~7 µs per state.)
+    const EVALUATION_WEIGHT: u64 = if D::CONSTRAINTS > 0 { 5 } else { 1 };
 
     /// A floating base's quaternion: 7 coordinates, 6 velocities.
     fn surplus_coordinates() -> usize {

@@ -47,8 +47,8 @@ def _run(model, solver, ders, steps=4):
             for (vr, order), value in ders.items():
                 statuses.append(inst.call("fmi2SetRealInputDerivatives", (c_uint * 1)(vr), 1,
                                           (c_int * 1)(order), (c_double * 1)(value)))
-            # A discard ends the run at its last good state (AndrewsSqueezer under RADAU5
-            # reaches its weighted work bound); the comparison is on the states reached.
+            # A discard ends the run at its last good state (a costly solver may spend the
+            # doStep's work bound); the comparison is on the states reached.
             st = inst.do_step(h)
             assert st in (0, 1, 2), f"{model.name} solver {solver}: doStep failed"
             if st == 2:
