@@ -520,13 +520,12 @@ pub fn advance_dense_in(ahead: &mut Ahead, c: DenseCall<Scratch>) -> Result<(), 
         t0,
         err_prev,
     } = &mut ahead.point;
-    let on_manifold = c.problem.error_on_manifold;
-    let (rhs, point) = (&mut *c.problem.rhs, (t, &mut x[..], f));
+    let point = (t, &mut x[..], f);
     let (settings, memory, work) = (c.settings, c.memory, c.work);
     let rk = &mut work.rk;
     let past = step_past::<Dop853>(
-        rhs,
-        (c.project, on_manifold),
+        &mut *c.problem,
+        c.project,
         point,
         *err_prev,
         ends,

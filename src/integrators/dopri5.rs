@@ -313,18 +313,10 @@ pub fn advance_dense_in(ahead: &mut Ahead, c: DenseCall<Scratch>) -> Result<(), 
         t0,
         err_prev,
     } = &mut ahead.point;
-    let on_manifold = c.problem.error_on_manifold;
-    let (rhs, point, ends) = (&mut *c.problem.rhs, (t, &mut x[..], f), (t_out, t_limit));
+    let (point, ends) = ((t, &mut x[..], f), (t_out, t_limit));
     let (settings, memory, work) = (c.settings, c.memory, c.work);
     let past = step_past::<Dopri5>(
-        rhs,
-        (c.project, on_manifold),
-        point,
-        *err_prev,
-        ends,
-        settings,
-        memory,
-        work,
+        c.problem, c.project, point, *err_prev, ends, settings, memory, work,
     )?;
     if let Some(last) = past {
         *t0 = last.t0;

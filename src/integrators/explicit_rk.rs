@@ -5,6 +5,7 @@
 
 use super::blob::{put_f64s, Reader};
 use super::buffers::sized;
+use super::problem::Problem;
 use super::{Failure, Memory, Settings, Stats};
 
 /// A step that would end less than 1 % before the target is stretched to land on it,
@@ -358,6 +359,20 @@ impl Stages {
         settings: &Settings,
         stats: &mut Stats,
     ) -> Result<f64, Failure> {
+        self.take_stages::<P>(rhs, k1, (t0, t_new), x, hs, stats)?;
+        self.raw_error::<P>(k1, x, hs, settings, t0)
+    }
+
+    /// The stages and the solution `y` of [`attempt`](Stages::attempt), without its error.
+    fn take_stages<P: Pair>(
+        &mut self,
+        rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
+        k1: &[f64],
+        (t0, t_new): (f64, f64),
+        x: &[f64],
+        hs: f64,
+        stats: &mut Stats,
+    ) -> Result<(), Failure> {
         let bad = || Failure::NonFinite { t: t0 };
         let last = P::STAGES.len() - 1;
         for (s, &(c, row)) in P::STAGES.iter().enumerate() {
@@ -377,17 +392,30 @@ impl Stages {
                 return Err(bad());
             }
         }
-        let k = stages(k1, &self.k);
         if let Some(weights) = P::SOLUTION {
-            stage_row(&mut self.y, x, hs, weights, &k);
+            stage_row(&mut self.y, x, hs, weights, &stages(k1, &self.k));
             if !self.y.iter().all(|v| v.is_finite()) {
                 return Err(bad());
             }
         }
+        Ok(())
+    }
+
+    /// The error norm of the step [`take_stages`](Stages::take_stages) took, off the
+    /// manifold (the pair's own estimate).
+    fn raw_error<P: Pair>(
+        &self,
+        k1: &[f64],
+        x: &[f64],
+        hs: f64,
+        settings: &Settings,
+        t0: f64,
+    ) -> Result<f64, Failure> {
+        let k = stages(k1, &self.k);
         let err = P::error(x, &self.y, &k[..=P::STAGES.len()], hs, settings);
         if err.is_nan() {
             // Only possible with a zero weight (atol = rtol·|x| = 0): no error can be judged.
-            return Err(bad());
+            return Err(Failure::NonFinite { t: t0 });
         }
         Ok(err)
     }
@@ -546,12 +574,13 @@ pub(super) fn land<P: Pair>(
 
 /// Dense mode's steps of a pair: if `t_out` lies past the point `(t, x, f = f(t, x))`,
 /// steps it until its last step covers `t_out` (cut only to land on `t_limit`), `project`
-/// after every accepted step, and returns that step (its record in `work.record`).
+/// after every accepted step (each step's error measured after it when the problem says
+/// [`error_on_manifold`](Problem::error_on_manifold)), and returns that step (its record in `work.record`).
 /// `err_prev`: the controller's memory the point kept (0: none). `memory.h` reset on failure.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn step_past<P: Pair>(
-    rhs: &mut dyn FnMut(f64, &[f64], &mut [f64]),
-    (project, error_on_manifold): Projection,
+    problem: &mut Problem,
+    project: &mut dyn FnMut(f64, &mut [f64]),
     (t, x, f): (&mut f64, &mut [f64], &mut Vec<f64>),
     err_prev: f64,
     (t_out, t_limit): (f64, f64),
@@ -567,7 +596,8 @@ pub(super) fn step_past<P: Pair>(
         (err_prev > 0.0).then_some(err_prev),
     );
     let steps = (&mut work.stages, &mut work.record);
-    let project = Some((project, error_on_manifold));
+    let project = Some((project, problem.error_on_manifold));
+    let rhs = &mut *problem.rhs;
     let result = run::<P>(rhs, (t, x), f, ends, project, settings, memory, steps);
     if result.is_err() {
         memory.h = 0.0;
@@ -576,7 +606,7 @@ pub(super) fn step_past<P: Pair>(
 }
 
 /// The map onto the constraints applied after every accepted step, and whether the
-/// step's error is measured after it ([`Problem::error_on_manifold`](super::Problem)).
+/// step's error is measured after it ([`Problem::error_on_manifold`]).
 type Projection<'p> = (&'p mut dyn FnMut(f64, &mut [f64]), bool);
 
 /// The stepping loop of both modes. `k1` holds f(t, x) on entry. Landing mode evaluates f
@@ -631,19 +661,19 @@ fn run<P: Pair>(
             }
             k1_fresh = true;
         }
-        let mut err = w.attempt::<P>(rhs, k1, (t0, t_new), x, hs, settings, stats)?;
-        let on_manifold = match project.as_mut() {
+        w.take_stages::<P>(rhs, k1, (t0, t_new), x, hs, stats)?;
+        let (err, on_manifold) = match project.as_mut() {
             Some((project, true)) => {
                 let k = stages(k1, &w.k);
                 let (xy, k) = ((&x[..], &w.y[..]), &k[..=P::STAGES.len()]);
-                err = w.manifold.error::<P>(*project, t_new, xy, k, hs, settings);
+                let err = w.manifold.error::<P>(*project, t_new, xy, k, hs, settings);
                 if err.is_nan() {
                     // A projection that broke down: nothing to judge, nothing accepted.
                     return Err(Failure::NonFinite { t: t0 });
                 }
-                true
+                (err, true)
             }
-            _ => false,
+            _ => (w.raw_error::<P>(k1, x, hs, settings, t0)?, false),
         };
         if err > 1.0 {
             stats.rejected += 1;
