@@ -121,7 +121,12 @@ impl LinearizeRequest {
     /// The answer of `M` (what its cdylib would send).
     pub fn answer<M: System>(&self) -> Result<LinearizeAnswer, String> {
         let model = M::name();
-        let mut overrides: Vec<(String, f64)> = Vec::new();
+        // A scene's start values replace the system's operating point, else --at goes on it.
+        let mut overrides: Vec<(String, f64)> = if self.scenes.is_empty() {
+            M::linearization_point()
+        } else {
+            Vec::new()
+        };
         for name in &self.scenes {
             let scene = M::scenes()
                 .into_iter()
@@ -182,8 +187,9 @@ fn package<M: System>(
     traced: Option<String>,
     pictures: Option<&dyn crate::docs::page::Pictures>,
 ) -> Result<Records, String> {
-    // The linearisation at the default operating point (the start values).
-    let lin = linearize_at::<M>(&[], None, &States::All)?;
+    // The linearisation at the system's operating point (the start values where it names
+    // none).
+    let lin = linearize_at::<M>(&M::linearization_point(), None, &States::All)?;
     let reference = crate::docs::reference::reference::<M>()?;
     // The page reads the model in its independent states where the constraints allow.
     let page_lin = linearize::reduced::<M>(&lin, None).unwrap_or_else(|_| lin.clone());

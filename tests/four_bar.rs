@@ -306,3 +306,45 @@ fn initialisation_keeps_the_crank_and_solves_the_loop() {
     assert_eq!(status, mbfmu::fmi::Status::Warning);
     assert!(wrap(x[2] - want[2]).abs() < 1e-13, "{x:?}");
 }
+
+/// The FMU's linearisation (its `linearization.json`, its page, `mbfmu linearize FourBar`)
+/// is taken at the held linkage, a stable equilibrium, not at the running start: in the
+/// independent states (crank, crank_dot) A = [[0, 1], [−ω², 0]] with ω² = V''/J of the
+/// reduced model's closed forms, and the holding torque is V'.
+#[test]
+fn the_linearisation_is_at_the_held_stable_equilibrium() {
+    use mbfmu::describe::linearize_at;
+    use mbfmu::linearize::States;
+    let point = <R as System>::linearization_point();
+    let lin = linearize_at::<R>(&point, None, &States::Independent).unwrap();
+    assert_eq!(lin.state_names, ["crank", "crank_dot"]);
+    assert_eq!(lin.point.x[0], CRANK_START);
+    assert!(lin.point.x[3..].iter().all(|&v| v == 0.0), "at rest");
+    // Central differences of the closed forms, step 1e-4: truncation ~1e-9, rounding
+    // ε V / h² ~ 1e-8 of V''.
+    let h = 1e-4;
+    let (j, v) = inertia_and_potential(CRANK_START);
+    let (_, vp) = inertia_and_potential(CRANK_START + h);
+    let (_, vm) = inertia_and_potential(CRANK_START - h);
+    let (dv, d2v) = ((vp - vm) / (2.0 * h), (vp - 2.0 * v + vm) / (h * h));
+    let omega2 = d2v / j;
+    println!(
+        "METRIC FourBar linearised at θ2 = {CRANK_START}: A21 = {:.10e}, −V''/J = {:.10e}; holding torque {:.10e} vs V' {dv:.10e}; residual {:.1e}",
+        lin.a[(1, 0)],
+        -omega2,
+        lin.point.u[0],
+        lin.residual
+    );
+    assert!(omega2 > 0.0, "a stable equilibrium: V convex");
+    assert!(lin.residual < 1e-10, "{}", lin.residual);
+    assert!(
+        (lin.point.u[0] - dv).abs() < 1e-8 * dv.abs(),
+        "{} vs {dv}",
+        lin.point.u[0]
+    );
+    assert!((lin.a[(1, 0)] + omega2).abs() < 1e-6 * omega2);
+    assert_eq!(
+        (lin.a[(0, 0)], lin.a[(0, 1)], lin.a[(1, 1)]),
+        (0.0, 1.0, 0.0)
+    );
+}

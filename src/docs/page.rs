@@ -251,12 +251,27 @@ fn scene_section<M: System>(
     h
 }
 
-fn linearisation_section(lin: &Linearization) -> String {
+/// The linearisation's section; `own_point`: taken at the system's own operating point
+/// ([`System::linearization_point`](crate::model::System::linearization_point)), not at
+/// the start values.
+fn linearisation_section(lin: &Linearization, own_point: bool) -> String {
     let mut h = String::from(
         "<h2 id=\"linearisation\">Linearisation at the default operating point</h2>\n",
     );
+    let about = if own_point {
+        let values: Vec<String> = (lin.state_names.iter().zip(lin.x0()))
+            .chain(lin.input_names.iter().zip(lin.point.u.iter().copied()))
+            .map(|(n, v)| format!("{} = {}", escape(n), number(v)))
+            .collect();
+        format!(
+            "the system's operating point, a stable equilibrium ({}), not the start values, where it is not at rest",
+            values.join(", ")
+        )
+    } else {
+        "the start values".to_string()
+    };
     h.push_str(&format!(
-        "<p>ẋ = A x + B u about the start values (exact derivatives, {}; also in <code>resources/linearization.json</code> and <code>resources/linearized_model.py</code>, and from <code>mbfmu linearize</code>). States x = ({}); inputs u = ({}).{}{}</p>\n",
+        "<p>ẋ = A x + B u about {about} (exact derivatives, {}; also in <code>resources/linearization.json</code> and <code>resources/linearized_model.py</code>, and from <code>mbfmu linearize</code>). States x = ({}); inputs u = ({}).{}{}</p>\n",
         escape(lin.method),
         names_math(&lin.state_names),
         names_math(&lin.input_names),
@@ -435,7 +450,10 @@ pub fn page<M: System>(
     }
 
     match lin {
-        Some(lin) => h.push_str(&linearisation_section(lin)),
+        Some(lin) => h.push_str(&linearisation_section(
+            lin,
+            !M::linearization_point().is_empty(),
+        )),
         None => h.push_str("<h2 id=\"linearisation\">Linearisation</h2>\n<p>Not available at the start values (a derivative is singular there).</p>\n"),
     }
 

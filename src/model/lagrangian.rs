@@ -137,6 +137,11 @@ pub trait Lagrangian: 'static {
     /// The configured experiments of this system.
     fn scenes() -> Vec<Scene>;
 
+    /// [`System::linearization_point`]. Default: none.
+    fn linearization_point() -> Vec<(String, f64)> {
+        Vec::new()
+    }
+
     /// How many holonomic constraints `Φ(q) = 0` [`constraints`](Lagrangian::constraints)
     /// returns: 0 (the default) for minimal coordinates. With m > 0 the coordinates are
     /// surplus and the equations of motion carry m multipliers λ (the λ-method):
@@ -344,6 +349,9 @@ impl<L: Lagrangian> Lagrangian for AutoDiff<L> {
     }
     fn scenes() -> Vec<Scene> {
         <L as Lagrangian>::scenes()
+    }
+    fn linearization_point() -> Vec<(String, f64)> {
+        <L as Lagrangian>::linearization_point()
     }
     fn constraints<S: Scalar>(t: S, q: &[S], p: &[S], phi: &mut [S]) {
         L::constraints(t, q, p, phi)
@@ -890,6 +898,9 @@ impl<L: Lagrangian> System for L {
 
     fn scenes() -> Vec<Scene> {
         <L as Lagrangian>::scenes()
+    }
+    fn linearization_point() -> Vec<(String, f64)> {
+        <L as Lagrangian>::linearization_point()
     }
 
     /// Time enters f and g through T, V, the constraints (rheonomic), or the forces and

@@ -268,6 +268,14 @@ pub trait System: 'static {
     /// The configured experiments of this system.
     fn scenes() -> Vec<Scene>;
 
+    /// Start values (by name) of the operating point the FMU's shipped linearisation, its
+    /// page and `mbfmu linearize` without `--scene` are taken at, over the start values: a
+    /// stable equilibrium where the start values are not one (a mechanism started moving).
+    /// Default: none (the start values themselves).
+    fn linearization_point() -> Vec<(String, f64)> {
+        Vec::new()
+    }
+
     /// Whether `f` (first) and `g` (second) depend on `t` other than through x and u, with
     /// these parameters. `t` is an `f64` in them, so dual numbers cannot carry ∂/∂t: the
     /// exact output derivatives (fmi2GetRealOutputDerivatives) that would need it are

@@ -151,6 +151,11 @@ pub trait Declared: 'static {
     fn scenes(generated: Vec<Scene>) -> Vec<Scene> {
         generated
     }
+
+    /// [`System::linearization_point`]. Default: none (the start values).
+    fn linearization_point() -> Vec<(String, f64)> {
+        Vec::new()
+    }
 }
 
 /// Declares a mechanism type for an FMU: `mechanism_fmu!(pub Ur5, "ur5", mechanism)` with
@@ -1865,6 +1870,10 @@ impl<D: Declared> Lagrangian for Robot<D> {
 
     fn scenes() -> Vec<Scene> {
         D::scenes(D::built().scenes.clone())
+    }
+
+    fn linearization_point() -> Vec<(String, f64)> {
+        D::linearization_point()
     }
 
     /// [`Declared::DEFAULT_EXPERIMENT`]: by default two seconds held by the gravity

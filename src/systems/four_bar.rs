@@ -129,6 +129,25 @@ crate::mechanism_fmu!(
         const DESCRIPTION: &'static str =
             "Planar four-bar linkage (Grashof crank-rocker) declared as bodies, joints and one loop closure, with gravity and a crank torque";
 
+        /// The linkage held at rest at θ2 = CRANK_START by its holding torques
+        /// (HeldFourBar's start values, the dependent positions from their closed form): a
+        /// stable equilibrium (V convex there), which the running start is not.
+        fn linearization_point() -> Vec<(String, f64)> {
+            let held = HeldFourBar::built();
+            let rocker = freudenstein_rocker(CRANK_START);
+            let dependent = [
+                ("coupler".to_string(), open_coupler(CRANK_START, rocker)),
+                ("rocker".to_string(), rocker),
+            ];
+            held.coordinates
+                .iter()
+                .chain(&held.velocities)
+                .chain(&held.inputs)
+                .map(|v| (v.name.to_string(), v.start))
+                .chain(dependent)
+                .collect()
+        }
+
         fn scenes(generated: Vec<crate::model::Scene>) -> Vec<crate::model::Scene> {
             // `step` from the linkage held at θ2 = CRANK_START (held at the running start,
             // 1 rad, the equilibrium is unstable), its dependent positions said too:
