@@ -1455,9 +1455,9 @@ fn coordinate_mass<S: Scalar>(b: &Built, q: &[S]) -> Vec<S> {
     m
 }
 
-/// The closures' G (columns in the coordinates' order) and curvature Ġ q̇ at the model's
-/// `(q, q̇)`, analytically ([`closed::kinematics`]).
-fn coordinate_closures<S: Scalar>(b: &Built, qm: &[S], qdm: &[S]) -> (Vec<Vec<S>>, Vec<S>) {
+/// The closures' residuals Φ, G (columns in the coordinates' order) and curvature Ġ q̇ at
+/// the model's `(q, q̇)`, analytically ([`closed::kinematics`]).
+fn coordinate_closures<S: Scalar>(b: &Built, qm: &[S], qdm: &[S]) -> (Vec<S>, Vec<Vec<S>>, Vec<S>) {
     let (n, k) = (b.model.nq(), b.model.closure_residuals());
     let (mut phi, mut g, mut curvature) = (
         vec![S::zero(); k],
@@ -1469,7 +1469,7 @@ fn coordinate_closures<S: Scalar>(b: &Built, qm: &[S], qdm: &[S]) -> (Vec<Vec<S>
         .iter()
         .map(|row| b.order.iter().map(|&i| row[i]).collect())
         .collect();
-    (g, curvature)
+    (phi, g, curvature)
 }
 
 /// q̈ and the closures' multipliers λ (`M q̈ + Gᵀ λ = f`, as the λ-method's) of a tree
@@ -1488,7 +1488,7 @@ fn closed_accelerations<D: Declared, S: Scalar>(
     let b = D::built();
     let n = b.order.len();
     let qm = b.positions_to_model(q);
-    let (g, _) = coordinate_closures(b, &qm, &vec![S::zero(); n]);
+    let (_, g, _) = coordinate_closures(b, &qm, &vec![S::zero(); n]);
     let factored = closed::Factored::new(coordinate_mass(b, q), &b.structure, &g);
     let mut qd = qd.to_vec();
     factored.tangent(&mut qd);
@@ -1504,7 +1504,7 @@ fn closed_accelerations<D: Declared, S: Scalar>(
     for (k, &i) in b.order.iter().enumerate() {
         f[k] -= bias[i] + springs[i];
     }
-    let (_, curvature) = coordinate_closures(b, &qm, &qdm);
+    let (_, _, curvature) = coordinate_closures(b, &qm, &qdm);
     let c: Vec<S> = curvature.into_iter().map(|x| -x).collect();
     let mut mu = vec![S::zero(); g.len()];
     factored.accelerations(&f, &c, qdd, &mut mu);
@@ -1745,7 +1745,7 @@ impl<D: Declared> Lagrangian for Robot<D> {
     }
 
     /// On a fixed base without mimic joints: the closures' Φ and G by their kinematics
-    /// ([`closed::kinematics`]), the columns in the coordinates' order.
+    /// ([`coordinate_closures`]).
     fn constraint_rows_by_algorithm(q: &[f64], _p: &[f64], g: &mut [f64], jac: &mut [f64]) -> bool {
         let b = D::built();
         if !closes_on_the_tree(&b.model) {
@@ -1754,16 +1754,11 @@ impl<D: Declared> Lagrangian for Robot<D> {
         if g.is_empty() {
             return true;
         }
-        let n = b.order.len();
         let qm = b.positions_to_model(q);
-        let (nm, k) = (b.model.nq(), g.len());
-        let mut rows = vec![vec![0.0; nm]; k];
-        let mut curvature = vec![0.0; k];
-        closed::kinematics(&b.model, &qm, &vec![0.0; nm], g, &mut rows, &mut curvature);
-        for (row, out) in rows.iter().zip(jac.chunks_exact_mut(n)) {
-            for (o, &i) in out.iter_mut().zip(&b.order) {
-                *o = row[i];
-            }
+        let (phi, rows, _) = coordinate_closures(b, &qm, &vec![0.0; qm.len()]);
+        g.copy_from_slice(&phi);
+        for (row, out) in rows.iter().zip(jac.chunks_exact_mut(q.len())) {
+            out.copy_from_slice(row);
         }
         true
     }
@@ -1786,7 +1781,7 @@ impl<D: Declared> Lagrangian for Robot<D> {
             |q| {
                 let phi = crate::model::lagrangian::constraint_values::<Self, f64>(0.0, q, p);
                 let qm = b.positions_to_model(q);
-                let (g, _) = coordinate_closures(b, &qm, &vec![0.0; qm.len()]);
+                let (_, g, _) = coordinate_closures(b, &qm, &vec![0.0; qm.len()]);
                 (phi, g)
             },
         );

@@ -114,6 +114,16 @@ fn open_coupler(crank: f64, rocker: f64) -> f64 {
     (by - A * crank.sin()).atan2(bx - A * crank.cos()) - crank
 }
 
+/// The dependent positions of the linkage held at θ2 = [`CRANK_START`], from their closed
+/// form (Newton from the running start does not reach them): `coupler`, `rocker`.
+fn held_dependent_positions() -> [(&'static str, f64); 2] {
+    let rocker = freudenstein_rocker(CRANK_START);
+    [
+        ("coupler", open_coupler(CRANK_START, rocker)),
+        ("rocker", rocker),
+    ]
+}
+
 crate::mechanism_fmu!(
     /// The four-bar's declaration (its FMU model is [`FourBar`]).
     pub FourBarMechanism,
@@ -134,11 +144,7 @@ crate::mechanism_fmu!(
         /// stable equilibrium (V convex there), which the running start is not.
         fn linearization_point() -> Vec<(String, f64)> {
             let held = HeldFourBar::built();
-            let rocker = freudenstein_rocker(CRANK_START);
-            let dependent = [
-                ("coupler".to_string(), open_coupler(CRANK_START, rocker)),
-                ("rocker".to_string(), rocker),
-            ];
+            let dependent = held_dependent_positions().map(|(n, v)| (n.to_string(), v));
             held.coordinates
                 .iter()
                 .chain(&held.velocities)
@@ -152,16 +158,13 @@ crate::mechanism_fmu!(
             // `step` from the linkage held at θ2 = CRANK_START (held at the running start,
             // 1 rad, the equilibrium is unstable), its dependent positions said too:
             // Newton from the running start does not reach them.
-            let rocker = freudenstein_rocker(CRANK_START);
+            let [coupler, rocker] = held_dependent_positions();
             let held_step = HeldFourBar::built()
                 .scenes
                 .iter()
                 .find(|s| s.name == "step")
                 .cloned()
-                .map(|s| {
-                    s.set("coupler", open_coupler(CRANK_START, rocker))
-                        .set("rocker", rocker)
-                });
+                .map(|s| s.set(coupler.0, coupler.1).set(rocker.0, rocker.1));
             let mut generated: Vec<crate::model::Scene> = generated
                 .into_iter()
                 .flat_map(|s| if s.name == "step" { held_step.clone() } else { Some(s) })
