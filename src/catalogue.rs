@@ -60,5 +60,6 @@ pub fn all() -> Vec<Entry> {
         entry::<PulledPendulum>("pulled_pendulum"),
         entry::<FourBar>("four_bar"),
         entry::<AndrewsSqueezer>("andrews_squeezer"),
+        entry::<NFourBar>("n_four_bar"),
     ]
 }

@@ -25,6 +25,10 @@ pub const REFERENCE_CSV: &str = "reference.csv";
 pub const REFERENCE_TOL: f64 = 1e-12;
 /// Gauss6 steps per communication step in the run that estimates the reference's error.
 pub const CHECK_SUBSTEPS: usize = 8;
+/// A check confirms the reference when they differ by at most this × the tolerance, in
+/// units of each column's scale: 1 % of what tests/python/test_reference_result.py holds a
+/// run of the default experiment to (1e4 × tolerance).
+pub const CONCLUSIVE: f64 = 100.0;
 
 /// A reference result and how it was made.
 #[derive(Clone, Debug)]
@@ -88,40 +92,75 @@ pub fn reference<M: System>() -> Result<Reference, String> {
             dop853(REFERENCE_TOL),
         )
     };
-    // Gauss6's Newton iteration can fail at this fixed step on a stiff mechanism (a hand:
-    // light fingers with joint damping): the check is then RADAU5 at the experiment's
-    // tolerance, adaptive and L-stable, another method and another step sequence still;
-    // where that fails too, DOPRI5 at that tolerance (the check run used is stated).
+    // The checks, in order: Gauss6 at a fixed step (another method, another step
+    // sequence). Its Newton iteration can fail at that step on a stiff mechanism (a hand:
+    // light fingers with joint damping) or at a singular position (the N four-bar's
+    // passages): then RADAU5 at the experiment's tolerance, adaptive and L-stable. A
+    // mechanism on its end stops (impacts and releases are kinks a fixed step straddles
+    // and RADAU5's Newton meets at every event) and the N four-bar (RADAU5's error at the
+    // experiment's tolerance is more than the bound) are checked by DOPRI5 at a hundredth
+    // of the tolerance (explicit, adaptive, located events). The first check that
+    // confirms the reference within [`CONCLUSIVE`] × tolerance is the one stated; when
+    // none does, the closest (the stated error then says so).
     let check_step = comm_step / CHECK_SUBSTEPS as f64;
-    let (check_run, check) = match run(Method::Gauss6, tol, check_step) {
-        Ok(t) => (
-            t,
+    let checks = [
+        (
+            Method::Gauss6,
+            tol,
+            check_step,
             format!("Gauss6 (Gauss-Legendre order 6) with fixed step {check_step:e} s"),
         ),
-        Err(gauss) => match run(Method::Radau5, tol, comm_step) {
-            Ok(t) => (
-                t,
-                format!(
-                    "RADAU5 (Radau IIA order 5) at relative tolerance {tol:e} (Gauss6 with fixed step {check_step:e} s did not converge)"
-                ),
+        (
+            Method::Radau5,
+            tol,
+            comm_step,
+            format!("RADAU5 (Radau IIA order 5) at relative tolerance {tol:e}"),
+        ),
+        (
+            Method::Dopri5,
+            tol / 100.0,
+            comm_step,
+            format!(
+                "DOPRI5 (Dormand-Prince 5(4)) at relative tolerance {:e}",
+                tol / 100.0
             ),
-            // A mechanism on its end stops: impacts and releases are kinks that a fixed step
-            // straddles and RADAU5's Newton meets at every event; DOPRI5 at the experiment's
-            // tolerance (explicit, adaptive, located events) is the check there.
-            Err(radau) => match run(Method::Dopri5, tol, comm_step) {
-                Ok(t) => (
-                    t,
-                    format!(
-                        "DOPRI5 (Dormand-Prince 5(4)) at relative tolerance {tol:e} (Gauss6 with fixed step {check_step:e} s and RADAU5 did not converge)"
-                    ),
-                ),
-                Err(dopri) => return Err(format!("{gauss}; {radau}; {dopri}")),
-            },
-        },
+        ),
+    ];
+    // What the checks before found (for the description), and why runs failed (the error
+    // when none completes).
+    let (mut tried, mut failures): (Vec<String>, Vec<String>) = (Vec::new(), Vec::new());
+    let mut best: Option<(f64, Vec<f64>, String)> = None;
+    for (method, check_tol, step, what) in checks {
+        match run(method, check_tol, step) {
+            Err(why) => {
+                tried.push(format!("{what} did not converge"));
+                failures.push(why);
+            }
+            Ok(check_run) => {
+                let error: Vec<f64> = (0..trajectory.columns.len())
+                    .map(|j| trajectory.max_abs_diff(&check_run, j))
+                    .collect();
+                let worst = (0..error.len())
+                    .map(|j| error[j] / trajectory.scale(j))
+                    .fold(0.0f64, f64::max);
+                let said = if tried.is_empty() {
+                    what.clone()
+                } else {
+                    format!("{what} ({})", tried.join("; "))
+                };
+                if best.as_ref().is_none_or(|b| worst < b.0) {
+                    best = Some((worst, error, said));
+                }
+                if worst <= CONCLUSIVE * tol {
+                    break;
+                }
+                tried.push(format!("{what} differed by {}", rough(worst)));
+            }
+        }
+    }
+    let Some((_, error, check)) = best else {
+        return Err(failures.join("; "));
     };
-    let error = (0..trajectory.columns.len())
-        .map(|j| trajectory.max_abs_diff(&check_run, j))
-        .collect();
     Ok(Reference {
         trajectory,
         how,

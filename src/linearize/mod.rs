@@ -321,14 +321,15 @@ pub fn reduced_on<M: System>(
     let op = &lin.point;
     // ∂c/∂x, one dual pass per state.
     let k = dependent.len();
-    if k != M::STATE_CONSTRAINTS {
+    // Redundant constraints: more rows than dependent states (of the same rank).
+    let rows = M::STATE_CONSTRAINTS;
+    if k > rows {
         return Err(format!(
-            "{}: {k} dependent states named for {} constraints on the state",
-            M::name(),
-            M::STATE_CONSTRAINTS
+            "{}: {k} dependent states named for {rows} constraints on the state",
+            M::name()
         ));
     }
-    let mut cx = DMatrix::zeros(k, n);
+    let mut cx = DMatrix::zeros(rows, n);
     if k > 0 {
         if consistent::residuals::<M>(op.t, &op.x, &op.p).is_empty() {
             return Err(format!(
@@ -353,14 +354,26 @@ pub fn reduced_on<M: System>(
         lift[(i, col)] = 1.0;
     }
     if k > 0 {
-        let cd = pick(&cx, &(0..k).collect::<Vec<_>>(), dependent);
-        let ci = pick(&cx, &(0..k).collect::<Vec<_>>(), &independent);
-        let dh = cd.lu().solve(&(-ci)).ok_or_else(|| {
+        let all_rows: Vec<usize> = (0..rows).collect();
+        let cd = pick(&cx, &all_rows, dependent);
+        let ci = pick(&cx, &all_rows, &independent);
+        let singular = || {
             format!(
                 "{}: the constraints cannot be solved for the dependent states here (singular)",
                 M::name()
             )
-        })?;
+        };
+        let dh = if rows == k {
+            cd.lu().solve(&(-ci)).ok_or_else(singular)?
+        } else {
+            // Least squares: exact, the redundant rows being combinations of the others.
+            let svd = cd.svd(true, true);
+            let eps = crate::model::lagrangian::LEAST_SQUARES_RANK_RTOL * svd.singular_values.max();
+            if svd.rank(eps) < k {
+                return Err(singular());
+            }
+            svd.solve(&(-ci), eps).map_err(|_| singular())?
+        };
         for (row, &d) in dependent.iter().enumerate() {
             lift.row_mut(d).copy_from(&dh.row(row));
         }

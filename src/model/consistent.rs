@@ -5,7 +5,7 @@
 //! constraints G q̇ = 0 and A(q) q̇ = 0) declares, once, which of its states are
 //! *dependent* ([`Var::dependent`](super::Var::dependent)) and how many residuals
 //! [`System::state_constraints`] returns; there must be as many residuals as dependent
-//! states. [`solve`] then keeps every independent state exactly as set and solves the
+//! states, or more where some are redundant (Bricard's loop: Gauss-Newton then). [`solve`] then keeps every independent state exactly as set and solves the
 //! residuals for the dependent ones by Newton's method with the exact Jacobian (dual
 //! numbers): the position constraints are nonlinear (the slider-crank's rod angle from
 //! its crank angle), the velocity constraints linear in the velocities, and one Newton
@@ -15,7 +15,7 @@
 //! picks one — FMI's `initial="approx"`.
 
 use super::{System, VarKind};
-use crate::model::lagrangian::solve as gauss_solve;
+use crate::model::lagrangian::{least_squares, solve as gauss_solve};
 use crate::model::Layout;
 use num_dual::Dual64;
 
@@ -25,6 +25,11 @@ const MAX_ITERATIONS: usize = 50;
 
 /// Relative size of a Newton step below which the iteration has converged to rounding.
 const STEP_TOLERANCE: f64 = 1e-13;
+
+/// Largest constraint residual accepted at convergence, relative to the state's size:
+/// Newton ends at rounding (~1e-15); a least-squares point of constraints that cannot all
+/// hold ends far above.
+const RESIDUAL_TOLERANCE: f64 = 1e-9;
 
 /// The indices (into the state vector) of the states declared dependent.
 pub fn dependent_states<M: System>() -> Vec<usize> {
@@ -56,14 +61,15 @@ pub fn solve<M: System>(t: f64, p: &[f64], x: &mut [f64]) -> Result<(), String> 
         return Ok(());
     }
     let dependent = dependent_states::<M>();
-    if dependent.len() != M::STATE_CONSTRAINTS {
+    if dependent.len() > M::STATE_CONSTRAINTS {
         return Err(format!(
-            "{} declares {} state constraints but {} dependent states: initialisation needs as many of each",
+            "{} declares {} state constraints but {} dependent states: initialisation needs at most as many dependent states as constraints",
             M::name(),
             M::STATE_CONSTRAINTS,
             dependent.len()
         ));
     }
+    let square = dependent.len() == M::STATE_CONSTRAINTS;
     let mut trial = x.to_vec();
     let mut converged = false;
     for _ in 0..MAX_ITERATIONS {
@@ -71,8 +77,18 @@ pub fn solve<M: System>(t: f64, p: &[f64], x: &mut [f64]) -> Result<(), String> 
         if r.iter().any(|v| !v.is_finite()) {
             break;
         }
-        let mut step: Vec<f64> = r.clone();
-        gauss_solve(&mut jac, &mut step);
+        // Redundant constraints (more than the dependent states): Gauss-Newton, whose step
+        // is Newton's on the independent equations among them.
+        let step: Vec<f64> = if square {
+            let mut step = r.clone();
+            gauss_solve(&mut jac, &mut step);
+            step
+        } else {
+            match least_squares(&jac, &r) {
+                (step, rank) if rank == dependent.len() => step,
+                _ => vec![f64::NAN; dependent.len()],
+            }
+        };
         if step.iter().any(|v| !v.is_finite()) {
             return Err(format!(
                 "{}: the constraints cannot be solved for the dependent states ({}) here: their Jacobian is singular",
@@ -92,7 +108,10 @@ pub fn solve<M: System>(t: f64, p: &[f64], x: &mut [f64]) -> Result<(), String> 
     }
     let r = residuals::<M>(t, &trial, p);
     let worst = r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    if !converged || !worst.is_finite() {
+    // Redundant constraints that cannot all hold (their geometry inconsistent) converge to
+    // a least-squares point: the residual left says so.
+    let scale = trial.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+    if !converged || !(worst <= RESIDUAL_TOLERANCE * scale) {
         return Err(format!(
             "{}: no consistent state near the values set: Newton on the constraints for {} did not converge (residual {worst:e}); check the independent values and the start values of the dependent ones",
             M::name(),

@@ -825,6 +825,30 @@ pub fn solve<S: Scalar>(a: &mut [Vec<S>], b: &mut [S]) {
     }
 }
 
+/// A singular value below this fraction of the largest is taken as 0 by
+/// [`least_squares`]: a redundant row's is rounding (~1e-16 of the largest at a closed
+/// configuration), a genuine one is not within many orders of it.
+pub const LEAST_SQUARES_RANK_RTOL: f64 = 1e-10;
+
+/// The least-squares solution of least norm of `a x = b` (`a` by rows, any shape; empty
+/// when `a` has no row) by the SVD, and `a`'s rank. What the square [`solve`] cannot do:
+/// redundant loop closures (Bricard's five residuals of rank four) give more equations
+/// than the unknowns they determine, and fewer independent ones than their multipliers.
+pub fn least_squares(a: &[Vec<f64>], b: &[f64]) -> (Vec<f64>, usize) {
+    let cols = a.first().map_or(0, Vec::len);
+    if a.is_empty() || cols == 0 {
+        return (vec![0.0; cols], 0);
+    }
+    let m = nalgebra::DMatrix::from_fn(a.len(), cols, |i, j| a[i][j]);
+    let svd = m.svd(true, true);
+    let eps = LEAST_SQUARES_RANK_RTOL * svd.singular_values.max();
+    let rank = svd.rank(eps);
+    match svd.solve(&nalgebra::DVector::from_column_slice(b), eps) {
+        Ok(x) => (x.iter().copied().collect(), rank),
+        Err(_) => (vec![f64::NAN; cols], rank),
+    }
+}
+
 /// Every Lagrangian is a second-order [`System`] with states `(q, q̇)`.
 impl<L: Lagrangian> System for L {
     const NAME: &'static str = <L as Lagrangian>::NAME;

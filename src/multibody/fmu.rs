@@ -233,7 +233,13 @@ pub struct Built {
     pub coordinates: Vec<Var>,
     pub velocities: Vec<Var>,
     pub inputs: Vec<Var>,
+    /// The declared outputs: all the mechanism has, or those it names
+    /// ([`Mechanism::outputs`]).
     pub outputs: Vec<Var>,
+    /// Where each declared output sits among all of them (`None`: all are declared).
+    pub kept_outputs: Option<Vec<usize>>,
+    /// How many outputs the mechanism has before [`Mechanism::outputs`] picks.
+    pub all_outputs: usize,
     pub scenes: Vec<Scene>,
     /// Viscous damping per coordinate.
     pub damping: Vec<f64>,
@@ -334,6 +340,21 @@ pub fn spring_gradient<S: Scalar>(model: &Model, q: &[S]) -> Vec<S> {
         qd[j].eps = S::zero();
     }
     out
+}
+
+/// `a x = b` for the closures' solves at the start (`a` by rows): square, independent
+/// closures by Gaussian elimination; redundant ones (more residuals than dependent joints,
+/// or the transpose for their multipliers) by least squares of least norm. `None` where
+/// `a` is short of full rank in its smaller dimension: the closures do not determine the
+/// dependent joints.
+fn closure_solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
+    let (rows, cols) = (a.len(), a.first().map_or(0, Vec::len));
+    if rows == cols {
+        crate::model::lagrangian::solve(&mut a, &mut b);
+        return b.iter().all(|v| v.is_finite()).then_some(b);
+    }
+    let (x, rank) = crate::model::lagrangian::least_squares(&a, &b);
+    (rank == rows.min(cols) && x.iter().all(|v| v.is_finite())).then_some(x)
 }
 
 /// The closures' residuals are at rounding: the criterion of the projection after each
@@ -459,22 +480,34 @@ impl Built {
                     converged = true;
                     break;
                 }
-                let mut a = dependent_columns(&closure_jacobian(&model, &start));
-                let mut step: Vec<f64> = phi.iter().map(|v| -v).collect();
-                crate::model::lagrangian::solve(&mut a, &mut step);
-                if !step.iter().all(|v| v.is_finite()) {
+                let a = dependent_columns(&closure_jacobian(&model, &start));
+                let Some(step) = closure_solve(a, phi.iter().map(|v| -v).collect()) else {
                     break;
-                }
+                };
                 for (&j, d) in dependent_model.iter().zip(&step) {
                     start[j] += d;
                 }
             }
             if !converged {
+                // The largest residual left, by closure and axis.
+                let named: Vec<String> = mechanism
+                    .closures
+                    .iter()
+                    .flat_map(|c| c.axes.chars().map(move |a| format!("{} {a}", c.name)))
+                    .collect();
+                let (k, worst) = phi.iter().enumerate().fold((0, 0.0f64), |b, (k, v)| {
+                    if v.abs() > b.1 {
+                        (k, v.abs())
+                    } else {
+                        b
+                    }
+                });
                 return Err(Error::new(
                     robot(),
                     format!(
-                        "its closures cannot be met from the start positions by moving the dependent joints {} (no solution near them, or the closures do not determine those joints): give start positions near a closed configuration (`.start(…)`)",
-                        mechanism.dependent.join(", ")
+                        "its closures cannot be met from the start positions by moving the dependent joints {} (residual {worst:.3e} m left in closure {}: no solution near them, inconsistent geometry, or the closures do not determine those joints): give start positions near a closed configuration (`.start(…)`)",
+                        mechanism.dependent.join(", "),
+                        named.get(k).map_or("?", String::as_str)
                     ),
                 ));
             }
@@ -502,13 +535,12 @@ impl Built {
         };
         if m > 0 {
             let g = &g_start;
-            let mut a: Vec<Vec<f64>> = dependent_model
+            let a: Vec<Vec<f64>> = dependent_model
                 .iter()
                 .map(|&j| g.iter().map(|row| row[j]).collect())
                 .collect();
-            let mut lambda: Vec<f64> = dependent_model.iter().map(|&j| -hold[j]).collect();
-            crate::model::lagrangian::solve(&mut a, &mut lambda);
-            if !lambda.iter().all(|v| v.is_finite()) {
+            let lambda = closure_solve(a, dependent_model.iter().map(|&j| -hold[j]).collect());
+            let Some(lambda) = lambda else {
                 return Err(Error::new(
                     robot(),
                     format!(
@@ -516,7 +548,7 @@ impl Built {
                         mechanism.dependent.join(", ")
                     ),
                 ));
-            }
+            };
             for (i, h) in hold.iter_mut().enumerate() {
                 *h += g
                     .iter()
@@ -557,12 +589,13 @@ impl Built {
             for &j in &dependent_model {
                 speed[j] = 0.0;
             }
-            let mut a = dependent_columns(&g_start);
-            let mut rhs: Vec<f64> = g_start
+            let rhs: Vec<f64> = g_start
                 .iter()
                 .map(|row| -row.iter().zip(&speed).map(|(g, v)| g * v).sum::<f64>())
                 .collect();
-            crate::model::lagrangian::solve(&mut a, &mut rhs);
+            // (Determined: the same columns of G had full rank for the holding torques.)
+            let rhs = closure_solve(dependent_columns(&g_start), rhs)
+                .unwrap_or_else(|| vec![f64::NAN; dependent_model.len()]);
             for (&j, v) in dependent_model.iter().zip(&rhs) {
                 speed[j] = *v + 0.0; // (no −0 in the modelDescription)
             }
@@ -851,6 +884,35 @@ impl Built {
                 ));
             }
         }
+        let all_outputs = outputs.len();
+        let kept_outputs = if mechanism.outputs.is_empty() {
+            None
+        } else {
+            let mut kept = Vec::with_capacity(mechanism.outputs.len());
+            for name in &mechanism.outputs {
+                match outputs.iter().position(|v| v.name == name.as_str()) {
+                    Some(k) if !kept.contains(&k) => kept.push(k),
+                    Some(_) => {
+                        return Err(Error::new(
+                            robot(),
+                            format!("the output \"{name}\" is named twice"),
+                        ))
+                    }
+                    None => {
+                        let names: Vec<&str> = outputs.iter().map(|v| v.name.as_ref()).collect();
+                        return Err(Error::new(
+                            robot(),
+                            format!(
+                                "no output is named \"{name}\" (there are {})",
+                                names.join(", ")
+                            ),
+                        ));
+                    }
+                }
+            }
+            outputs = kept.iter().map(|&k| outputs[k].clone()).collect();
+            Some(kept)
+        };
         let parameters = limit_parameters(m > 0, !limits.is_empty());
         let scenes = scenes(
             &start,
@@ -880,6 +942,8 @@ impl Built {
             velocities,
             inputs,
             outputs,
+            kept_outputs,
+            all_outputs,
             scenes,
         })
     }
@@ -1522,6 +1586,84 @@ pub trait OfMechanism: Lagrangian {
     type Declared: Declared;
 }
 
+/// Every output of the mechanism, in their order, into `y` ([`Built::all_outputs`] long):
+/// E, the tips' poses, the closures' residuals and forces, the mimic joints, the end
+/// stops' and friction's forces.
+fn all_outputs<D: Declared, S: Scalar>(
+    t: f64,
+    (q, qd, u, p): (&[S], &[S], &[S], &[S]),
+    y: &mut [S],
+) {
+    let b = D::built();
+    let model = &b.model;
+    let n = b.order.len();
+    let (qm, qdm) = (
+        b.positions_to_model(&q[..n]),
+        b.velocities_to_model(&qd[..n]),
+    );
+    y[0] = Robot::<D>::kinetic(S::zero(), q, qd, p) + Robot::<D>::potential(S::zero(), q, p);
+    let tips = model.tips.len();
+    // A floating robot's tips in the world: the base's pose composed with theirs.
+    let world = model.free_base.as_ref().map(|_| {
+        let base = base_state(&q[n..], &qd[n..]);
+        let quat = [q[n + 3], q[n + 4], q[n + 5], q[n + 6]];
+        let norm =
+            (quat[0] * quat[0] + quat[1] * quat[1] + quat[2] * quat[2] + quat[3] * quat[3]).sqrt();
+        (base, quat.map(|c| c / norm))
+    });
+    for (k, (p, quat)) in model.tip_poses(&qm).into_iter().enumerate() {
+        let out = &mut y[1 + 7 * k..8 + 7 * k];
+        let (p, quat) = match &world {
+            None => (p, quat),
+            Some((base, q0)) => (
+                super::spatial::add(&base.position, &super::spatial::mat_vec(&base.rotation, &p)),
+                super::spatial::quat_mul(q0, &quat),
+            ),
+        };
+        out[..3].copy_from_slice(&p);
+        out[3..].copy_from_slice(&quat);
+    }
+    let m = D::CONSTRAINTS;
+    if m > 0 {
+        let at = 1 + 7 * tips;
+        model.closure_residuals_at(&qm, &mut y[at..at + m]);
+        let mut qdd = vec![S::zero(); q.len()];
+        let mut lambda = vec![S::zero(); m];
+        crate::model::lagrangian::accelerations_and_multipliers_into::<Robot<D>, S>(
+            t,
+            q,
+            qd,
+            u,
+            p,
+            &mut qdd,
+            &mut lambda,
+        );
+        y[at + m..at + 2 * m].copy_from_slice(&lambda);
+    }
+    // The mimic joints' positions and velocities.
+    let mut at = 1 + 7 * tips + 2 * m;
+    for (i, f) in model.follows.iter().enumerate() {
+        if f.is_some() {
+            y[at] = qm[i];
+            y[at + 1] = qdm[i];
+            at += 2;
+        }
+    }
+    // The end stops' reactions, then the friction forces, last (a tree's only).
+    let stops = if m == 0 { b.limits.len() } else { 0 };
+    let frictions = b.friction.iter().filter(|&&f| f > 0.0).count();
+    if stops + frictions > 0 {
+        let mut qdd = vec![S::zero(); qd.len()];
+        let mut force = vec![S::zero(); qd.len()];
+        let (reaction, rest) = y[at..].split_at_mut(stops);
+        accelerations::<D, S>((q, qd, u, p), &mut qdd, (Some(reaction), Some(&mut force)));
+        let friction = b.friction.iter().zip(&force).filter(|(&f, _)| f > 0.0);
+        for (out, (_, &f)) in rest.iter_mut().zip(friction) {
+            *out = f;
+        }
+    }
+}
+
 impl<D: Declared> OfMechanism for Robot<D> {
     type Declared = D;
 }
@@ -1789,76 +1931,14 @@ impl<D: Declared> Lagrangian for Robot<D> {
     }
 
     fn extra_outputs<S: Scalar>(t: f64, q: &[S], qd: &[S], u: &[S], p: &[S], y: &mut [S]) {
-        let b = D::built();
-        let model = &b.model;
-        let n = b.order.len();
-        let (qm, qdm) = (
-            b.positions_to_model(&q[..n]),
-            b.velocities_to_model(&qd[..n]),
-        );
-        y[0] = Self::kinetic(S::zero(), q, qd, p) + Self::potential(S::zero(), q, p);
-        let tips = model.tips.len();
-        // A floating robot's tips in the world: the base's pose composed with theirs.
-        let world = model.free_base.as_ref().map(|_| {
-            let base = base_state(&q[n..], &qd[n..]);
-            let quat = [q[n + 3], q[n + 4], q[n + 5], q[n + 6]];
-            let norm =
-                (quat[0] * quat[0] + quat[1] * quat[1] + quat[2] * quat[2] + quat[3] * quat[3])
-                    .sqrt();
-            (base, quat.map(|c| c / norm))
-        });
-        for (k, (p, quat)) in model.tip_poses(&qm).into_iter().enumerate() {
-            let out = &mut y[1 + 7 * k..8 + 7 * k];
-            let (p, quat) = match &world {
-                None => (p, quat),
-                Some((base, q0)) => (
-                    super::spatial::add(
-                        &base.position,
-                        &super::spatial::mat_vec(&base.rotation, &p),
-                    ),
-                    super::spatial::quat_mul(q0, &quat),
-                ),
-            };
-            out[..3].copy_from_slice(&p);
-            out[3..].copy_from_slice(&quat);
-        }
-        let m = D::CONSTRAINTS;
-        if m > 0 {
-            let at = 1 + 7 * tips;
-            model.closure_residuals_at(&qm, &mut y[at..at + m]);
-            let mut qdd = vec![S::zero(); q.len()];
-            let mut lambda = vec![S::zero(); m];
-            crate::model::lagrangian::accelerations_and_multipliers_into::<Self, S>(
-                t,
-                q,
-                qd,
-                u,
-                p,
-                &mut qdd,
-                &mut lambda,
-            );
-            y[at + m..at + 2 * m].copy_from_slice(&lambda);
-        }
-        // The mimic joints' positions and velocities.
-        let mut at = 1 + 7 * tips + 2 * m;
-        for (i, f) in model.follows.iter().enumerate() {
-            if f.is_some() {
-                y[at] = qm[i];
-                y[at + 1] = qdm[i];
-                at += 2;
-            }
-        }
-        // The end stops' reactions, then the friction forces, last (a tree's only).
-        let stops = if m == 0 { b.limits.len() } else { 0 };
-        let frictions = b.friction.iter().filter(|&&f| f > 0.0).count();
-        if stops + frictions > 0 {
-            let mut qdd = vec![S::zero(); qd.len()];
-            let mut force = vec![S::zero(); qd.len()];
-            let (reaction, rest) = y[at..].split_at_mut(stops);
-            accelerations::<D, S>((q, qd, u, p), &mut qdd, (Some(reaction), Some(&mut force)));
-            let friction = b.friction.iter().zip(&force).filter(|(&f, _)| f > 0.0);
-            for (out, (_, &f)) in rest.iter_mut().zip(friction) {
-                *out = f;
+        match &D::built().kept_outputs {
+            None => all_outputs::<D, S>(t, (q, qd, u, p), y),
+            Some(kept) => {
+                let mut all = vec![S::zero(); D::built().all_outputs];
+                all_outputs::<D, S>(t, (q, qd, u, p), &mut all);
+                for (out, &k) in y.iter_mut().zip(kept) {
+                    *out = all[k];
+                }
             }
         }
     }

@@ -341,6 +341,10 @@ pub struct Mechanism {
     /// the world (six more degrees of freedom: a position and a unit quaternion, a linear
     /// and an angular velocity); otherwise it is bolted to the world.
     pub floating_base: bool,
+    /// The outputs the FMU declares, by name, in this order (empty: all of them). A
+    /// mechanism of many links declares what its scene is about (the N four-bar's B0 and
+    /// E, not its 41 link poses and 160 closure outputs).
+    pub outputs: Vec<String>,
 }
 
 /// A loop closure: the point `point_a` fixed in body `body_a` coincides with the point
@@ -446,6 +450,7 @@ impl Mechanism {
             torques: Vec::new(),
             order: Vec::new(),
             floating_base: false,
+            outputs: Vec::new(),
         }
     }
 
@@ -555,6 +560,12 @@ impl Mechanism {
     /// closures); as many as the closures have residuals.
     pub fn dependent(mut self, joints: &[&str]) -> Self {
         self.dependent.extend(joints.iter().map(|j| j.to_string()));
+        self
+    }
+
+    /// Declares only these outputs, in this order ([`Mechanism::outputs`]).
+    pub fn outputs(mut self, names: &[&str]) -> Self {
+        self.outputs = names.iter().map(|n| n.to_string()).collect();
         self
     }
 
@@ -1002,11 +1013,13 @@ impl Mechanism {
             }
         }
         let residuals: usize = self.closures.iter().map(|c| c.axis_indices().len()).sum();
-        if residuals != self.dependent.len() {
+        // As many dependent joints as the closures' rank: their residuals, or fewer where
+        // the closures are redundant (checked against the rank at the start, `Built::new`).
+        if self.dependent.len() > residuals || (residuals > 0 && self.dependent.is_empty()) {
             return Err(Error::new(
                 robot(),
                 format!(
-                    "its closures have {residuals} residuals but {} joints are declared dependent (`.dependent([…])`): as many of each are needed, so that initialisation knows which coordinates to solve for",
+                    "its closures have {residuals} residuals but {} joints are declared dependent (`.dependent([…])`): initialisation solves the closures for as many joints as they have independent residuals (all of them, unless some are redundant)",
                     self.dependent.len()
                 ),
             ));
@@ -1162,6 +1175,7 @@ impl Mechanism {
                 torques: self.torques.clone(),
                 floating_base: self.floating_base,
                 order: self.order.clone(),
+                outputs: self.outputs.clone(),
             },
             frames,
         })

@@ -10,7 +10,9 @@
 //! energy, |H|, a constraint residual) would make a tube of rounding width that any other
 //! correct run leaves. An exactly constant column is kept (fmpy then allows 10 % of its value,
 //! or 0.5 around 0). The rows are the reference's, one per communication step, the grid the
-//! importer's run is sampled on, so a fast signal is not cut between samples.
+//! importer's run is sampled on, so a fast signal is not cut between samples. A model of
+//! many states (the N four-bar's 162) would pass the repository's 1 MB per file: then its
+//! own outputs are kept first and its states only as far as the size allows.
 
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -21,6 +23,12 @@ pub const REFERENCE_IN_FMU: &str = "extra/org.fmi-standard.fmi-ls-ref/reference.
 /// scale: the tolerance (1e4 × rtol × scale) tests/python/test_reference_result.py holds a
 /// run of the default experiment to.
 pub const TUBE_FLOOR: f64 = 1e4;
+/// The FMI Cross-Check repository takes no file above 1 MB (fmpy's validator says so):
+/// the `_ref.csv`, and the `_out.csv` an importer writes with the same columns.
+pub const MAX_FILE_BYTES: usize = 1_000_000;
+/// A value in an importer's `_out.csv`, at most: 17 significant digits, sign, point,
+/// exponent and comma.
+pub const IMPORTER_BYTES_PER_VALUE: usize = 25;
 
 /// What the cross-check needs of an FMU's modelDescription.xml.
 #[derive(Debug, Default)]
@@ -33,6 +41,8 @@ struct Description {
     inputs: Vec<(String, f64)>,
     /// (name, nominal) of every output.
     outputs: Vec<(String, f64)>,
+    /// The names of the continuous states (the variables a `derivative` attribute names).
+    states: Vec<String>,
 }
 
 fn read_description(xml: &str) -> Result<Description, String> {
@@ -45,6 +55,8 @@ fn read_description(xml: &str) -> Result<Description, String> {
         ..Default::default()
     };
     let mut current: Option<(String, String)> = None;
+    // Every ScalarVariable's name, and the (1-based) indices `derivative` attributes name.
+    let (mut names, mut derivative_of) = (Vec::new(), Vec::new());
     loop {
         let event = reader
             .read_event()
@@ -79,12 +91,18 @@ fn read_description(xml: &str) -> Result<Description, String> {
                 d.step = num("stepSize", f64::NAN)?;
             }
             "ScalarVariable" => {
+                names.push(attr.get("name").cloned().unwrap_or_default());
                 current = Some((
                     attr.get("name").cloned().unwrap_or_default(),
                     attr.get("causality").cloned().unwrap_or_default(),
                 ));
             }
             "Real" => {
+                if let Some(k) = attr.get("derivative") {
+                    derivative_of.push(k.parse::<usize>().map_err(|_| {
+                        format!("modelDescription.xml: derivative={k} is not an index")
+                    })?);
+                }
                 if let Some((name, causality)) = current.take() {
                     match causality.as_str() {
                         "input" => d.inputs.push((name, num("start", 0.0)?)),
@@ -99,6 +117,10 @@ fn read_description(xml: &str) -> Result<Description, String> {
     if !(d.stop.is_finite() && d.tolerance.is_finite() && d.step.is_finite()) {
         return Err("modelDescription.xml: a DefaultExperiment with stopTime, tolerance and stepSize is needed".into());
     }
+    d.states = derivative_of
+        .iter()
+        .filter_map(|&k| names.get(k.wrapping_sub(1)).cloned())
+        .collect();
     Ok(d)
 }
 
@@ -235,6 +257,21 @@ fn write_model(fmu: &Path, out: &Path, platform: &str, version: &str) -> Result<
             Err(why) => written.dropped.push((name.clone(), why)),
         }
     }
+    // Within the repository's file size: the model's own outputs first, then its states.
+    let budget = MAX_FILE_BYTES / (rows.len().max(1) * IMPORTER_BYTES_PER_VALUE) - 1;
+    if keep.len() - 1 > budget {
+        let is_state = |j: &usize| d.states.contains(&header[*j]);
+        let (states, own): (Vec<usize>, Vec<usize>) = keep[1..].iter().copied().partition(is_state);
+        let over: Vec<usize> = own.into_iter().chain(states).skip(budget).collect();
+        for &j in &over {
+            written.kept.retain(|n| n != &header[j]);
+            written.dropped.push((
+                header[j].clone(),
+                format!("past the {budget} columns whose file stays within the cross-check repository's {MAX_FILE_BYTES} bytes (an importer writes up to {IMPORTER_BYTES_PER_VALUE} bytes a value)"),
+            ));
+        }
+        keep.retain(|j| !over.contains(j));
+    }
     let mut csv = String::new();
     let quoted: Vec<String> = keep.iter().map(|&j| format!("\"{}\"", header[j])).collect();
     csv.push_str(&quoted.join(","));
@@ -288,7 +325,9 @@ fn readme(model: &str, version: &str, d: &Description, w: &Written) -> String {
          Columns: an output is kept when fmpy's comparison tube around it (10 % of its range)\n\
          is at least {TUBE_FLOOR:e} x rtol x its scale (the largest of its range, its largest\n\
          magnitude and its nominal): a quantity that is conserved, or zero, up to rounding\n\
-         would give a tube of rounding width that every other correct run leaves.\n",
+         would give a tube of rounding width that every other correct run leaves; and, for a\n\
+         model of many variables, as far as the files stay within the repository's 1 MB\n\
+         (its own outputs first, then its states).\n",
         d.start,
         d.stop,
         d.step,
