@@ -61,5 +61,6 @@ pub fn all() -> Vec<Entry> {
         entry::<FourBar>("four_bar"),
         entry::<AndrewsSqueezer>("andrews_squeezer"),
         entry::<NFourBar>("n_four_bar"),
+        entry::<Bricard>("bricard"),
     ]
 }

@@ -111,7 +111,7 @@ pub fn solve<M: System>(t: f64, p: &[f64], x: &mut [f64]) -> Result<(), String> 
     // Redundant constraints that cannot all hold (their geometry inconsistent) converge to
     // a least-squares point: the residual left says so.
     let scale = trial.iter().fold(1.0f64, |m, v| m.max(v.abs()));
-    if !converged || !(worst <= RESIDUAL_TOLERANCE * scale) {
+    if !converged || !worst.is_finite() || worst > RESIDUAL_TOLERANCE * scale {
         return Err(format!(
             "{}: no consistent state near the values set: Newton on the constraints for {} did not converge (residual {worst:e}); check the independent values and the start values of the dependent ones",
             M::name(),

@@ -230,6 +230,13 @@ pub trait Lagrangian: 'static {
         false
     }
 
+    /// True when some of the [`Lagrangian::CONSTRAINTS`] are redundant (combinations of the
+    /// others: Bricard's loop, five residuals of rank four). RATTLE's Newton matrix is then
+    /// singular: it is refused for such a system (fmi2SetInteger names why). Default: false.
+    fn redundant_constraints() -> bool {
+        false
+    }
+
     /// True when T = ½ q̇ᵀ M(q) q̇ exactly, with no term linear in q̇: RATTLE's momentum
     /// offset `b(q)` is then 0 without n evaluations of T. Default: false.
     fn kinetic_is_quadratic() -> bool {
@@ -940,8 +947,11 @@ impl<L: Lagrangian> System for L {
 
     /// RATTLE handles holonomic, time-independent constraints only.
     fn mechanics<'a>(u: &'a [f64], p: &'a [f64]) -> Option<Box<dyn Mechanics + 'a>> {
-        (L::VELOCITY_CONSTRAINTS == 0 && !L::RHEONOMIC && L::surplus_coordinates() == 0)
-            .then(|| Box::new(LagrangianMechanics::<L>::new(u, p)) as Box<dyn Mechanics + 'a>)
+        (L::VELOCITY_CONSTRAINTS == 0
+            && !L::RHEONOMIC
+            && L::surplus_coordinates() == 0
+            && !L::redundant_constraints())
+        .then(|| Box::new(LagrangianMechanics::<L>::new(u, p)) as Box<dyn Mechanics + 'a>)
     }
 
     fn event_indicator(t: f64, x: &[f64], u: &[f64], p: &[f64]) -> Option<f64> {

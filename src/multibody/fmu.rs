@@ -1886,6 +1886,11 @@ impl<D: Declared> Lagrangian for Robot<D> {
         closes_on_the_tree(&D::built().model)
     }
 
+    /// Fewer dependent joints than closure residuals: the closures are redundant.
+    fn redundant_constraints() -> bool {
+        D::built().dependent.iter().filter(|&&d| d).count() < D::CONSTRAINTS
+    }
+
     /// On a fixed base without mimic joints: the closures' Φ and G by their kinematics
     /// ([`coordinate_closures`]).
     fn constraint_rows_by_algorithm(q: &[f64], _p: &[f64], g: &mut [f64], jac: &mut [f64]) -> bool {

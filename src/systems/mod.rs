@@ -1,6 +1,7 @@
 //! The textbook systems, one file each: physics only, no FMI.
 
 pub mod andrews_squeezer;
+pub mod bricard;
 mod compound_pendulum;
 mod double_pendulum;
 pub mod four_bar;
@@ -21,6 +22,7 @@ mod two_mass_chain;
 mod whipple_bicycle;
 
 pub use andrews_squeezer::AndrewsSqueezer;
+pub use bricard::Bricard;
 pub use compound_pendulum::CompoundPendulum;
 pub use double_pendulum::DoublePendulum;
 pub use four_bar::FourBar;
@@ -98,5 +100,6 @@ mod tests {
         writes_every_component::<FourBar>();
         writes_every_component::<AndrewsSqueezer>();
         writes_every_component::<NFourBar>();
+        writes_every_component::<Bricard>();
     }
 }

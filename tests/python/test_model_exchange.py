@@ -67,7 +67,7 @@ def test_fmpy_validates_both_interfaces(name, load_model):
     assert md.modelExchange.modelIdentifier == md.coSimulation.modelIdentifier
     # The closed-loop mechanisms project onto their closures too (their residuals are
     # checked in their own tests, tests/four_bar.rs and tests/andrews_squeezer.rs).
-    constrained = name in CONSTRAINED or name in ("FourBar", "AndrewsSqueezer", "NFourBar")
+    constrained = name in CONSTRAINED or name in ("FourBar", "AndrewsSqueezer", "NFourBar", "Bricard")
     assert md.modelExchange.needsCompletedIntegratorStep == constrained
 
 
