@@ -15,7 +15,7 @@
 //! picks one — FMI's `initial="approx"`.
 
 use super::{System, VarKind};
-use crate::model::lagrangian::{least_squares, solve as gauss_solve};
+use crate::model::lagrangian::solve_full_rank;
 use crate::model::Layout;
 use num_dual::Dual64;
 
@@ -69,33 +69,22 @@ pub fn solve<M: System>(t: f64, p: &[f64], x: &mut [f64]) -> Result<(), String> 
             dependent.len()
         ));
     }
-    let square = dependent.len() == M::STATE_CONSTRAINTS;
     let mut trial = x.to_vec();
     let mut converged = false;
     for _ in 0..MAX_ITERATIONS {
-        let (r, mut jac) = residuals_and_jacobian::<M>(t, &trial, p, &dependent);
+        let (r, jac) = residuals_and_jacobian::<M>(t, &trial, p, &dependent);
         if r.iter().any(|v| !v.is_finite()) {
             break;
         }
         // Redundant constraints (more than the dependent states): Gauss-Newton, whose step
         // is Newton's on the independent equations among them.
-        let step: Vec<f64> = if square {
-            let mut step = r.clone();
-            gauss_solve(&mut jac, &mut step);
-            step
-        } else {
-            match least_squares(&jac, &r) {
-                (step, rank) if rank == dependent.len() => step,
-                _ => vec![f64::NAN; dependent.len()],
-            }
-        };
-        if step.iter().any(|v| !v.is_finite()) {
+        let Some(step) = solve_full_rank(jac, r) else {
             return Err(format!(
                 "{}: the constraints cannot be solved for the dependent states ({}) here: their Jacobian is singular",
                 M::name(),
                 names::<M>(&dependent)
             ));
-        }
+        };
         let mut small = true;
         for (&i, s) in dependent.iter().zip(&step) {
             small &= s.abs() <= STEP_TOLERANCE * trial[i].abs().max(1.0);

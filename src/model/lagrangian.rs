@@ -856,6 +856,21 @@ pub fn least_squares(a: &[Vec<f64>], b: &[f64]) -> (Vec<f64>, usize) {
     }
 }
 
+/// `a x = b` (`a` by rows) where `a` has full rank in its smaller dimension: square by
+/// [`solve`] (Gaussian elimination, as every independent set of constraints), otherwise
+/// (redundant constraints: more rows than unknowns, or the transpose for their
+/// multipliers) by [`least_squares`]. `None` where `a` is short of that rank or the
+/// result is not finite.
+pub fn solve_full_rank(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
+    let (rows, cols) = (a.len(), a.first().map_or(0, Vec::len));
+    if rows == cols {
+        solve(&mut a, &mut b);
+        return b.iter().all(|v| v.is_finite()).then_some(b);
+    }
+    let (x, rank) = least_squares(&a, &b);
+    (rank == rows.min(cols) && x.iter().all(|v| v.is_finite())).then_some(x)
+}
+
 /// Every Lagrangian is a second-order [`System`] with states `(q, q̇)`.
 impl<L: Lagrangian> System for L {
     const NAME: &'static str = <L as Lagrangian>::NAME;

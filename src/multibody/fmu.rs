@@ -342,21 +342,6 @@ pub fn spring_gradient<S: Scalar>(model: &Model, q: &[S]) -> Vec<S> {
     out
 }
 
-/// `a x = b` for the closures' solves at the start (`a` by rows): square, independent
-/// closures by Gaussian elimination; redundant ones (more residuals than dependent joints,
-/// or the transpose for their multipliers) by least squares of least norm. `None` where
-/// `a` is short of full rank in its smaller dimension: the closures do not determine the
-/// dependent joints.
-fn closure_solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
-    let (rows, cols) = (a.len(), a.first().map_or(0, Vec::len));
-    if rows == cols {
-        crate::model::lagrangian::solve(&mut a, &mut b);
-        return b.iter().all(|v| v.is_finite()).then_some(b);
-    }
-    let (x, rank) = crate::model::lagrangian::least_squares(&a, &b);
-    (rank == rows.min(cols) && x.iter().all(|v| v.is_finite())).then_some(x)
-}
-
 /// The closures' residuals are at rounding: the criterion of the projection after each
 /// step.
 fn closed(phi: &[f64], q: &[f64]) -> bool {
@@ -481,7 +466,9 @@ impl Built {
                     break;
                 }
                 let a = dependent_columns(&closure_jacobian(&model, &start));
-                let Some(step) = closure_solve(a, phi.iter().map(|v| -v).collect()) else {
+                let Some(step) =
+                    crate::model::lagrangian::solve_full_rank(a, phi.iter().map(|v| -v).collect())
+                else {
                     break;
                 };
                 for (&j, d) in dependent_model.iter().zip(&step) {
@@ -539,7 +526,10 @@ impl Built {
                 .iter()
                 .map(|&j| g.iter().map(|row| row[j]).collect())
                 .collect();
-            let lambda = closure_solve(a, dependent_model.iter().map(|&j| -hold[j]).collect());
+            let lambda = crate::model::lagrangian::solve_full_rank(
+                a,
+                dependent_model.iter().map(|&j| -hold[j]).collect(),
+            );
             let Some(lambda) = lambda else {
                 return Err(Error::new(
                     robot(),
@@ -594,7 +584,7 @@ impl Built {
                 .map(|row| -row.iter().zip(&speed).map(|(g, v)| g * v).sum::<f64>())
                 .collect();
             // (Determined: the same columns of G had full rank for the holding torques.)
-            let rhs = closure_solve(dependent_columns(&g_start), rhs)
+            let rhs = crate::model::lagrangian::solve_full_rank(dependent_columns(&g_start), rhs)
                 .unwrap_or_else(|| vec![f64::NAN; dependent_model.len()]);
             for (&j, v) in dependent_model.iter().zip(&rhs) {
                 speed[j] = *v + 0.0; // (no −0 in the modelDescription)
@@ -1587,8 +1577,8 @@ pub trait OfMechanism: Lagrangian {
 }
 
 /// Every output of the mechanism, in their order, into `y` ([`Built::all_outputs`] long):
-/// E, the tips' poses, the closures' residuals and forces, the mimic joints, the end
-/// stops' and friction's forces.
+/// E, the tips' poses, the closures' residuals and forces (left 0 where none is declared),
+/// the mimic joints, the end stops' and friction's forces.
 fn all_outputs<D: Declared, S: Scalar>(
     t: f64,
     (q, qd, u, p): (&[S], &[S], &[S], &[S]),
@@ -1627,6 +1617,11 @@ fn all_outputs<D: Declared, S: Scalar>(
     if m > 0 {
         let at = 1 + 7 * tips;
         model.closure_residuals_at(&qm, &mut y[at..at + m]);
+    }
+    // The closures' forces cost a solve of the dynamics: only where one is declared.
+    let declared = |i: usize| b.kept_outputs.as_ref().is_none_or(|kept| kept.contains(&i));
+    let forces = 1 + 7 * tips + m..1 + 7 * tips + 2 * m;
+    if forces.clone().any(declared) {
         let mut qdd = vec![S::zero(); q.len()];
         let mut lambda = vec![S::zero(); m];
         crate::model::lagrangian::accelerations_and_multipliers_into::<Robot<D>, S>(
@@ -1638,7 +1633,7 @@ fn all_outputs<D: Declared, S: Scalar>(
             &mut qdd,
             &mut lambda,
         );
-        y[at + m..at + 2 * m].copy_from_slice(&lambda);
+        y[forces].copy_from_slice(&lambda);
     }
     // The mimic joints' positions and velocities.
     let mut at = 1 + 7 * tips + 2 * m;
