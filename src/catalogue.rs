@@ -62,5 +62,6 @@ pub fn all() -> Vec<Entry> {
         entry::<AndrewsSqueezer>("andrews_squeezer"),
         entry::<NFourBar>("n_four_bar"),
         entry::<Bricard>("bricard"),
+        entry::<FlyballGovernor>("flyball_governor"),
     ]
 }

@@ -32,7 +32,7 @@ const INVARIANT_SPREAD: f64 = 1e-6;
 /// When to choose each method (the modelDescription's `solver` enumeration says what it is).
 fn when(m: Method) -> &'static str {
     match m {
-        Method::Dopri5 => "The default: accuracy by tolerance at moderate cost; the first choice for smooth, non-stiff motion.",
+        Method::Dopri5 => "The usual default: accuracy by tolerance at moderate cost; the first choice for smooth, non-stiff motion.",
         Method::Dop853 => "Tight tolerances (1e-9 and below): fewer, costlier steps than DOPRI5 for the same accuracy.",
         Method::Radau5 => "Stiff systems (a stiff spring, a fast damper beside slow motion), where explicit methods need tiny steps.",
         Method::Rk4 => "A fixed, predictable cost per doStep (real time); accuracy set by solver_step.",
@@ -100,7 +100,7 @@ fn scene_run<M: System>(scene: &Scene) -> Result<Trajectory, String> {
     simulate::<M>(
         &scene.start_values,
         RunSettings {
-            method: super::reference::default_method(),
+            method: super::reference::default_method::<M>(),
             tol,
             step: 0.0,
             comm_step: scene.stop_time / PLOT_POINTS,
@@ -178,7 +178,7 @@ fn scene_section<M: System>(
         ),
     ));
     h.push_str(&format!(
-        "<figure><img src=\"{file}\" width=\"720\" height=\"300\" alt=\"{} scene {}: the states against time\"><figcaption>The states{} with DOPRI5 at the default tolerance, {} points.</figcaption></figure>\n",
+        "<figure><img src=\"{file}\" width=\"720\" height=\"300\" alt=\"{} scene {}: the states against time\"><figcaption>The states{} with {} at the default tolerance, {} points.</figcaption></figure>\n",
         M::name(),
         escape(scene.name),
         if traj.names.iter().zip(&traj.is_state).filter(|(_, s)| **s).count() > PLOT_SERIES {
@@ -186,6 +186,7 @@ fn scene_section<M: System>(
         } else {
             String::new()
         },
+        super::reference::default_method::<M>().name(),
         traj.t.len()
     ));
     if let Some(pictures) = pictures {

@@ -42,12 +42,13 @@ pub struct Reference {
     pub error: Vec<f64>,
     /// (stop time, relative tolerance, communication step) of the default experiment.
     pub experiment: (f64, f64, f64),
+    /// The default experiment's method ([`default_method`]).
+    pub method: Method,
 }
 
 /// The method of the default experiment (the `solver` start value).
-pub fn default_method() -> Method {
-    // The layout's `solver` starts at DOPRI5 for every system (model::layout).
-    Method::Dopri5
+pub fn default_method<M: System>() -> Method {
+    M::DEFAULT_METHOD
 }
 
 /// The reference result of `M`'s default experiment (start values of the model).
@@ -174,6 +175,7 @@ pub fn reference<M: System>() -> Result<Reference, String> {
         check,
         error,
         experiment: (stop, tol, comm_step),
+        method: default_method::<M>(),
     })
 }
 
@@ -211,7 +213,7 @@ impl Reference {
         let (worst, column) = self.worst();
         format!(
             "Reference result of {model}'s default experiment (start 0 s, stop {stop} s, tolerance {tol:e}, communication step {step} s, the modelDescription's start values): time and every output at every communication point. Computed independently of the default solver ({}) with {}. Estimated error against {}: at most {} of each column's scale, the largest of its range, its largest magnitude and its nominal (largest in {column}).",
-            default_method().name(),
+            self.method.name(),
             self.how,
             self.check,
             rough(worst),

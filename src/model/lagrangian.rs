@@ -96,6 +96,9 @@ pub trait Lagrangian: 'static {
     /// See [`System::EVALUATION_WEIGHT`].
     const EVALUATION_WEIGHT: u64 = 1;
 
+    /// See [`System::DEFAULT_METHOD`].
+    const DEFAULT_METHOD: crate::integrators::Method = crate::integrators::Method::Dopri5;
+
     /// How many coordinates more than velocities there are: 1 for a free-flying base,
     /// whose orientation is a unit quaternion (4 coordinates) but whose angular velocity
     /// has 3 components; 0 (the default) when `dq/dt = q̇`. With surplus coordinates the
@@ -117,6 +120,24 @@ pub trait Lagrangian: 'static {
     /// Puts the coordinates back on their manifold after a step (a quaternion back on the
     /// unit sphere); the default does nothing.
     fn normalize(_q: &mut [f64]) {}
+
+    /// First-order states integrated beside `(q, q̇)`, after them: what a scene needs as
+    /// an integral over time (`E_dissipated`, the energy the dampers took out, so that
+    /// `E + E_dissipated` is kept). Their rates are [`integral_rates`](Self::integral_rates);
+    /// the symplectic methods and RATTLE, which step `(q, q̇)` only, refuse the system.
+    /// Default: none.
+    fn integrals() -> Vec<Var> {
+        Vec::new()
+    }
+
+    /// How many [`integrals`](Self::integrals) (read on every evaluation: no allocation).
+    fn integral_count() -> usize {
+        0
+    }
+
+    /// The [`integrals`](Self::integrals)' rates at `(t, q, q̇, u, p)` into `out`.
+    fn integral_rates<S: Scalar>(_t: f64, _q: &[S], _qd: &[S], _u: &[S], _p: &[S], _out: &mut [S]) {
+    }
 
     /// Kinetic energy `T(t, q, q̇, p)`. `t` is a scalar (not `f64`) so that the dual
     /// numbers carry ∂/∂t through it (rheonomic systems); most systems ignore it.
@@ -390,10 +411,20 @@ impl<L: Lagrangian> Lagrangian for AutoDiff<L> {
     }
 }
 
-/// Where the states `(q, v)` split: after the coordinates, `(len + surplus) / 2`.
+/// Where the states `(q, v, integrals)` split: after the coordinates,
+/// `(len − integrals + surplus) / 2`.
 #[inline(always)]
 fn split<L: Lagrangian>(len: usize) -> usize {
-    (len + L::surplus_coordinates()) / 2
+    (len - L::integral_count() + L::surplus_coordinates()) / 2
+}
+
+/// The state's `(q, v)` and its [`Lagrangian::integrals`].
+#[inline(always)]
+fn parts<L: Lagrangian, S>(x: &[S]) -> (&[S], &[S], &[S]) {
+    let n = split::<L>(x.len());
+    let (q, rest) = x.split_at(n);
+    let (v, integrals) = rest.split_at(rest.len() - L::integral_count());
+    (q, v, integrals)
 }
 
 /// `L = T − V` at a point of any scalar type.
@@ -761,8 +792,9 @@ pub const PROJECTION_ITERATIONS: usize = 8;
 /// The M-metric makes the velocity correction the one that changes the kinetic energy
 /// least. Leaves the state alone if a solve fails (non-finite result).
 pub fn project_onto_constraints<L: Lagrangian>(t: f64, x: &mut [f64], p: &[f64]) {
-    let n = x.len() / 2;
-    let (q, qd) = x.split_at_mut(n);
+    let n = split::<L>(x.len());
+    let (q, rest) = x.split_at_mut(n);
+    let qd = &mut rest[..n - L::surplus_coordinates()];
     let correct = |q: &[f64], qd: &[f64], rows: &[Vec<f64>], defect: Vec<f64>| {
         let m = mass_matrix::<L, f64>(t, q, qd, p);
         let mut a = augmented(&m, rows);
@@ -877,10 +909,11 @@ impl<L: Lagrangian> System for L {
     const DESCRIPTION: &'static str = <L as Lagrangian>::DESCRIPTION;
     const EQUATIONS: &'static [&'static str] = <L as Lagrangian>::EQUATIONS;
     const EVALUATION_WEIGHT: u64 = L::EVALUATION_WEIGHT;
+    const DEFAULT_METHOD: crate::integrators::Method = L::DEFAULT_METHOD;
 
-    /// `(q, q̇)` halves unless there are surplus coordinates.
+    /// `(q, q̇)` halves unless there are surplus coordinates or integrals.
     fn second_order() -> bool {
-        L::surplus_coordinates() == 0
+        L::surplus_coordinates() == 0 && L::integral_count() == 0
     }
 
     fn error_on_manifold() -> bool {
@@ -915,7 +948,7 @@ impl<L: Lagrangian> System for L {
             "{}: as many velocities as coordinates (less the surplus ones)",
             <L as Lagrangian>::NAME
         );
-        q.into_iter().chain(qd).collect()
+        q.into_iter().chain(qd).chain(L::integrals()).collect()
     }
 
     fn outputs() -> Vec<Var> {
@@ -926,19 +959,23 @@ impl<L: Lagrangian> System for L {
     #[inline(always)]
     fn derivatives<S: Scalar>(t: f64, x: &[S], u: &[S], p: &[S], dx: &mut [S]) {
         let n = split::<L>(x.len());
-        let (q, qd) = x.split_at(n);
-        let (velocities, qdd) = dx.split_at_mut(n);
+        let (q, qd, _) = parts::<L, S>(x);
+        let (velocities, rest) = dx.split_at_mut(n);
+        let (qdd, integrals) = rest.split_at_mut(qd.len());
         if L::surplus_coordinates() == 0 {
             velocities.copy_from_slice(qd);
         } else {
             L::coordinate_rates(q, qd, velocities);
         }
         accelerations_into::<L, S>(t, q, qd, u, p, qdd);
+        if !integrals.is_empty() {
+            L::integral_rates(t, q, qd, u, p, integrals);
+        }
     }
 
     #[inline(always)]
     fn extra_outputs<S: Scalar>(t: f64, x: &[S], u: &[S], p: &[S], y: &mut [S]) {
-        let (q, qd) = x.split_at(split::<L>(x.len()));
+        let (q, qd, _) = parts::<L, S>(x);
         <L as Lagrangian>::extra_outputs(t, q, qd, u, p, y);
     }
 
@@ -960,23 +997,25 @@ impl<L: Lagrangian> System for L {
         <L as Lagrangian>::default_experiment()
     }
 
-    /// RATTLE handles holonomic, time-independent constraints only.
+    /// RATTLE handles holonomic, time-independent constraints only, on `(q, q̇)` only.
     fn mechanics<'a>(u: &'a [f64], p: &'a [f64]) -> Option<Box<dyn Mechanics + 'a>> {
         (L::VELOCITY_CONSTRAINTS == 0
             && !L::RHEONOMIC
             && L::surplus_coordinates() == 0
+            && L::integral_count() == 0
             && !L::redundant_constraints())
         .then(|| Box::new(LagrangianMechanics::<L>::new(u, p)) as Box<dyn Mechanics + 'a>)
     }
 
     fn event_indicator(t: f64, x: &[f64], u: &[f64], p: &[f64]) -> Option<f64> {
-        let (q, qd) = x.split_at(split::<L>(x.len()));
+        let (q, qd, _) = parts::<L, f64>(x);
         <L as Lagrangian>::event_indicator(t, q, qd, u, p)
     }
 
     fn on_event(t: f64, x: &mut [f64], u: &[f64], p: &[f64]) -> Result<(), String> {
         let n = split::<L>(x.len());
-        let (q, qd) = x.split_at_mut(n);
+        let (q, rest) = x.split_at_mut(n);
+        let qd = &mut rest[..n - L::surplus_coordinates()];
         <L as Lagrangian>::on_event(t, q, qd, u, p)
     }
 
@@ -1002,7 +1041,7 @@ impl<L: Lagrangian> System for L {
     const STATE_CONSTRAINTS: usize = 2 * L::CONSTRAINTS + L::VELOCITY_CONSTRAINTS;
 
     fn state_constraints<S: Scalar>(t: f64, x: &[S], p: &[S], residual: &mut [S]) -> bool {
-        let (q, qd) = x.split_at(split::<L>(x.len()));
+        let (q, qd, _) = parts::<L, S>(x);
         let m = L::CONSTRAINTS;
         L::constraints(S::from(t), q, p, &mut residual[..m]);
         residual[m..].copy_from_slice(&velocity_residuals::<L, S>(t, q, qd, p));

@@ -73,7 +73,7 @@ impl Layout {
         };
         push(VarKind::Parameter, &params);
         // The descriptions list every method, from Method::ALL (so they cannot fall behind).
-        let mut solver = Var::new("solver", None, Method::Dopri5.code() as f64, "");
+        let mut solver = Var::new("solver", None, M::DEFAULT_METHOD.code() as f64, "");
         solver.description = format!(
             "Integration method inside doStep: {}. The adaptive ones ({}) take the tolerance of fmi2SetupExperiment (else of the DefaultExperiment); the others step by solver_step. A method the system cannot run is refused (see the Solver items)",
             Method::codes(),
@@ -220,6 +220,7 @@ pub fn derivative_unit(unit: Option<&str>) -> String {
         Some("m/s") => "m/s2".into(),
         Some("rad") => "rad/s".into(),
         Some("rad/s") => "rad/s2".into(),
+        Some("J") => "W".into(),
         Some("1") | None => "1/s".into(),
         Some(other) => format!("{other}/s"),
     }

@@ -308,6 +308,11 @@ pub trait System: 'static {
     /// AndrewsSqueezer measured 0.51 µs per state).
     const EVALUATION_WEIGHT: u64 = 1;
 
+    /// The `solver` start value: DOPRI5 (the default) for smooth, non-stiff motion; a
+    /// stiff system's own choice (RADAU5 for the flyball governor's stiff dampers), so
+    /// that its default experiment runs as it should without a setting.
+    const DEFAULT_METHOD: crate::integrators::Method = crate::integrators::Method::Dopri5;
+
     /// DefaultExperiment: stop time, relative tolerance, communication step size.
     fn default_experiment() -> (f64, f64, f64) {
         (10.0, 1e-8, 1e-2)

@@ -182,9 +182,11 @@ pub struct PointPair {
     pub point_b: V3<f64>,
     /// A closure's base-frame components (0, 1, 2); empty for a spring.
     pub axes: Vec<usize>,
-    /// A spring's stiffness (N/m) and rest length (m); zero for a closure.
+    /// A spring's stiffness (N/m), rest length (m) and damping (N·s/m); zero for a
+    /// closure.
     pub stiffness: f64,
     pub rest_length: f64,
+    pub damping: f64,
 }
 
 impl Model {
@@ -289,6 +291,7 @@ impl Model {
                 axes: c.axis_indices(),
                 stiffness: 0.0,
                 rest_length: 0.0,
+                damping: 0.0,
             })
             .collect();
         let springs = m
@@ -303,6 +306,7 @@ impl Model {
                 axes: Vec::new(),
                 stiffness: sp.stiffness,
                 rest_length: sp.rest_length,
+                damping: sp.damping,
             })
             .collect();
         model.closures = closures;
@@ -406,6 +410,50 @@ impl Model {
             v += stretch * stretch * (0.5 * sp.stiffness);
         }
         v
+    }
+
+    /// Whether a spring has a damper in parallel ([`PointPair::damping`]).
+    pub fn has_dampers(&self) -> bool {
+        self.springs.iter().any(|sp| sp.damping != 0.0)
+    }
+
+    /// The dampers' generalised force `Σ C ℓ̇ ∇ℓ` into `out` (model order; it opposes the
+    /// motion, so it is subtracted from τ as the springs' gradient is), and the power they
+    /// take out, `Σ C ℓ̇²` (≥ 0). `∇ℓ` by one dual pass of forward kinematics per
+    /// coordinate (as the springs' gradient), `ℓ̇ = ∇ℓ · q̇`.
+    pub fn damper_forces<S: Scalar>(&self, q: &[S], qd: &[S], out: &mut [S]) -> S {
+        out.fill(S::zero());
+        let dampers: Vec<&PointPair> = self.springs.iter().filter(|sp| sp.damping != 0.0).collect();
+        if dampers.is_empty() {
+            return S::zero();
+        }
+        let n = q.len();
+        let mut gradients = vec![vec![S::zero(); n]; dampers.len()];
+        use num_dual::DualNum as _;
+        let mut along: Vec<num_dual::Dual<S>> =
+            q.iter().map(|&v| num_dual::Dual::from_re(v)).collect();
+        for j in 0..n {
+            along[j].eps = S::one();
+            let poses = self.forward_kinematics(&along);
+            for (gradient, sp) in gradients.iter_mut().zip(&dampers) {
+                let d = Self::separation(&poses, sp);
+                gradient[j] = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt().eps;
+            }
+            along[j].eps = S::zero();
+        }
+        let mut power = S::zero();
+        for (gradient, sp) in gradients.iter().zip(&dampers) {
+            let rate = gradient
+                .iter()
+                .zip(qd)
+                .fold(S::zero(), |s, (&g, &v)| s + g * v);
+            let force = rate * sp.damping;
+            for (o, &g) in out.iter_mut().zip(gradient) {
+                *o += force * g;
+            }
+            power += force * rate;
+        }
+        power
     }
 
     /// The number of coordinates (= velocities = moving joints).

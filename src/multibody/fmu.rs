@@ -52,11 +52,11 @@ macro_rules! mechanism_equations {
         &[
             "q: one coordinate per moving joint, named as the joint (rad, or m for a prismatic joint; a continuous joint's is a plain angle, not wrapped), and its velocity q̇",
             "Bodies in a tree from a fixed base, or from a floating one (--floating-base: the root link free, states base_x … base_z in the world, base_q0 … base_q3 a unit quaternion world ← base, base_vx … base_wz its velocity in the base frame; no ground); fixed joints fold their child into the parent (mass, centre of mass and inertia combined)",
-            "T = ½ Σ vᵢᵀ Iᵢ vᵢ (spatial velocities and inertias), V = −Σ mᵢ g·cᵢ over the moving bodies, L = T − V",
-            "Generalised forces: Q = τ − d q̇, with τ the joint's input (a torque, or a force for a prismatic joint) and d its viscous damping",
+            "T = ½ Σ vᵢᵀ Iᵢ vᵢ (spatial velocities and inertias), V = −Σ mᵢ g·cᵢ over the moving bodies + Σ ½ k (ℓ − ℓ₀)² over the springs, L = T − V",
+            "Generalised forces: Q = τ − d q̇ − Σ C (dℓ/dt) ∂ℓ/∂q, with τ the joint's input (a torque, or a force for a prismatic joint), d its viscous damping and C the damper of a spring-damper (of length ℓ)",
             "M(q) q̈ = Q + ∂L/∂q − (∂²L/∂q̇∂q) q̇, solved by the articulated-body algorithm (Featherstone, Rigid Body Dynamics Algorithms, table 7.1): O(n), no mass matrix formed",
             "E = T + V; for the end of each branch, its position and orientation quaternion (w, x, y, z) in the base frame",
-            "Joint position limits are end stops (parameter limit_events = stops, the default): a joint reaching one moving into it is an impact, located as an event: its velocity becomes −e times what it was (e = restitution) and every other joint's changes by the same impulse through M (Δq̇ = M⁻¹ e_k Λ); a rebound that would rise less than 1e-9 rad (m) rests instead",
+            "Joint position limits are end stops (parameter limit_events = stops, the default): a joint reaching one moving into it is an impact, located as an event: its velocity becomes −e times what it was (e = restitution) and every other joint's changes by the same impulse through M (the velocities change by M⁻¹ e_k Λ); a rebound that would rise less than 1e-9 rad (m) rests instead",
             "A joint resting on its stop (on it, q̇ = 0) stays there while the load pushes into it: q̈_k = 0 by a reaction λ_k (output tau_stop_J) with M q̈ = Q + … + e_k λ_k; where λ would have to pull, the joint leaves. limit_events = discard ends the doStep with fmi2Discard at a limit instead; ignore runs through",
             "Coulomb friction F (URDF <dynamics friction>, output tau_friction_J): −F sign(q̇) while a joint slips; a joint at rest (q̇ = 0 exactly) sticks, held by a force within ±F found with the stops' reactions, and breaks away at ±F where the load needs more; a slipping joint coming to rest (within 1e-9 of q̇ = 0) is an event, located (use DOPRI5 or DOP853: RADAU5's Newton iteration and a fixed step may not step through it)",
             "Not modelled: velocity limits; effort limits are the ranges of the inputs; a mimic joint follows the joint it names (q = r q_joint + o, no coordinate or input of its own: its position and velocity are outputs), q̈ then from the mass matrix reduced to the independent joints",
@@ -74,7 +74,7 @@ macro_rules! mechanism_loop_equations {
             "q: one coordinate per moving joint, named as the joint (rad, or m for a prismatic joint), and its velocity q̇; those the closures determine are dependent (solved from the others at initialisation)",
             "Bodies in a tree from a fixed base, closed into loops by loop closures: a point of body A held on a point of body B along base-frame axes, Φ(q) = (p_A − p_B)·e = 0 by forward kinematics",
             "T = ½ Σ vᵢᵀ Iᵢ vᵢ (spatial velocities and inertias), V = −Σ mᵢ g·cᵢ + Σ ½ k (ℓ − ℓ₀)² over the springs, L = T − V",
-            "Generalised forces: Q = τ − d q̇, with τ the joint's input (a torque, or a force for a prismatic joint) and d its viscous damping",
+            "Generalised forces: Q = τ − d q̇ − Σ C (dℓ/dt) ∂ℓ/∂q, with τ the joint's input (a torque, or a force for a prismatic joint), d its viscous damping and C the damper of a spring-damper (of length ℓ)",
             "λ-method: [M Gᵀ; G 0] [q̈; λ] = [Q + ∂L/∂q − (∂²L/∂q̇∂q) q̇; −q̇ᵀ∇²Φ q̇], G = ∂Φ/∂q, by automatic differentiation; λ is the force of each closure on its body B",
             "After every step: coordinate projection onto Φ = 0 (Newton, M-metric) and of q̇ onto G q̇ = 0; residual_C_x … are Φ(q), force_C_x … the multipliers λ",
             "E = T + V; for the end of each branch, its position and orientation quaternion (w, x, y, z) in the base frame",
@@ -118,6 +118,13 @@ pub trait Declared: 'static {
     const CONSTRAINTS: usize = 0;
     /// DefaultExperiment: stop time, relative tolerance, communication step size.
     const DEFAULT_EXPERIMENT: (f64, f64, f64) = (2.0, 1e-8, 1e-2);
+    /// Whether the FMU integrates `E_dissipated`, the energy the viscous dampers (the
+    /// springs' and the joints') took out since the start: a state after `(q, q̇)`
+    /// ([`Lagrangian::integrals`]), so that `E + E_dissipated` is kept where no input
+    /// does work. Coulomb friction is not counted: a mechanism with it is refused.
+    const DISSIPATED_ENERGY: bool = false;
+    /// [`System::DEFAULT_METHOD`](crate::model::System::DEFAULT_METHOD).
+    const DEFAULT_METHOD: crate::integrators::Method = crate::integrators::Method::Dopri5;
 
     /// The bodies and joints (called once per process, by [`Declared::built`]).
     fn mechanism() -> Mechanism;
@@ -355,6 +362,11 @@ impl Built {
     /// and when `D` declares another number of closure residuals than its mechanism has.
     pub fn of<D: Declared>() -> Built {
         let built = Built::new(D::mechanism()).unwrap_or_else(|e| panic!("{}: {e}", D::name()));
+        assert!(
+            !(D::DISSIPATED_ENERGY && friction::any(&built.friction)),
+            "{}: E_dissipated counts viscous damping only, and the mechanism has Coulomb friction",
+            D::NAME
+        );
         let m = built.model.closure_residuals();
         assert_eq!(
             D::CONSTRAINTS,
@@ -397,6 +409,12 @@ impl Built {
             return Err(Error::new(
                 robot(),
                 "has loop closures and a floating base: closures are for mechanisms bolted to the world".into(),
+            ));
+        }
+        if model.has_dampers() && (floating || !mimics.is_empty()) {
+            return Err(Error::new(
+                robot(),
+                "has a spring-damper and a floating base or mimic joints: dampers are for fixed-base mechanisms without mimic joints".into(),
             ));
         }
         if order.is_empty() && !floating {
@@ -1364,10 +1382,13 @@ fn free_accelerations<D: Declared, S: Scalar>(q: &[S], qd: &[S], u: &[S], qdd: &
         b.velocities_to_model(qd),
         b.forces_to_model(u),
     );
+    let mut dampers = vec![S::zero(); q.len()];
+    b.model.damper_forces(&q, &qd, &mut dampers);
     let tau: Vec<S> = u
         .iter()
         .zip(spring_gradient(&b.model, &q))
-        .map(|(&t, g)| t - g)
+        .zip(&dampers)
+        .map(|((&t, g), &d)| t - g - d)
         .collect();
     let mut a = vec![S::zero(); q.len()];
     if !(generated && D::generated_aba(&q, &qd, &tau, &mut a)) {
@@ -1691,6 +1712,7 @@ impl<D: Declared> Lagrangian for Robot<D> {
     /// set on (docs/methods.md): 0.51 / 0.11 rounded up. (It was 50 while closures ran on
     /// automatic differentiation of T, ~7 µs per state.)
     const EVALUATION_WEIGHT: u64 = if D::CONSTRAINTS > 0 { 5 } else { 1 };
+    const DEFAULT_METHOD: crate::integrators::Method = D::DEFAULT_METHOD;
 
     /// A floating base's quaternion: 7 coordinates, 6 velocities.
     fn surplus_coordinates() -> usize {
@@ -1777,13 +1799,50 @@ impl<D: Declared> Lagrangian for Robot<D> {
 
     /// `Q = τ − d q̇`, less the slipping joints' friction ([`friction::slip`]; a stuck
     /// joint's is a reaction, which only the generated path's held solve has).
-    fn forces<S: Scalar>(_t: f64, _q: &[S], qd: &[S], u: &[S], _p: &[S], out: &mut [S]) {
+    fn forces<S: Scalar>(_t: f64, q: &[S], qd: &[S], u: &[S], _p: &[S], out: &mut [S]) {
         let b = D::built();
         out.fill(S::zero());
         for ((o, (&tau, &v)), &d) in out.iter_mut().zip(u.iter().zip(qd)).zip(&b.damping) {
             *o = tau - v * d;
         }
         friction::slip(&b.friction, qd, out);
+        if b.model.has_dampers() {
+            let mut dampers = vec![S::zero(); b.model.nq()];
+            let (qm, qdm) = (b.positions_to_model(q), b.velocities_to_model(qd));
+            b.model.damper_forces(&qm, &qdm, &mut dampers);
+            for (o, &i) in out.iter_mut().zip(&b.order) {
+                *o -= dampers[i];
+            }
+        }
+    }
+
+    fn integrals() -> Vec<Var> {
+        if !D::DISSIPATED_ENERGY {
+            return Vec::new();
+        }
+        vec![Var::new(
+            "E_dissipated",
+            Some("J"),
+            0.0,
+            "Energy the viscous dampers (the springs' and the joints') took out since the start: ∫ (Σ C (dℓ/dt)² + Σ d (dq/dt)²) dt, so that E + E_dissipated is kept where no input does work",
+        )]
+    }
+
+    fn integral_count() -> usize {
+        usize::from(D::DISSIPATED_ENERGY)
+    }
+
+    /// `Ė_dissipated = Σ C ℓ̇² + Σ d q̇²` (the springs' dampers, the joints' damping).
+    fn integral_rates<S: Scalar>(_t: f64, q: &[S], qd: &[S], _u: &[S], _p: &[S], out: &mut [S]) {
+        let b = D::built();
+        let mut dampers = vec![S::zero(); b.model.nq()];
+        let (qm, qdm) = (b.positions_to_model(q), b.velocities_to_model(qd));
+        let springs = b.model.damper_forces(&qm, &qdm, &mut dampers);
+        out[0] = b
+            .damping
+            .iter()
+            .zip(qd)
+            .fold(springs, |s, (&d, &v)| s + v * v * d);
     }
 
     /// The loop closures by forward kinematics ([`Model::closure_residuals_at`]).
@@ -1914,7 +1973,8 @@ impl<D: Declared> Lagrangian for Robot<D> {
             return false;
         }
         let n = b.order.len();
-        let (q, qd) = x.split_at_mut(n);
+        let (q, rest) = x.split_at_mut(n);
+        let qd = &mut rest[..n];
         closed::project(
             q,
             qd,

@@ -386,6 +386,8 @@ pub struct Spring {
     pub stiffness: f64,
     /// ℓ₀ (m).
     pub rest_length: f64,
+    /// C (N·s/m): a damper in parallel, force `C ℓ̇` along the line (0: none).
+    pub damping: f64,
 }
 
 /// The tree structure of a valid mechanism, by index.
@@ -535,13 +537,29 @@ impl Mechanism {
     /// `body_a` to `point_b` of `body_b`. See [`Spring`].
     #[allow(clippy::too_many_arguments)]
     pub fn spring(
-        mut self,
+        self,
         name: &str,
         body_a: &str,
         point_a: V3<f64>,
         body_b: &str,
         point_b: V3<f64>,
         stiffness: f64,
+        rest_length: f64,
+    ) -> Self {
+        let (a, b) = ((body_a, point_a), (body_b, point_b));
+        self.spring_damper(name, a, b, stiffness, 0.0, rest_length)
+    }
+
+    /// A spring with a damper in parallel (the IFToMM flyball governor's): the force
+    /// `K (ℓ − ℓ₀) + C ℓ̇` along the line between `a = (body, point)` and `b`, `stiffness`
+    /// K (N/m), `damping` C (N·s/m), `rest_length` ℓ₀ (m).
+    pub fn spring_damper(
+        mut self,
+        name: &str,
+        (body_a, point_a): (&str, V3<f64>),
+        (body_b, point_b): (&str, V3<f64>),
+        stiffness: f64,
+        damping: f64,
         rest_length: f64,
     ) -> Self {
         self.springs.push(Spring {
@@ -552,6 +570,7 @@ impl Mechanism {
             point_b,
             stiffness,
             rest_length,
+            damping,
         });
         self
     }
@@ -945,6 +964,9 @@ impl Mechanism {
                     "rest length {} is not a finite number ≥ 0",
                     sp.rest_length
                 ));
+            }
+            if !(sp.damping.is_finite() && sp.damping >= 0.0) {
+                return err(format!("damping {} is not a finite number ≥ 0", sp.damping));
             }
         }
         let moving = |what: &str, j: &str| -> Result<(), Error> {

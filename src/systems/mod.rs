@@ -4,6 +4,7 @@ pub mod andrews_squeezer;
 pub mod bricard;
 mod compound_pendulum;
 mod double_pendulum;
+pub mod flyball_governor;
 pub mod four_bar;
 mod mass_spring_damper;
 pub mod n_four_bar;
@@ -25,6 +26,7 @@ pub use andrews_squeezer::AndrewsSqueezer;
 pub use bricard::Bricard;
 pub use compound_pendulum::CompoundPendulum;
 pub use double_pendulum::DoublePendulum;
+pub use flyball_governor::FlyballGovernor;
 pub use four_bar::FourBar;
 pub use mass_spring_damper::MassSpringDamper;
 pub use n_four_bar::NFourBar;
@@ -101,5 +103,6 @@ mod tests {
         writes_every_component::<AndrewsSqueezer>();
         writes_every_component::<NFourBar>();
         writes_every_component::<Bricard>();
+        writes_every_component::<FlyballGovernor>();
     }
 }

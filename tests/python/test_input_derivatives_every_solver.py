@@ -42,7 +42,7 @@ def _run(model, solver, ders, steps=4):
         inst.set(solver_step=h / 50)
         inst.ok("fmi2EnterInitializationMode")
         inst.ok("fmi2ExitInitializationMode")
-        statuses = []
+        statuses, completed = [], 0
         for _ in range(steps):
             for (vr, order), value in ders.items():
                 statuses.append(inst.call("fmi2SetRealInputDerivatives", (c_uint * 1)(vr), 1,
@@ -53,7 +53,8 @@ def _run(model, solver, ders, steps=4):
             assert st in (0, 1, 2), f"{model.name} solver {solver}: doStep failed"
             if st == 2:
                 break
-        return statuses, inst.get_reals(model.state_names)
+            completed += 1
+        return statuses, inst.get_reals(model.state_names), completed
     finally:
         inst.free()
 
@@ -69,10 +70,13 @@ def test_input_derivatives_are_accepted_and_move_the_result_under_every_solver(n
     tried = []
     for solver in SOLVERS:
         held = _run(model, solver, {})
-        if held is None:
+        # Refused, or discarded at the first doStep: a fixed-step method outside its
+        # stability on a stiff system (the flyball governor's dampers, ExplicitEuler at 1 ms)
+        # diverges, and the FMU reports that instead of a state; nothing ran to compare.
+        if held is None or held[2] == 0:
             continue
         for order in (1, 2):
-            statuses, moved = _run(model, solver, {(vr, order): 5.0 * scale})
+            statuses, moved, _ = _run(model, solver, {(vr, order): 5.0 * scale})
             assert all(s == 0 for s in statuses), (
                 f"{name} solver {solver}: fmi2SetRealInputDerivatives of order {order} "
                 f"returned {statuses}")

@@ -66,11 +66,16 @@ def bounds(model: fs.Model, name: str) -> tuple[float, float]:
 
 def central_differences(inst: fs.Instance, unknowns, knowns, delta=1e-5):
     """Central differences, one-sided at a min/max bound (the FMU rightly rejects a
-    value outside [min, max], e.g. a mode state sitting at its max of 1)."""
+    value outside [min, max], e.g. a mode state sitting at its max of 1). Where both sides
+    are free, Richardson's extrapolation of the steps h and h/2, (4 D(h/2) - D(h)) / 3: its
+    truncation error is O(h^4) instead of h^2/6 times the third derivative. The flyball
+    governor's springs (K = 8e5 N/m) make that derivative of E about 4e6 along s, so that
+    plain central differences at h = 1e-5 miss dE/ds by 6e-5 (4e-7 of the scale), where
+    the FMU's value is exact."""
     base = dict(zip(knowns, inst.get_reals(knowns)))
     J = np.zeros((len(unknowns), len(knowns)))
-    for j, name in enumerate(knowns):
-        h = delta * max(1.0, abs(base[name]))
+
+    def difference(name, h):
         lo, hi = bounds(inst.model, name)
         plus = min(base[name] + h, hi)
         minus = max(base[name] - h, lo)
@@ -79,7 +84,13 @@ def central_differences(inst: fs.Instance, unknowns, knowns, delta=1e-5):
         inst.set(**{name: minus})
         down = np.array(inst.get_reals(unknowns))
         inst.set(**{name: base[name]})
-        J[:, j] = (up - down) / (plus - minus)
+        return (up - down) / (plus - minus), lo < base[name] - h and base[name] + h < hi
+
+    for j, name in enumerate(knowns):
+        h = delta * max(1.0, abs(base[name]))
+        wide, symmetric = difference(name, h)
+        narrow, narrow_symmetric = difference(name, h / 2)
+        J[:, j] = (4 * narrow - wide) / 3 if symmetric and narrow_symmetric else wide
     return J
 
 
