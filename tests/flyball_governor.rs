@@ -270,3 +270,48 @@ fn a_bad_damper_is_refused_with_its_reason() {
         "{e}"
     );
 }
+
+/// The operating point of the shipped linearisation: the steady spin at 2π rad/s (the
+/// rods 17.9° below the horizontal, s = 0.692 m), a relative equilibrium: every rate but
+/// the shaft's angle is 0 there, and no eigenvalue of A has a positive real part. Its
+/// slow pair, the governor's oscillation (measured 6.456 rad/s, 0.973 s), against the
+/// period of the benchmark's own motion about it (successive maxima of s, about 1.0 s: its
+/// amplitude of 0.12 m makes it nonlinear, so within 10 %). The others: the springs'
+/// stretch relaxing (about −3 182, −652 s⁻¹, and −20 s⁻¹ ≈ −K/C twice), and two zeros:
+/// the shaft's angle (cyclic) and E_dissipated (nothing depends on it).
+#[test]
+fn the_linearisation_is_at_the_steady_spin_and_stable() {
+    use mbfmu::linearize::{eigenvalues, linearize, OperatingPoint};
+    let (s, alpha) = mbfmu::systems::flyball_governor::steady_spin(p::OMEGA0).unwrap();
+    assert!(
+        (0.6..0.75).contains(&s) && (0.2..0.4).contains(&alpha),
+        "{s} {alpha}"
+    );
+    let point = FlyballGovernor::linearization_point();
+    let o = OperatingPoint::from_start_values::<FlyballGovernor>(&point).unwrap();
+    let mut dx = vec![0.0; o.x.len()];
+    FlyballGovernor::derivatives(0.0, &o.x, &o.u, &o.p, &mut dx);
+    assert!((dx[0] - p::OMEGA0).abs() < 1e-15);
+    assert!(dx[1..].iter().all(|v| v.abs() < 1e-9), "{dx:?}");
+    let lin = linearize::<FlyballGovernor>(&o);
+    let eig = eigenvalues(&lin.a).unwrap();
+    let fastest = eig.iter().fold(0.0f64, |m, e| m.max(e.norm()));
+    assert!(eig.iter().all(|e| e.re < 1e-12 * fastest), "{eig:?}");
+    let slow = eig
+        .iter()
+        .filter(|e| e.im > 0.0)
+        .map(|e| e.im)
+        .fold(f64::INFINITY, f64::min);
+    let linear_period = 2.0 * std::f64::consts::PI / slow;
+    let run = run(Method::Radau5, 1e-8);
+    let peaks: Vec<f64> = (1..run.s.len() - 1)
+        .filter(|&k| run.s[k] > run.s[k - 1] && run.s[k] >= run.s[k + 1])
+        .map(|k| k as f64 * COMM)
+        .collect();
+    let run_period = (peaks.last().unwrap() - peaks[0]) / (peaks.len() - 1) as f64;
+    println!(
+        "METRIC A05 steady spin s = {s:.6} m, alpha = {alpha:.6} rad: oscillation {linear_period:.4} s (linearised) against {run_period:.4} s (the benchmark's run, {} maxima)",
+        peaks.len()
+    );
+    assert!((linear_period / run_period - 1.0).abs() < 0.1);
+}

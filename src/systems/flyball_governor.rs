@@ -119,6 +119,70 @@ pub fn mechanism() -> Mechanism {
     m.start("s", S0).start_velocity("shaft", OMEGA0)
 }
 
+/// The governor's steady spin at `omega` (rad/s): the slider's height and the rods' angle
+/// `(s, α)` at which the balls' centrifugal pull, gravity and the springs balance, so that
+/// the state stays where it is but for the shaft's angle (a relative equilibrium, the
+/// operating point a governor is designed about). Newton's method on `(s̈, α̈) = 0` with the
+/// rods kept symmetric, from the start values, the exact Jacobian by dual numbers; `None`
+/// where it does not converge.
+pub fn steady_spin(omega: f64) -> Option<(f64, f64)> {
+    use crate::model::System;
+    use num_dual::Dual64;
+    let start =
+        |vars: Vec<crate::model::Var>| -> Vec<f64> { vars.iter().map(|v| v.start).collect() };
+    let (x0, u, params) = (
+        start(FlyballGovernor::states()),
+        start(FlyballGovernor::inputs()),
+        start(FlyballGovernor::parameters()),
+    );
+    let lift = |v: &[f64]| -> Vec<Dual64> { v.iter().map(|&a| Dual64::from(a)).collect() };
+    let (u, params) = (lift(&u), lift(&params));
+    // (s̈, α̈_A) at (s, α) and their derivatives along `direction` (0: s, 1: α).
+    let accelerations = |(s, alpha): (f64, f64), direction: usize| -> [Dual64; 2] {
+        let mut x = lift(&x0);
+        x[1] = Dual64::new(s, (direction == 0) as u8 as f64);
+        x[2] = Dual64::new(alpha, (direction == 1) as u8 as f64);
+        x[3] = x[2];
+        x[4] = Dual64::from(omega);
+        let mut dx = vec![Dual64::from(0.0); x.len()];
+        FlyballGovernor::derivatives(0.0, &x, &u, &params, &mut dx);
+        [dx[5], dx[6]]
+    };
+    let norm = |r: [Dual64; 2]| r[0].re.hypot(r[1].re);
+    let mut at = (p::S0, p::ALPHA0);
+    for _ in 0..100 {
+        let (ds, dalpha) = (accelerations(at, 0), accelerations(at, 1));
+        let residual = norm(ds);
+        if residual < 1e-9 {
+            return Some(at);
+        }
+        // [∂/∂s ∂/∂α] step = −residual, 2×2 by Cramer's rule; halved until the residual
+        // falls (the stiff springs make the full step overshoot far from the solution).
+        let (a, b, c, d) = (ds[0].eps, dalpha[0].eps, ds[1].eps, dalpha[1].eps);
+        let det = a * d - b * c;
+        if !det.is_finite() || det == 0.0 {
+            return None;
+        }
+        let step = (
+            -(d * ds[0].re - b * ds[1].re) / det,
+            -(a * ds[1].re - c * ds[0].re) / det,
+        );
+        let mut scale = 1.0;
+        loop {
+            let next = (at.0 + scale * step.0, at.1 + scale * step.1);
+            if norm(accelerations(next, 0)) < residual {
+                at = next;
+                break;
+            }
+            scale *= 0.5;
+            if scale < 1e-12 {
+                return None;
+            }
+        }
+    }
+    None
+}
+
 crate::mechanism_fmu!(
     /// The flyball governor's declaration (its FMU model is [`FlyballGovernor`]).
     pub FlyballGovernorMechanism,
@@ -139,6 +203,18 @@ crate::mechanism_fmu!(
         const DEFAULT_EXPERIMENT: (f64, f64, f64) = (p::END, 1e-10, 0.01);
         const DISSIPATED_ENERGY: bool = true;
         const DEFAULT_METHOD: crate::integrators::Method = crate::integrators::Method::Radau5;
+
+        /// The steady spin at the benchmark's 2π rad/s ([`steady_spin`]): the motion of the
+        /// benchmark oscillates about it. (At rest the balls would hang: no governor.)
+        fn linearization_point() -> Vec<(String, f64)> {
+            let Some((s, alpha)) = steady_spin(p::OMEGA0) else {
+                return Vec::new();
+            };
+            [("s", s), ("alpha_A", alpha), ("alpha_B", alpha), ("shaft_dot", p::OMEGA0)]
+                .iter()
+                .map(|&(name, value)| (name.to_string(), value))
+                .collect()
+        }
 
         /// The benchmark's run first, then the mechanisms' own (released at rest: it
         /// collapses; held, the shaft's torque stepped: it spins up and the balls rise).
