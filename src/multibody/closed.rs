@@ -349,9 +349,20 @@ pub fn solve<S: Scalar>(
 /// LDLᵀ with diagonal pivoting of a symmetric positive semidefinite `s` (k × k row-major,
 /// in place), stopping at the first pivot below [`RANK_TOLERANCE`] of the first
 /// (largest). Returns the permutation and the rank.
-#[allow(clippy::needless_range_loop)] // triangular index arithmetic reads best as indices
 fn pivoted_factor<S: Scalar>(s: &mut [S], k: usize) -> (Vec<usize>, usize) {
-    let mut perm: Vec<usize> = (0..k).collect();
+    let mut perm = vec![0; k];
+    let mut col = vec![S::zero(); k];
+    let rank = pivoted_factor_in(s, k, &mut perm, &mut col);
+    (perm, rank)
+}
+
+/// [`pivoted_factor`] into `perm` (k long), with `col` (k long) as scratch: no
+/// allocation. Returns the rank.
+#[allow(clippy::needless_range_loop)] // triangular index arithmetic reads best as indices
+fn pivoted_factor_in<S: Scalar>(s: &mut [S], k: usize, perm: &mut [usize], col: &mut [S]) -> usize {
+    for (i, p) in perm.iter_mut().enumerate() {
+        *p = i;
+    }
     let at = |i: usize, j: usize| i * k + j;
     let mut rank = 0;
     let mut largest = 0.0;
@@ -376,7 +387,9 @@ fn pivoted_factor<S: Scalar>(s: &mut [S], k: usize) -> (Vec<usize>, usize) {
         rank = j + 1;
         let pj = perm[j];
         // Column j below the pivot, before it becomes L's.
-        let col: Vec<S> = (j + 1..k).map(|a| s[at(perm[a], pj)]).collect();
+        for a in j + 1..k {
+            col[a - j - 1] = s[at(perm[a], pj)];
+        }
         for a in j + 1..k {
             let (pa, l) = (perm[a], col[a - j - 1] / d);
             for b in j + 1..=a {
@@ -390,16 +403,30 @@ fn pivoted_factor<S: Scalar>(s: &mut [S], k: usize) -> (Vec<usize>, usize) {
             s[at(pa, pj)] = l;
         }
     }
-    (perm, rank)
+    rank
 }
 
 /// Solves `s x = r` in place (`r` becomes x) with [`pivoted_factor`]'s factors: the
 /// unknowns past the rank are 0.
-#[allow(clippy::needless_range_loop)]
 fn pivoted_substitute<S: Scalar>(s: &[S], k: usize, (perm, rank): (&[usize], usize), r: &mut [S]) {
+    let mut x = vec![S::zero(); k];
+    pivoted_substitute_in(s, k, (perm, rank), r, &mut x);
+}
+
+/// [`pivoted_substitute`] with `x` (k long) as scratch: no allocation.
+#[allow(clippy::needless_range_loop)]
+fn pivoted_substitute_in<S: Scalar>(
+    s: &[S],
+    k: usize,
+    (perm, rank): (&[usize], usize),
+    r: &mut [S],
+    x: &mut [S],
+) {
     let at = |i: usize, j: usize| i * k + j;
     // Forward, diagonal and back substitution on the first `rank` permuted unknowns.
-    let mut x: Vec<S> = perm.iter().map(|&i| r[i]).collect();
+    for (xi, &pi) in x.iter_mut().zip(perm) {
+        *xi = r[pi];
+    }
     for i in 0..rank {
         for j in 0..i {
             let t = s[at(perm[i], perm[j])] * x[j];
@@ -420,6 +447,171 @@ fn pivoted_substitute<S: Scalar>(s: &[S], k: usize, (perm, rank): (&[usize], usi
     }
     for (i, &pi) in perm.iter().enumerate() {
         r[pi] = x[i];
+    }
+}
+
+/// The terms of one configuration as generated code gives them (dense, row-major,
+/// coordinate order; [`codegen::loops`](super::codegen::loops)), of a mechanism of `N`
+/// coordinates and `K` closure residuals, and the same solve as [`Factored`] on them:
+/// fixed sizes, so it lives on the stack (no allocation) and its loops are unrolled. M
+/// comes as M⁻¹, and `Y = M⁻¹ Gᵀ` and `S = G M⁻¹ Gᵀ` ready made: what is left is S's
+/// rank-revealing factorisation (the pivots depend on the values) and the products.
+pub struct Terms<S, const N: usize, const K: usize> {
+    /// `sin q_c`, `cos q_c` per coordinate (what the velocity terms read).
+    pub sc: [[S; 2]; N],
+    /// M⁻¹.
+    pub m_inv: [[S; N]; N],
+    /// G.
+    pub g: [[S; N]; K],
+    /// `(M⁻¹ Gᵀ)ᵀ`: row i is M⁻¹ gᵢ.
+    pub y: [[S; N]; K],
+    /// `G M⁻¹ Gᵀ`; [`Terms::factor`] factors it in place.
+    pub s: [[S; K]; K],
+    /// `∂V_springs/∂q`.
+    pub springs: [S; N],
+    /// RNEA at q̈ = 0.
+    pub bias: [S; N],
+    /// `γ = Ġ q̇`.
+    pub gamma: [S; K],
+    perm: [usize; K],
+    rank: usize,
+    /// S⁺ r of the last [`Terms::correct`].
+    r: [S; K],
+}
+
+impl<S: Scalar, const N: usize, const K: usize> Default for Terms<S, N, K> {
+    fn default() -> Self {
+        let z = S::zero();
+        Terms {
+            sc: [[z; 2]; N],
+            m_inv: [[z; N]; N],
+            g: [[z; N]; K],
+            y: [[z; N]; K],
+            s: [[z; K]; K],
+            springs: [z; N],
+            bias: [z; N],
+            gamma: [z; K],
+            perm: [0; K],
+            rank: 0,
+            r: [z; K],
+        }
+    }
+}
+
+impl<S: Scalar, const N: usize, const K: usize> Terms<S, N, K> {
+    /// Factors `s` as [`Factored::new`] does (LDLᵀ with diagonal pivoting, largest pivot
+    /// first, stopping below [`RANK_TOLERANCE`] of the first: the same pivots and the same
+    /// operations), but with the pivots' rows and columns swapped into place (as LAPACK's
+    /// pstrf) rather than through a permutation: the substitutions then index L directly.
+    /// Returns the rank found for G.
+    pub fn factor(&mut self) -> usize {
+        let a = &mut self.s;
+        self.perm = std::array::from_fn(|i| i);
+        let mut largest = 0.0;
+        self.rank = 0;
+        for j in 0..K {
+            // The last of the largest, as `Iterator::max_by` picks in [`pivoted_factor_in`].
+            let mut p = j;
+            for i in j + 1..K {
+                if a[i][i].re().total_cmp(&a[p][p].re()) != std::cmp::Ordering::Less {
+                    p = i;
+                }
+            }
+            if p != j {
+                self.perm.swap(j, p);
+                a.swap(j, p);
+                for row in a.iter_mut() {
+                    row.swap(j, p);
+                }
+            }
+            let d = a[j][j];
+            if j == 0 {
+                largest = d.re();
+            }
+            // (NaN stops too: the rank found so far is what is solved.)
+            if d.re().partial_cmp(&(RANK_TOLERANCE * largest)) != Some(std::cmp::Ordering::Greater)
+            {
+                break;
+            }
+            self.rank = j + 1;
+            // Row j right of the pivot still holds column j below it (symmetric): L's column
+            // is written below the diagonal, the trailing block updated on both sides.
+            let pivot_row = a[j];
+            for r in j + 1..K {
+                let l = pivot_row[r] / d;
+                for c in j + 1..=r {
+                    let t = l * pivot_row[c];
+                    a[r][c] -= t;
+                    if r != c {
+                        a[c][r] -= t;
+                    }
+                }
+                a[r][j] = l;
+            }
+        }
+        self.rank
+    }
+
+    /// Solves `S x = r` for `self.r` in place with [`Terms::factor`]'s factors (the
+    /// unknowns past the rank 0), as [`pivoted_substitute_in`].
+    #[allow(clippy::needless_range_loop)] // triangular index arithmetic reads best as indices
+    fn substitute(&mut self) {
+        let (a, rank) = (&self.s, self.rank);
+        let mut x: [S; K] = std::array::from_fn(|i| self.r[self.perm[i]]);
+        for i in 0..rank {
+            let mut v = x[i];
+            for j in 0..i {
+                v -= a[i][j] * x[j];
+            }
+            x[i] = v;
+        }
+        for i in 0..rank {
+            x[i] /= a[i][i];
+        }
+        for i in (0..rank).rev() {
+            let mut v = x[i];
+            for j in i + 1..rank {
+                v -= a[j][i] * x[j];
+            }
+            x[i] = v;
+        }
+        for v in &mut x[rank..] {
+            *v = S::zero();
+        }
+        for i in 0..K {
+            self.r[self.perm[i]] = x[i];
+        }
+    }
+
+    /// `x += Y S⁺ r` for `r = c − G x` (`c` None: `−G x`), as [`Factored`]'s; S⁺ r is left
+    /// in `self.r`.
+    fn correct(&mut self, c: Option<&[S; K]>, x: &mut [S; N]) {
+        for (i, row) in self.g.iter().enumerate() {
+            let gx = row.iter().zip(&*x).fold(S::zero(), |s, (&a, &b)| s + a * b);
+            self.r[i] = c.map_or(S::zero(), |c| c[i]) - gx;
+        }
+        self.substitute();
+        for (yi, &mi) in self.y.iter().zip(&self.r) {
+            for (a, &v) in x.iter_mut().zip(yi) {
+                *a += v * mi;
+            }
+        }
+    }
+
+    /// [`Factored::tangent`]: `q̇` onto `G q̇ = 0`.
+    pub fn tangent(&mut self, qd: &mut [S; N]) {
+        self.correct(None, qd);
+    }
+
+    /// [`Factored::accelerations`] with `c = −γ` (this configuration's `gamma`): `q̈` of
+    /// `M q̈ = f + Gᵀ μ`, `G q̈ = −γ`, into `qdd`; returns μ.
+    pub fn accelerations(&mut self, f: &[S; N], qdd: &mut [S; N]) -> [S; K] {
+        for (a, row) in qdd.iter_mut().zip(&self.m_inv) {
+            *a = row.iter().zip(f).fold(S::zero(), |s, (&m, &x)| s + m * x);
+        }
+        let c = self.gamma.map(|g| -g);
+        self.correct(Some(&c), qdd);
+        self.r
     }
 }
 

@@ -146,6 +146,26 @@ pub trait Declared: 'static {
     /// [`Model::aba`] instead. `None` (the default): not checked.
     const GENERATED_FROM: Option<u64> = None;
 
+    /// A mechanism with loop closures: q̈ and λ as [`closed_accelerations`] computes them,
+    /// on the straight-line terms of [`codegen::loops`](super::codegen::loops)
+    /// ([`generated_closed_accelerations`], written by
+    /// [`generated_closed_terms!`](crate::generated_closed_terms)), returning `true`;
+    /// `false` (the default): none, the interpreted path runs ([`closed::Factored`]). Runs
+    /// only while [`Declared::CLOSED_GENERATED_FROM`] is the mechanism's
+    /// [`Built::closed_fingerprint`].
+    fn generated_closed<S: Scalar>(
+        _t: f64,
+        _x: (&[S], &[S], &[S], &[S]),
+        _qdd: &mut [S],
+        _lambda: &mut [S],
+    ) -> bool {
+        false
+    }
+
+    /// The [`closed_fingerprint`](super::codegen::loops::closed_fingerprint) the closed
+    /// terms were generated from (their `FINGERPRINT`); `None` (the default): none.
+    const CLOSED_GENERATED_FROM: Option<u64> = None;
+
     /// The scenes, given those made for every mechanism ([`Built::scenes`]): those by
     /// default; a declaration may add its own or replace them.
     fn scenes(generated: Vec<Scene>) -> Vec<Scene> {
@@ -194,6 +214,44 @@ macro_rules! mechanism_fmu {
                 BUILT.get_or_init($crate::multibody::fmu::Built::of::<$name>)
             }
             $($($item)*)?
+        }
+    };
+}
+
+/// The items of a [`Declared`] impl that run a mechanism's generated closed terms (a module
+/// written by [`codegen::loops`](super::codegen::loops), named by its path):
+/// `crate::generated_closed_terms!(crate::systems::generated::andrews_squeezer)` in the
+/// braces of [`mechanism_fmu!`](crate::mechanism_fmu).
+#[macro_export]
+macro_rules! generated_closed_terms {
+    ($($code:ident)::+) => {
+        const CLOSED_GENERATED_FROM: Option<u64> = Some($($code)::+::FINGERPRINT);
+        fn generated_closed<S: $crate::model::Scalar>(
+            t: f64,
+            x: (&[S], &[S], &[S], &[S]),
+            qdd: &mut [S],
+            lambda: &mut [S],
+        ) -> bool {
+            use $($code)::+ as code;
+            $crate::multibody::fmu::generated_closed_accelerations::<Self, S, { code::N }, { code::K }>(
+                t,
+                x,
+                qdd,
+                lambda,
+                |q, w| {
+                    code::position(
+                        q,
+                        w.sc.as_flattened_mut(),
+                        w.m_inv.as_flattened_mut(),
+                        w.g.as_flattened_mut(),
+                        w.y.as_flattened_mut(),
+                        w.s.as_flattened_mut(),
+                        &mut w.springs,
+                    )
+                },
+                |q, qd, w| code::velocity(q, w.sc.as_flattened(), qd, &mut w.bias, &mut w.gamma),
+            );
+            true
         }
     };
 }
@@ -250,6 +308,10 @@ pub struct Built {
     /// [`codegen::fingerprint`](super::codegen::fingerprint) of `model`: generated code
     /// runs only on the model it was generated from ([`Declared::GENERATED_FROM`]).
     pub fingerprint: u64,
+    /// [`closed_fingerprint`](super::codegen::loops::closed_fingerprint) of `model` and
+    /// `order` for a mechanism with loop closures (0 without): the generated closed terms
+    /// run only on it ([`Declared::CLOSED_GENERATED_FROM`]).
+    pub closed_fingerprint: u64,
     /// The tree's and the closures' sparsity in coordinate order, for [`closed::solve`].
     pub structure: closed::Structure,
 }
@@ -918,6 +980,11 @@ impl Built {
             damping,
             friction,
             fingerprint: super::codegen::fingerprint(&model),
+            closed_fingerprint: if model.closures.is_empty() {
+                0
+            } else {
+                super::codegen::loops::closed_fingerprint(&model, &order)
+            },
             structure: closed::Structure::of(&model, &order),
             model,
             mechanism,
@@ -1539,6 +1606,22 @@ fn closed_accelerations<D: Declared, S: Scalar>(
     qdd: &mut [S],
     lambda: &mut [S],
 ) {
+    if D::CLOSED_GENERATED_FROM.is_some_and(|f| f == D::built().closed_fingerprint)
+        && D::generated_closed(t, (q, qd, u, p), qdd, lambda)
+    {
+        return;
+    }
+    interpreted_closed_accelerations::<D, S>(t, (q, qd, u, p), qdd, lambda);
+}
+
+/// [`closed_accelerations`] by the interpreted algorithms (a mechanism without generated
+/// closed terms; the oracle of those that have them).
+pub(crate) fn interpreted_closed_accelerations<D: Declared, S: Scalar>(
+    t: f64,
+    (q, qd, u, p): (&[S], &[S], &[S], &[S]),
+    qdd: &mut [S],
+    lambda: &mut [S],
+) {
     let b = D::built();
     let n = b.order.len();
     let qm = b.positions_to_model(q);
@@ -1562,6 +1645,38 @@ fn closed_accelerations<D: Declared, S: Scalar>(
     let c: Vec<S> = curvature.into_iter().map(|x| -x).collect();
     let mut mu = vec![S::zero(); g.len()];
     factored.accelerations(&f, &c, qdd, &mut mu);
+    for (l, m) in lambda.iter_mut().zip(&mu) {
+        *l = -*m;
+    }
+}
+
+/// [`closed_accelerations`] on generated terms ([`Declared::generated_closed`]): the same
+/// steps (q̇ onto `G q̇ = 0`, then the bias, springs and γ at that velocity, the
+/// rank-revealing solve) on `position(q, terms)` and `velocity(q, q̇, terms)` (the
+/// generated module's functions), in [`closed::Terms`] of the mechanism's fixed sizes on
+/// the stack: no allocation.
+pub fn generated_closed_accelerations<D: Declared, S: Scalar, const N: usize, const K: usize>(
+    t: f64,
+    (q, qd, u, p): (&[S], &[S], &[S], &[S]),
+    qdd: &mut [S],
+    lambda: &mut [S],
+    position: impl FnOnce(&[S], &mut closed::Terms<S, N, K>),
+    velocity: impl FnOnce(&[S], &[S], &mut closed::Terms<S, N, K>),
+) {
+    let mut terms = closed::Terms::<S, N, K>::default();
+    position(q, &mut terms);
+    terms.factor();
+    let mut v: [S; N] = qd[..N].try_into().expect("N velocities");
+    terms.tangent(&mut v);
+    velocity(q, &v, &mut terms);
+    let mut f = [S::zero(); N];
+    <Robot<D> as Lagrangian>::forces(t, q, &v, u, p, &mut f);
+    for ((f, &b), &s) in f.iter_mut().zip(&terms.bias).zip(&terms.springs) {
+        *f -= b + s;
+    }
+    let mut a = [S::zero(); N];
+    let mu = terms.accelerations(&f, &mut a);
+    qdd[..N].copy_from_slice(&a);
     for (l, m) in lambda.iter_mut().zip(&mu) {
         *l = -*m;
     }
