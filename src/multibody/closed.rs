@@ -475,6 +475,8 @@ pub struct Terms<S, const N: usize, const K: usize> {
     pub gamma: [S; K],
     perm: [usize; K],
     rank: usize,
+    /// S⁺ ([`Terms::factor`]).
+    w: [[S; K]; K],
     /// S⁺ r of the last [`Terms::correct`].
     r: [S; K],
 }
@@ -493,6 +495,7 @@ impl<S: Scalar, const N: usize, const K: usize> Default for Terms<S, N, K> {
             gamma: [z; K],
             perm: [0; K],
             rank: 0,
+            w: [[z; K]; K],
             r: [z; K],
         }
     }
@@ -500,31 +503,33 @@ impl<S: Scalar, const N: usize, const K: usize> Default for Terms<S, N, K> {
 
 impl<S: Scalar, const N: usize, const K: usize> Terms<S, N, K> {
     /// Factors `s` as [`Factored::new`] does (LDLᵀ with diagonal pivoting, largest pivot
-    /// first, stopping below [`RANK_TOLERANCE`] of the first: the same pivots and the same
-    /// operations), but with the pivots' rows and columns swapped into place (as LAPACK's
-    /// pstrf) rather than through a permutation: the substitutions then index L directly.
-    /// Returns the rank found for G.
+    /// first, stopping below [`RANK_TOLERANCE`] of the first: the same decisions), then
+    /// forms S⁺ = Pᵀ L⁻ᵀ D⁻¹ L⁻¹ P on the rank found (0 past it: what the substitutions
+    /// of [`pivoted_substitute_in`] apply) into `w`, so that the two solves per right-hand
+    /// side are products: a triangular solve is a chain of dependent operations, a product
+    /// is not (measured for 6 × 6: substitution ~33 ns, product 9 ns; forming S⁺ 44 ns).
+    /// The pivot is divided once and multiplied by (rounding apart, the same). Returns the
+    /// rank found for G.
+    #[allow(clippy::needless_range_loop)] // triangular index arithmetic reads best as indices
     pub fn factor(&mut self) -> usize {
-        let a = &mut self.s;
-        self.perm = std::array::from_fn(|i| i);
+        let s = &mut self.s;
+        let perm = &mut self.perm;
+        *perm = std::array::from_fn(|i| i);
         let mut largest = 0.0;
-        self.rank = 0;
+        let mut rank = 0;
+        let mut d_inv = [S::zero(); K];
         for j in 0..K {
             // The last of the largest, as `Iterator::max_by` picks in [`pivoted_factor_in`].
             let mut p = j;
             for i in j + 1..K {
-                if a[i][i].re().total_cmp(&a[p][p].re()) != std::cmp::Ordering::Less {
+                let (x, y) = (s[perm[i]][perm[i]].re(), s[perm[p]][perm[p]].re());
+                if x.total_cmp(&y) != std::cmp::Ordering::Less {
                     p = i;
                 }
             }
-            if p != j {
-                self.perm.swap(j, p);
-                a.swap(j, p);
-                for row in a.iter_mut() {
-                    row.swap(j, p);
-                }
-            }
-            let d = a[j][j];
+            perm.swap(j, p);
+            let pj = perm[j];
+            let d = s[pj][pj];
             if j == 0 {
                 largest = d.re();
             }
@@ -533,64 +538,64 @@ impl<S: Scalar, const N: usize, const K: usize> Terms<S, N, K> {
             {
                 break;
             }
-            self.rank = j + 1;
-            // Row j right of the pivot still holds column j below it (symmetric): L's column
-            // is written below the diagonal, the trailing block updated on both sides.
-            let pivot_row = a[j];
-            for r in j + 1..K {
-                let l = pivot_row[r] / d;
-                for c in j + 1..=r {
-                    let t = l * pivot_row[c];
-                    a[r][c] -= t;
-                    if r != c {
-                        a[c][r] -= t;
-                    }
+            rank = j + 1;
+            let di = S::one() / d;
+            d_inv[j] = di;
+            // Row j of the symmetric trailing block is its column j.
+            let row = s[pj];
+            for a in j + 1..K {
+                let pa = perm[a];
+                let l = row[pa] * di;
+                for b in j + 1..K {
+                    let pb = perm[b];
+                    s[pa][pb] -= l * row[pb];
                 }
-                a[r][j] = l;
+                s[pa][pj] = l;
             }
         }
-        self.rank
-    }
-
-    /// Solves `S x = r` for `self.r` in place with [`Terms::factor`]'s factors (the
-    /// unknowns past the rank 0), as [`pivoted_substitute_in`].
-    #[allow(clippy::needless_range_loop)] // triangular index arithmetic reads best as indices
-    fn substitute(&mut self) {
-        let (a, rank) = (&self.s, self.rank);
-        let mut x: [S; K] = std::array::from_fn(|i| self.r[self.perm[i]]);
+        self.rank = rank;
+        // L⁻¹ (unit lower, permuted order), column by column.
+        let mut li = [[S::zero(); K]; K];
+        for j in 0..rank {
+            li[j][j] = S::one();
+            for i in j + 1..rank {
+                let mut v = S::zero();
+                for m in j..i {
+                    v -= s[perm[i]][perm[m]] * li[m][j];
+                }
+                li[i][j] = v;
+            }
+        }
+        self.w = [[S::zero(); K]; K];
         for i in 0..rank {
-            let mut v = x[i];
-            for j in 0..i {
-                v -= a[i][j] * x[j];
+            for j in i..rank {
+                let mut v = S::zero();
+                for m in j..rank {
+                    v += li[m][i] * (d_inv[m] * li[m][j]);
+                }
+                self.w[perm[i]][perm[j]] = v;
+                self.w[perm[j]][perm[i]] = v;
             }
-            x[i] = v;
         }
-        for i in 0..rank {
-            x[i] /= a[i][i];
-        }
-        for i in (0..rank).rev() {
-            let mut v = x[i];
-            for j in i + 1..rank {
-                v -= a[j][i] * x[j];
-            }
-            x[i] = v;
-        }
-        for v in &mut x[rank..] {
-            *v = S::zero();
-        }
-        for i in 0..K {
-            self.r[self.perm[i]] = x[i];
-        }
+        rank
     }
 
     /// `x += Y S⁺ r` for `r = c − G x` (`c` None: `−G x`), as [`Factored`]'s; S⁺ r is left
     /// in `self.r`.
     fn correct(&mut self, c: Option<&[S; K]>, x: &mut [S; N]) {
-        for (i, row) in self.g.iter().enumerate() {
-            let gx = row.iter().zip(&*x).fold(S::zero(), |s, (&a, &b)| s + a * b);
-            self.r[i] = c.map_or(S::zero(), |c| c[i]) - gx;
-        }
-        self.substitute();
+        let r: [S; K] = std::array::from_fn(|i| {
+            let gx = self.g[i]
+                .iter()
+                .zip(&*x)
+                .fold(S::zero(), |s, (&a, &b)| s + a * b);
+            c.map_or(S::zero(), |c| c[i]) - gx
+        });
+        self.r = std::array::from_fn(|i| {
+            self.w[i]
+                .iter()
+                .zip(&r)
+                .fold(S::zero(), |s, (&a, &b)| s + a * b)
+        });
         for (yi, &mi) in self.y.iter().zip(&self.r) {
             for (a, &v) in x.iter_mut().zip(yi) {
                 *a += v * mi;
