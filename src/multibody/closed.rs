@@ -481,16 +481,41 @@ pub struct Terms<S, const N: usize, const K: usize> {
     r: [S; K],
 }
 
-impl<S: Scalar, const N: usize, const K: usize> Default for Terms<S, N, K> {
-    fn default() -> Self {
+/// A mechanism's generated closed terms ([`codegen::loops`](super::codegen::loops)), of
+/// `N` coordinates and `K` closure residuals: the position and velocity terms, and the
+/// products with them over their structural nonzeros only (known when generating: the
+/// tree's and the closures' zeros), which [`Terms`] solves with.
+pub trait Code<const N: usize, const K: usize> {
+    /// The position terms at q ([`Terms`]' public fields but the velocity terms, 0).
+    fn position<S: Scalar>(q: &[S]) -> Terms<S, N, K>;
+    /// The bias (RNEA at q̈ = 0) and γ = Ġ q̇ at (q, q̇), reading sin and cos of q (`sc`).
+    fn velocity<S: Scalar>(q: &[S], sc: &[[S; 2]; N], qd: &[S; N]) -> ([S; N], [S; K]);
+    /// `G x`.
+    fn g_times<S: Scalar>(g: &[[S; N]; K], x: &[S; N]) -> [S; K];
+    /// `x += Yᵀ r` (`Y = M⁻¹ Gᵀ`, stored as its transpose: row i is M⁻¹ gᵢ).
+    fn add_y_t_times<S: Scalar>(y: &[[S; N]; K], r: &[S; K], x: &mut [S; N]);
+    /// `M⁻¹ f`.
+    fn m_inv_times<S: Scalar>(m_inv: &[[S; N]; N], f: &[S; N]) -> [S; N];
+}
+
+impl<S: Scalar, const N: usize, const K: usize> Terms<S, N, K> {
+    /// The position terms (what [`Code::position`] computes); the velocity terms 0.
+    pub fn new(
+        sc: [[S; 2]; N],
+        m_inv: [[S; N]; N],
+        g: [[S; N]; K],
+        y: [[S; N]; K],
+        s: [[S; K]; K],
+        springs: [S; N],
+    ) -> Self {
         let z = S::zero();
         Terms {
-            sc: [[z; 2]; N],
-            m_inv: [[z; N]; N],
-            g: [[z; N]; K],
-            y: [[z; N]; K],
-            s: [[z; K]; K],
-            springs: [z; N],
+            sc,
+            m_inv,
+            g,
+            y,
+            s,
+            springs,
             bias: [z; N],
             gamma: [z; K],
             perm: [0; K],
@@ -499,9 +524,7 @@ impl<S: Scalar, const N: usize, const K: usize> Default for Terms<S, N, K> {
             r: [z; K],
         }
     }
-}
 
-impl<S: Scalar, const N: usize, const K: usize> Terms<S, N, K> {
     /// Factors `s` as [`Factored::new`] does (LDLᵀ with diagonal pivoting, largest pivot
     /// first, stopping below [`RANK_TOLERANCE`] of the first: the same decisions), then
     /// forms S⁺ = Pᵀ L⁻ᵀ D⁻¹ L⁻¹ P on the rank found (0 past it: what the substitutions
@@ -541,7 +564,8 @@ impl<S: Scalar, const N: usize, const K: usize> Terms<S, N, K> {
             rank = j + 1;
             let di = S::one() / d;
             d_inv[j] = di;
-            // Row j of the symmetric trailing block is its column j.
+            // Row j of the symmetric trailing block is its column j (both sides are kept:
+            // a later pivot swaps which side is below the diagonal).
             let row = s[pj];
             for a in j + 1..K {
                 let pa = perm[a];
@@ -566,7 +590,9 @@ impl<S: Scalar, const N: usize, const K: usize> Terms<S, N, K> {
                 li[i][j] = v;
             }
         }
-        self.w = [[S::zero(); K]; K];
+        if rank < K {
+            self.w = [[S::zero(); K]; K];
+        }
         for i in 0..rank {
             for j in i..rank {
                 let mut v = S::zero();
@@ -580,42 +606,31 @@ impl<S: Scalar, const N: usize, const K: usize> Terms<S, N, K> {
         rank
     }
 
-    /// `x += Y S⁺ r` for `r = c − G x` (`c` None: `−G x`), as [`Factored`]'s; S⁺ r is left
-    /// in `self.r`.
-    fn correct(&mut self, c: Option<&[S; K]>, x: &mut [S; N]) {
-        let r: [S; K] = std::array::from_fn(|i| {
-            let gx = self.g[i]
-                .iter()
-                .zip(&*x)
-                .fold(S::zero(), |s, (&a, &b)| s + a * b);
-            c.map_or(S::zero(), |c| c[i]) - gx
-        });
+    /// `x += Y S⁺ r` for `r = c − G x` (`c` None: `−G x`), as [`Factored`]'s, with `C`'s
+    /// products; S⁺ r is left in `self.r`.
+    fn correct<C: Code<N, K>>(&mut self, c: Option<&[S; K]>, x: &mut [S; N]) {
+        let gx = C::g_times(&self.g, x);
+        let r: [S; K] = std::array::from_fn(|i| c.map_or(S::zero(), |c| c[i]) - gx[i]);
         self.r = std::array::from_fn(|i| {
             self.w[i]
                 .iter()
                 .zip(&r)
                 .fold(S::zero(), |s, (&a, &b)| s + a * b)
         });
-        for (yi, &mi) in self.y.iter().zip(&self.r) {
-            for (a, &v) in x.iter_mut().zip(yi) {
-                *a += v * mi;
-            }
-        }
+        C::add_y_t_times(&self.y, &self.r, x);
     }
 
     /// [`Factored::tangent`]: `q̇` onto `G q̇ = 0`.
-    pub fn tangent(&mut self, qd: &mut [S; N]) {
-        self.correct(None, qd);
+    pub fn tangent<C: Code<N, K>>(&mut self, qd: &mut [S; N]) {
+        self.correct::<C>(None, qd);
     }
 
     /// [`Factored::accelerations`] with `c = −γ` (this configuration's `gamma`): `q̈` of
     /// `M q̈ = f + Gᵀ μ`, `G q̈ = −γ`, into `qdd`; returns μ.
-    pub fn accelerations(&mut self, f: &[S; N], qdd: &mut [S; N]) -> [S; K] {
-        for (a, row) in qdd.iter_mut().zip(&self.m_inv) {
-            *a = row.iter().zip(f).fold(S::zero(), |s, (&m, &x)| s + m * x);
-        }
+    pub fn accelerations<C: Code<N, K>>(&mut self, f: &[S; N], qdd: &mut [S; N]) -> [S; K] {
+        *qdd = C::m_inv_times(&self.m_inv, f);
         let c = self.gamma.map(|g| -g);
-        self.correct(Some(&c), qdd);
+        self.correct::<C>(Some(&c), qdd);
         self.r
     }
 }

@@ -233,23 +233,8 @@ macro_rules! generated_closed_terms {
             lambda: &mut [S],
         ) -> bool {
             use $($code)::+ as code;
-            $crate::multibody::fmu::generated_closed_accelerations::<Self, S, { code::N }, { code::K }>(
-                t,
-                x,
-                qdd,
-                lambda,
-                |q, w| {
-                    code::position(
-                        q,
-                        w.sc.as_flattened_mut(),
-                        w.m_inv.as_flattened_mut(),
-                        w.g.as_flattened_mut(),
-                        w.y.as_flattened_mut(),
-                        w.s.as_flattened_mut(),
-                        &mut w.springs,
-                    )
-                },
-                |q, qd, w| code::velocity(q, w.sc.as_flattened(), qd, &mut w.bias, &mut w.gamma),
+            $crate::multibody::fmu::generated_closed_accelerations::<Self, S, code::Code, { code::N }, { code::K }>(
+                t, x, qdd, lambda,
             );
             true
         }
@@ -1652,30 +1637,32 @@ pub(crate) fn interpreted_closed_accelerations<D: Declared, S: Scalar>(
 
 /// [`closed_accelerations`] on generated terms ([`Declared::generated_closed`]): the same
 /// steps (q̇ onto `G q̇ = 0`, then the bias, springs and γ at that velocity, the
-/// rank-revealing solve) on `position(q, terms)` and `velocity(q, q̇, terms)` (the
-/// generated module's functions), in [`closed::Terms`] of the mechanism's fixed sizes on
-/// the stack: no allocation.
-pub fn generated_closed_accelerations<D: Declared, S: Scalar, const N: usize, const K: usize>(
+/// rank-revealing solve) on the generated module's [`closed::Code`], in [`closed::Terms`]
+/// of the mechanism's fixed sizes on the stack: no allocation.
+pub fn generated_closed_accelerations<
+    D: Declared,
+    S: Scalar,
+    C: closed::Code<N, K>,
+    const N: usize,
+    const K: usize,
+>(
     t: f64,
     (q, qd, u, p): (&[S], &[S], &[S], &[S]),
     qdd: &mut [S],
     lambda: &mut [S],
-    position: impl FnOnce(&[S], &mut closed::Terms<S, N, K>),
-    velocity: impl FnOnce(&[S], &[S], &mut closed::Terms<S, N, K>),
 ) {
-    let mut terms = closed::Terms::<S, N, K>::default();
-    position(q, &mut terms);
+    let mut terms = C::position(q);
     terms.factor();
     let mut v: [S; N] = qd[..N].try_into().expect("N velocities");
-    terms.tangent(&mut v);
-    velocity(q, &v, &mut terms);
+    terms.tangent::<C>(&mut v);
+    (terms.bias, terms.gamma) = C::velocity(q, &terms.sc, &v);
     let mut f = [S::zero(); N];
     <Robot<D> as Lagrangian>::forces(t, q, &v, u, p, &mut f);
     for ((f, &b), &s) in f.iter_mut().zip(&terms.bias).zip(&terms.springs) {
         *f -= b + s;
     }
     let mut a = [S::zero(); N];
-    let mu = terms.accelerations(&f, &mut a);
+    let mu = terms.accelerations::<C>(&f, &mut a);
     qdd[..N].copy_from_slice(&a);
     for (l, m) in lambda.iter_mut().zip(&mu) {
         *l = -*m;

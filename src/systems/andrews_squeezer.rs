@@ -317,25 +317,17 @@ mod tests {
     #[ignore]
     fn parts() {
         use crate::bench::speed::best_ns;
-        use crate::multibody::closed::Terms;
-        use crate::systems::generated::andrews_squeezer as code;
+        use crate::multibody::closed::Code as _;
+        use crate::systems::generated::andrews_squeezer::Code;
         use std::hint::black_box;
         let q = START;
         let qd = [1.0, -2.0, 3.0, 0.5, -0.5, 2.0, 1.5];
-        let mut t = Terms::<f64, 7, 6>::default();
         let ns = |name: &str, v: f64| println!("{name}: {v:.1} ns");
+        let mut t = Code::position(&q);
         ns(
             "position",
             best_ns(5, || {
-                code::position(
-                    black_box(&q),
-                    t.sc.as_flattened_mut(),
-                    t.m_inv.as_flattened_mut(),
-                    t.g.as_flattened_mut(),
-                    t.y.as_flattened_mut(),
-                    t.s.as_flattened_mut(),
-                    &mut t.springs,
-                );
+                t = Code::position(black_box(&q));
             }),
         );
         let s0 = t.s;
@@ -351,19 +343,13 @@ mod tests {
             "tangent",
             best_ns(5, || {
                 v = qd;
-                t.tangent(black_box(&mut v));
+                t.tangent::<Code>(black_box(&mut v));
             }),
         );
         ns(
             "velocity",
             best_ns(5, || {
-                code::velocity(
-                    &q,
-                    t.sc.as_flattened(),
-                    black_box(&v),
-                    &mut t.bias,
-                    &mut t.gamma,
-                );
+                (t.bias, t.gamma) = Code::velocity(&q, &t.sc, black_box(&v));
             }),
         );
         let f = [0.01; 7];
@@ -371,7 +357,7 @@ mod tests {
         ns(
             "accelerations",
             best_ns(5, || {
-                black_box(t.accelerations(black_box(&f), &mut qdd));
+                black_box(t.accelerations::<Code>(black_box(&f), &mut qdd));
             }),
         );
         let p: Vec<f64> = <AndrewsSqueezer as Lagrangian>::parameters()

@@ -4,14 +4,17 @@
 //! depends on q̇ too (the bias by RNEA at q̈ = 0 and the curvature `γ = Ġ q̇`) in another,
 //! both traced with the symbolic scalar through the same algorithms the interpreted path
 //! runs ([`Model::crba`], [`Model::rnea`], [`closed::kinematics`](super::super::closed::kinematics),
-//! the springs' energy by dual numbers), in the mechanism's coordinate
-//! order. Only the rank-revealing solve on S is left to run time
+//! the springs' energy by dual numbers), in the mechanism's coordinate order; and the
+//! products the solve needs (`G x`, `x + Yᵀ r`, `M⁻¹ f`) over the terms' structural
+//! nonzeros, which the trace knows (Andrews: 22 of G's 42 entries, 13 of M⁻¹'s 49). All of
+//! it as the mechanism's [`closed::Code`](super::super::closed::Code); only the
+//! rank-revealing factorisation of S is left to run time
 //! ([`closed::Terms`](super::super::closed::Terms)): its pivots depend on the values.
 //!
 //! Two functions, not one, because the velocity is taken onto `G q̇ = 0` between them
 //! (with G and S of the first); the second reads the first's `sin qᵢ`, `cos qᵢ` (`sc`)
 //! instead of computing them again (the trigonometry is most of a planar mechanism's
-//! position terms).
+//! position terms: Andrews' seven `sin_cos` are 58 of its ~80 ns).
 //!
 //! M⁻¹ is traced as a dense LDLᵀ of the traced M ([`ldl_factor`]): the tree's zeros are
 //! exact constants there and fold away, so what is emitted is the tree's sparse solve.
@@ -23,7 +26,6 @@ use crate::model::symbolic::expr::with_graph;
 use crate::model::symbolic::{record, Arg, Expr, Fun, Graph, Id, Node};
 use crate::multibody::dynamics::Model;
 use num_dual::Dual;
-use std::fmt::Write as _;
 
 /// [`fingerprint`] of the model and of the coordinate order: the generated terms are in
 /// the coordinates' order, so a reordered declaration must not run them either.
@@ -204,96 +206,106 @@ fn trace(model: &Model, order: &[usize]) -> Traced {
     }
 }
 
-/// `pub fn {name}<S: Scalar>({inputs}, {outputs})`: the inputs `(name, leaf, length)`,
-/// each output `&mut [S]` of its roots' length. Returns the source and its operations.
-fn function(
-    graph: &Graph,
-    name: &str,
-    doc: &str,
-    inputs: &[(&str, Arg, usize)],
-    outputs: &[(&str, &[Id])],
-) -> (String, usize) {
-    let roots: Vec<Id> = outputs
-        .iter()
-        .flat_map(|(_, r)| r.iter().copied())
+/// `[[a, b, …], …]`: `items` in rows of `width` (one row: `[a, b, …]` when `width` is
+/// the whole).
+fn array(items: &[String], width: usize) -> String {
+    let rows: Vec<String> = items
+        .chunks(width)
+        .map(|r| format!("[{}]", r.join(", ")))
         .collect();
+    if width == items.len() {
+        rows.concat()
+    } else {
+        format!("[{}]", rows.join(", "))
+    }
+}
+
+/// The statements computing `roots`, leaves named by `inputs` (`(name, leaf)`); each root's
+/// expression after them.
+fn body(graph: &Graph, roots: &[Id], inputs: &[(&str, Arg)]) -> (String, Vec<String>, usize) {
     let leaf = |arg: Arg| {
         inputs
             .iter()
-            .find(|(_, a, _)| *a == arg)
-            .map_or_else(|| format!("{arg:?}"), |(n, _, _)| n.to_string())
+            .find(|(_, a)| *a == arg)
+            .map_or_else(|| format!("{arg:?}"), |(n, _)| n.to_string())
     };
-    let st = straight_line(graph, &roots, &leaf);
-    let mut src = String::new();
-    for line in doc.lines() {
-        writeln!(src, "/// {line}").unwrap();
-    }
-    let params: Vec<String> = inputs
-        .iter()
-        .map(|(n, arg, _)| {
-            let used = if st.used_args[*arg as usize] { "" } else { "_" };
-            format!("{used}{n}: &[S]")
-        })
-        .chain(outputs.iter().map(|(o, _)| format!("{o}: &mut [S]")))
+    let st = straight_line(graph, roots, &leaf);
+    (st.body, st.roots, st.operations)
+}
+
+/// `Σ_j a[{row}][j] * x[j]` over the `nonzero` j (`S::zero()` for none).
+fn sparse_dot(a: &str, row: usize, x: &str, nonzero: impl Iterator<Item = usize>) -> String {
+    let terms: Vec<String> = nonzero
+        .map(|j| format!("{a}[{row}][{j}] * {x}[{j}]"))
         .collect();
-    writeln!(
-        src,
-        "#[allow(clippy::too_many_arguments)]\npub fn {name}<S: Scalar>({}) {{",
-        params.join(", ")
-    )
-    .unwrap();
-    for (n, arg, len) in inputs {
-        if st.used_args[*arg as usize] {
-            writeln!(src, "        let {n} = &{n}[..{len}];").unwrap();
-        }
+    if terms.is_empty() {
+        "S::zero()".into()
+    } else {
+        terms.join(" + ")
     }
-    for (o, r) in outputs {
-        writeln!(src, "        let {o} = &mut {o}[..{}];", r.len()).unwrap();
-    }
-    src.push_str(&st.body);
-    let mut at = 0;
-    for (o, r) in outputs {
-        for i in 0..r.len() {
-            writeln!(src, "        {o}[{i}] = {};", st.roots[at]).unwrap();
-            at += 1;
-        }
-    }
-    src.push_str("}\n");
-    (src, st.operations)
 }
 
 /// The generated module of a mechanism with loop closures (fixed base, no mimic joints):
 /// `model` and its coordinate `order` (`order[c]` is coordinate c's model index), named
 /// `name` in its header; the library named `krate`. Its `FINGERPRINT` is
-/// [`closed_fingerprint`]; `position` and `velocity` as the module notes say.
+/// [`closed_fingerprint`]; `Code` implements
+/// [`closed::Code`](crate::multibody::closed::Code): `position` and `velocity` as the
+/// module notes say, the products over the traced terms' structural nonzeros.
 pub fn generate(model: &Model, order: &[usize], name: &str, krate: &str) -> String {
     let (n, k) = (model.nq(), model.closure_residuals());
     let t = trace(model, order);
-    let (position, pos_ops) = function(
-        &t.graph,
-        "position",
-        "From q: `sc` = (sin q_c, cos q_c) per coordinate (what [`velocity`] reads), `m_inv` = M⁻¹\n\
-         (n × n), `g` = G (k × n), `y` = (M⁻¹ Gᵀ)ᵀ (k × n: row i is M⁻¹ gᵢ), `s` = G M⁻¹ Gᵀ\n\
-         (k × k), `springs` = ∂V_springs/∂q; row-major, coordinate order.",
-        &[("q", Arg::Q, n)],
-        &[
-            ("sc", &t.sc),
-            ("m_inv", &t.m_inv),
-            ("g", &t.g),
-            ("y", &t.y),
-            ("s", &t.s),
-            ("springs", &t.springs),
-        ],
+    let zero =
+        |id: Id| matches!(t.graph.node(id), Node::Const(bits) if f64::from_bits(bits) == 0.0);
+    let position_roots: Vec<Id> = [&t.sc, &t.m_inv, &t.g, &t.y, &t.s, &t.springs]
+        .into_iter()
+        .flatten()
+        .copied()
+        .collect();
+    let (pos_body, pos_roots, pos_ops) = body(&t.graph, &position_roots, &[("q", Arg::Q)]);
+    let mut at = 0;
+    let mut take = |len: usize, width: usize| {
+        let a = array(&pos_roots[at..at + len], width);
+        at += len;
+        a
+    };
+    let terms = format!(
+        "Terms::new(\n            {},\n            {},\n            {},\n            {},\n            {},\n            {},\n        )",
+        take(2 * n, 2),
+        take(n * n, n),
+        take(k * n, n),
+        take(k * n, n),
+        take(k * k, k),
+        take(n, n),
     );
-    let (velocity, vel_ops) = function(
+    let velocity_roots: Vec<Id> = t.bias.iter().chain(&t.gamma).copied().collect();
+    let (vel_body, vel_roots, vel_ops) = body(
         &t.graph,
-        "velocity",
-        "From q, [`position`]'s `sc` at that q, and q̇: `bias` = RNEA(q, q̇, 0) (Coriolis and\n\
-         centrifugal forces, gravity; not the damping), `gamma` = Ġ q̇ (the closures'\n\
-         curvature); coordinate order.",
-        &[("q", Arg::Q, n), ("sc", Arg::P, 2 * n), ("qd", Arg::Qd, n)],
-        &[("bias", &t.bias), ("gamma", &t.gamma)],
+        &velocity_roots,
+        &[("q", Arg::Q), ("scf", Arg::P), ("qd", Arg::Qd)],
     );
+    let uses_q = vel_body.contains("q[") || vel_roots.iter().any(|r| r.contains("q["));
+    let g_rows: Vec<String> = (0..k)
+        .map(|i| sparse_dot("g", i, "x", (0..n).filter(|&j| !zero(t.g[i * n + j]))))
+        .collect();
+    let y_cols: String = (0..n)
+        .filter_map(|j| {
+            let terms: Vec<String> = (0..k)
+                .filter(|&i| !zero(t.y[i * n + j]))
+                .map(|i| format!("y[{i}][{j}] * r[{i}]"))
+                .collect();
+            (!terms.is_empty()).then(|| format!("        x[{j}] += {};\n", terms.join(" + ")))
+        })
+        .collect();
+    let m_rows: Vec<String> = (0..n)
+        .map(|i| {
+            sparse_dot(
+                "m_inv",
+                i,
+                "f",
+                (0..n).filter(|&j| !zero(t.m_inv[i * n + j])),
+            )
+        })
+        .collect();
     let joints: Vec<&str> = order.iter().map(|&i| model.joints[i].as_str()).collect();
     format!(
         "//! Generated by `mbfmu::multibody::codegen::loops` from `{name}` ({n} coordinates: {joints};\n\
@@ -301,15 +313,44 @@ pub fn generate(model: &Model, order: &[usize], name: &str, krate: &str) -> Stri
          //! (`MBFMU_REGENERATE=1 cargo test --release --lib generated_closed_terms` rewrites it).\n\
          //!\n\
          //! `position`: {pos_ops} operations; `velocity`: {vel_ops} operations.\n\n\
-         use {krate}::model::Scalar;\n\n\
+         use {krate}::model::Scalar;\n\
+         use {krate}::multibody::closed::{{self, Terms}};\n\n\
          /// [`closed_fingerprint`]({krate}::multibody::codegen::loops::closed_fingerprint) of the\n\
          /// model and coordinate order this code was generated from.\n\
          pub const FINGERPRINT: u64 = {fp:#018x};\n\
          /// Coordinates and closure residuals.\n\
          pub const N: usize = {n};\n\
          pub const K: usize = {k};\n\n\
-         {position}\n{velocity}",
+         /// The terms and products of [`closed::Code`].\n\
+         pub struct Code;\n\n\
+         impl closed::Code<{n}, {k}> for Code {{\n\
+         \x20   /// From q: sin and cos of each coordinate (what `velocity` reads), M⁻¹, G,\n\
+         \x20   /// (M⁻¹ Gᵀ)ᵀ, G M⁻¹ Gᵀ, ∂V_springs/∂q; coordinate order.\n\
+         \x20   fn position<S: Scalar>(q: &[S]) -> Terms<S, {n}, {k}> {{\n\
+         \x20       let q = &q[..{n}];\n\
+         {pos_body}        {terms}\n\
+         \x20   }}\n\n\
+         \x20   /// From q, sin and cos of q, and q̇: RNEA(q, q̇, 0) (Coriolis and centrifugal\n\
+         \x20   /// forces, gravity; not the damping) and Ġ q̇.\n\
+         \x20   fn velocity<S: Scalar>({q}: &[S], sc: &[[S; 2]; {n}], qd: &[S; {n}]) -> ([S; {n}], [S; {k}]) {{\n\
+         \x20       let scf = sc.as_flattened();\n\
+         {vel_body}        ({bias}, {gamma})\n\
+         \x20   }}\n\n\
+         \x20   fn g_times<S: Scalar>(g: &[[S; {n}]; {k}], x: &[S; {n}]) -> [S; {k}] {{\n\
+         \x20       [{g_rows}]\n\
+         \x20   }}\n\n\
+         \x20   fn add_y_t_times<S: Scalar>(y: &[[S; {n}]; {k}], r: &[S; {k}], x: &mut [S; {n}]) {{\n\
+         {y_cols}\x20   }}\n\n\
+         \x20   fn m_inv_times<S: Scalar>(m_inv: &[[S; {n}]; {n}], f: &[S; {n}]) -> [S; {n}] {{\n\
+         \x20       [{m_rows}]\n\
+         \x20   }}\n\
+         }}\n",
         joints = joints.join(", "),
         fp = closed_fingerprint(model, order),
+        q = if uses_q { "q" } else { "_q" },
+        bias = array(&vel_roots[..n], n),
+        gamma = array(&vel_roots[n..], k),
+        g_rows = g_rows.join(", "),
+        m_rows = m_rows.join(", "),
     )
 }

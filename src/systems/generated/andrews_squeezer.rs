@@ -5,6 +5,7 @@
 //! `position`: 244 operations; `velocity`: 191 operations.
 
 use crate::model::Scalar;
+use crate::multibody::closed::{self, Terms};
 
 /// [`closed_fingerprint`](crate::multibody::codegen::loops::closed_fingerprint) of the
 /// model and coordinate order this code was generated from.
@@ -13,18 +14,14 @@ pub const FINGERPRINT: u64 = 0x1f2f69429b56af69;
 pub const N: usize = 7;
 pub const K: usize = 6;
 
-/// From q: `sc` = (sin q_c, cos q_c) per coordinate (what [`velocity`] reads), `m_inv` = M⁻¹
-/// (n × n), `g` = G (k × n), `y` = (M⁻¹ Gᵀ)ᵀ (k × n: row i is M⁻¹ gᵢ), `s` = G M⁻¹ Gᵀ
-/// (k × k), `springs` = ∂V_springs/∂q; row-major, coordinate order.
-#[allow(clippy::too_many_arguments)]
-pub fn position<S: Scalar>(q: &[S], sc: &mut [S], m_inv: &mut [S], g: &mut [S], y: &mut [S], s: &mut [S], springs: &mut [S]) {
+/// The terms and products of [`closed::Code`].
+pub struct Code;
+
+impl closed::Code<7, 6> for Code {
+    /// From q: sin and cos of each coordinate (what `velocity` reads), M⁻¹, G,
+    /// (M⁻¹ Gᵀ)ᵀ, G M⁻¹ Gᵀ, ∂V_springs/∂q; coordinate order.
+    fn position<S: Scalar>(q: &[S]) -> Terms<S, 7, 6> {
         let q = &q[..7];
-        let sc = &mut sc[..14];
-        let m_inv = &mut m_inv[..49];
-        let g = &mut g[..42];
-        let y = &mut y[..42];
-        let s = &mut s[..36];
-        let springs = &mut springs[..7];
         let (s0, c0) = q[0].sin_cos();
         let (s1, c1) = q[1].sin_cos();
         let (s2, c2) = q[2].sin_cos();
@@ -105,222 +102,35 @@ pub fn position<S: Scalar>(q: &[S], sc: &mut [S], m_inv: &mut [S], g: &mut [S], 
         let v77 = v76.recip();
         let v78 = v76.sqrt();
         let v79 = (v78 - 0.07785) * (v77 * v78 * (v72 * v75 * 2.0 - v73 * v74 * 2.0));
-        sc[0] = s0;
-        sc[1] = c0;
-        sc[2] = s1;
-        sc[3] = c1;
-        sc[4] = s2;
-        sc[5] = c2;
-        sc[6] = s3;
-        sc[7] = c3;
-        sc[8] = s4;
-        sc[9] = c4;
-        sc[10] = s5;
-        sc[11] = c5;
-        sc[12] = s6;
-        sc[13] = c6;
-        m_inv[0] = v41 + v42 * v46;
-        m_inv[1] = v47;
-        m_inv[2] = S::from(0.0);
-        m_inv[3] = S::from(0.0);
-        m_inv[4] = S::from(0.0);
-        m_inv[5] = S::from(0.0);
-        m_inv[6] = S::from(0.0);
-        m_inv[7] = v47;
-        m_inv[8] = v43;
-        m_inv[9] = S::from(0.0);
-        m_inv[10] = S::from(0.0);
-        m_inv[11] = S::from(0.0);
-        m_inv[12] = S::from(0.0);
-        m_inv[13] = S::from(0.0);
-        m_inv[14] = S::from(0.0);
-        m_inv[15] = S::from(0.0);
-        m_inv[16] = S::from(61842.35515712993);
-        m_inv[17] = S::from(0.0);
-        m_inv[18] = S::from(0.0);
-        m_inv[19] = S::from(0.0);
-        m_inv[20] = S::from(0.0);
-        m_inv[21] = S::from(0.0);
-        m_inv[22] = S::from(0.0);
-        m_inv[23] = S::from(0.0);
-        m_inv[24] = v14 * v48 * 1549379517769.1838 + 1244740.7431948164;
-        m_inv[25] = v49;
-        m_inv[26] = S::from(0.0);
-        m_inv[27] = S::from(0.0);
-        m_inv[28] = S::from(0.0);
-        m_inv[29] = S::from(0.0);
-        m_inv[30] = S::from(0.0);
-        m_inv[31] = v49;
-        m_inv[32] = v44;
-        m_inv[33] = S::from(0.0);
-        m_inv[34] = S::from(0.0);
-        m_inv[35] = S::from(0.0);
-        m_inv[36] = S::from(0.0);
-        m_inv[37] = S::from(0.0);
-        m_inv[38] = S::from(0.0);
-        m_inv[39] = S::from(0.0);
-        m_inv[40] = v15 * v50 * 1549379517769.1838 + 1244740.7431948164;
-        m_inv[41] = v51;
-        m_inv[42] = S::from(0.0);
-        m_inv[43] = S::from(0.0);
-        m_inv[44] = S::from(0.0);
-        m_inv[45] = S::from(0.0);
-        m_inv[46] = S::from(0.0);
-        m_inv[47] = v51;
-        m_inv[48] = v45;
-        g[0] = v26;
-        g[1] = v25;
-        g[2] = v27;
-        g[3] = S::from(0.0);
-        g[4] = S::from(0.0);
-        g[5] = S::from(0.0);
-        g[6] = S::from(0.0);
-        g[7] = v22;
-        g[8] = v24;
-        g[9] = v28;
-        g[10] = S::from(0.0);
-        g[11] = S::from(0.0);
-        g[12] = S::from(0.0);
-        g[13] = S::from(0.0);
-        g[14] = v26;
-        g[15] = v25;
-        g[16] = S::from(0.0);
-        g[17] = v31;
-        g[18] = v34;
-        g[19] = S::from(0.0);
-        g[20] = S::from(0.0);
-        g[21] = v22;
-        g[22] = v24;
-        g[23] = S::from(0.0);
-        g[24] = v32;
-        g[25] = -v33;
-        g[26] = S::from(0.0);
-        g[27] = S::from(0.0);
-        g[28] = v26;
-        g[29] = v25;
-        g[30] = S::from(0.0);
-        g[31] = S::from(0.0);
-        g[32] = S::from(0.0);
-        g[33] = v38;
-        g[34] = v40;
-        g[35] = v22;
-        g[36] = v24;
-        g[37] = S::from(0.0);
-        g[38] = S::from(0.0);
-        g[39] = S::from(0.0);
-        g[40] = -v37;
-        g[41] = -v39;
-        y[0] = v54;
-        y[1] = v52;
-        y[2] = v27 * 61842.35515712993;
-        y[3] = S::from(0.0);
-        y[4] = S::from(0.0);
-        y[5] = S::from(0.0);
-        y[6] = S::from(0.0);
-        y[7] = v56;
-        y[8] = v55;
-        y[9] = v28 * 61842.35515712993;
-        y[10] = S::from(0.0);
-        y[11] = S::from(0.0);
-        y[12] = S::from(0.0);
-        y[13] = S::from(0.0);
-        y[14] = v54;
-        y[15] = v52;
-        y[16] = S::from(0.0);
-        y[17] = v58;
-        y[18] = v57;
-        y[19] = S::from(0.0);
-        y[20] = S::from(0.0);
-        y[21] = v56;
-        y[22] = v55;
-        y[23] = S::from(0.0);
-        y[24] = v60;
-        y[25] = -v59;
-        y[26] = S::from(0.0);
-        y[27] = S::from(0.0);
-        y[28] = v54;
-        y[29] = v52;
-        y[30] = S::from(0.0);
-        y[31] = S::from(0.0);
-        y[32] = S::from(0.0);
-        y[33] = v62;
-        y[34] = v61;
-        y[35] = v56;
-        y[36] = v55;
-        y[37] = S::from(0.0);
-        y[38] = S::from(0.0);
-        y[39] = S::from(0.0);
-        y[40] = -v64;
-        y[41] = v63;
-        s[0] = v65 + v27 * v27 * 61842.35515712993;
-        s[1] = v67;
-        s[2] = v65;
-        s[3] = v66;
-        s[4] = v65;
-        s[5] = v66;
-        s[6] = v67;
-        s[7] = v68 + v28 * v28 * 61842.35515712993;
-        s[8] = v69;
-        s[9] = v68;
-        s[10] = v69;
-        s[11] = v68;
-        s[12] = v65;
-        s[13] = v69;
-        s[14] = v65 + v31 * v58 + v34 * v57;
-        s[15] = v70;
-        s[16] = v65;
-        s[17] = v66;
-        s[18] = v66;
-        s[19] = v68;
-        s[20] = v70;
-        s[21] = v68 + v32 * v60 + v33 * v59;
-        s[22] = v69;
-        s[23] = v68;
-        s[24] = v65;
-        s[25] = v69;
-        s[26] = v65;
-        s[27] = v69;
-        s[28] = v65 + v38 * v62 + v40 * v61;
-        s[29] = v71;
-        s[30] = v66;
-        s[31] = v68;
-        s[32] = v66;
-        s[33] = v68;
-        s[34] = v71;
-        s[35] = v68 + v37 * v64 - v39 * v63;
-        springs[0] = S::from(0.0);
-        springs[1] = S::from(0.0);
-        springs[2] = v79 * 2265.0;
-        springs[3] = S::from(0.0);
-        springs[4] = S::from(0.0);
-        springs[5] = S::from(0.0);
-        springs[6] = S::from(0.0);
-}
+        Terms::new(
+            [[s0, c0], [s1, c1], [s2, c2], [s3, c3], [s4, c4], [s5, c5], [s6, c6]],
+            [[v41 + v42 * v46, v47, S::from(0.0), S::from(0.0), S::from(0.0), S::from(0.0), S::from(0.0)], [v47, v43, S::from(0.0), S::from(0.0), S::from(0.0), S::from(0.0), S::from(0.0)], [S::from(0.0), S::from(0.0), S::from(61842.35515712993), S::from(0.0), S::from(0.0), S::from(0.0), S::from(0.0)], [S::from(0.0), S::from(0.0), S::from(0.0), v14 * v48 * 1549379517769.1838 + 1244740.7431948164, v49, S::from(0.0), S::from(0.0)], [S::from(0.0), S::from(0.0), S::from(0.0), v49, v44, S::from(0.0), S::from(0.0)], [S::from(0.0), S::from(0.0), S::from(0.0), S::from(0.0), S::from(0.0), v15 * v50 * 1549379517769.1838 + 1244740.7431948164, v51], [S::from(0.0), S::from(0.0), S::from(0.0), S::from(0.0), S::from(0.0), v51, v45]],
+            [[v26, v25, v27, S::from(0.0), S::from(0.0), S::from(0.0), S::from(0.0)], [v22, v24, v28, S::from(0.0), S::from(0.0), S::from(0.0), S::from(0.0)], [v26, v25, S::from(0.0), v31, v34, S::from(0.0), S::from(0.0)], [v22, v24, S::from(0.0), v32, -v33, S::from(0.0), S::from(0.0)], [v26, v25, S::from(0.0), S::from(0.0), S::from(0.0), v38, v40], [v22, v24, S::from(0.0), S::from(0.0), S::from(0.0), -v37, -v39]],
+            [[v54, v52, v27 * 61842.35515712993, S::from(0.0), S::from(0.0), S::from(0.0), S::from(0.0)], [v56, v55, v28 * 61842.35515712993, S::from(0.0), S::from(0.0), S::from(0.0), S::from(0.0)], [v54, v52, S::from(0.0), v58, v57, S::from(0.0), S::from(0.0)], [v56, v55, S::from(0.0), v60, -v59, S::from(0.0), S::from(0.0)], [v54, v52, S::from(0.0), S::from(0.0), S::from(0.0), v62, v61], [v56, v55, S::from(0.0), S::from(0.0), S::from(0.0), -v64, v63]],
+            [[v65 + v27 * v27 * 61842.35515712993, v67, v65, v66, v65, v66], [v67, v68 + v28 * v28 * 61842.35515712993, v69, v68, v69, v68], [v65, v69, v65 + v31 * v58 + v34 * v57, v70, v65, v66], [v66, v68, v70, v68 + v32 * v60 + v33 * v59, v69, v68], [v65, v69, v65, v69, v65 + v38 * v62 + v40 * v61, v71], [v66, v68, v66, v68, v71, v68 + v37 * v64 - v39 * v63]],
+            [S::from(0.0), S::from(0.0), v79 * 2265.0, S::from(0.0), S::from(0.0), S::from(0.0), S::from(0.0)],
+        )
+    }
 
-/// From q, [`position`]'s `sc` at that q, and q̇: `bias` = RNEA(q, q̇, 0) (Coriolis and
-/// centrifugal forces, gravity; not the damping), `gamma` = Ġ q̇ (the closures'
-/// curvature); coordinate order.
-#[allow(clippy::too_many_arguments)]
-pub fn velocity<S: Scalar>(_q: &[S], sc: &[S], qd: &[S], bias: &mut [S], gamma: &mut [S]) {
-        let sc = &sc[..14];
-        let qd = &qd[..7];
-        let bias = &mut bias[..7];
-        let gamma = &mut gamma[..6];
+    /// From q, sin and cos of q, and q̇: RNEA(q, q̇, 0) (Coriolis and centrifugal
+    /// forces, gravity; not the damping) and Ġ q̇.
+    fn velocity<S: Scalar>(_q: &[S], sc: &[[S; 2]; 7], qd: &[S; 7]) -> ([S; 7], [S; 6]) {
+        let scf = sc.as_flattened();
         let v0 = qd[0] + qd[1];
         let v1 = qd[3] + qd[4];
         let v2 = qd[5] + qd[6];
-        let v3 = sc[1] * 0.007;
-        let v4 = sc[0] * 0.007;
-        let v5 = sc[9] * 0.04 - 0.06934;
-        let v6 = sc[8] * 0.04 - 0.00227;
-        let v7 = sc[12] * -0.04 + 0.06934;
-        let v8 = sc[13] * -0.04 - 0.00227;
-        let v9 = qd[0] * sc[2];
-        let v10 = qd[0] * sc[3];
-        let v11 = qd[4] * sc[6];
-        let v12 = qd[4] * sc[7];
-        let v13 = qd[6] * sc[11];
-        let v14 = qd[6] * sc[10];
+        let v3 = scf[1] * 0.007;
+        let v4 = scf[0] * 0.007;
+        let v5 = scf[9] * 0.04 - 0.06934;
+        let v6 = scf[8] * 0.04 - 0.00227;
+        let v7 = scf[12] * -0.04 + 0.06934;
+        let v8 = scf[13] * -0.04 - 0.00227;
+        let v9 = qd[0] * scf[2];
+        let v10 = qd[0] * scf[3];
+        let v11 = qd[4] * scf[6];
+        let v12 = qd[4] * scf[7];
+        let v13 = qd[6] * scf[11];
+        let v14 = qd[6] * scf[10];
         let v15 = qd[1] * v9;
         let v16 = v0 * -4.1975e-5 + v10 * 2.555e-5;
         let v17 = v9 * v16 * 0.007 - v9 * v10 * 1.7885000000000002e-7 - v15 * -2.93825e-7;
@@ -332,36 +142,47 @@ pub fn velocity<S: Scalar>(_q: &[S], sc: &[S], qd: &[S], bias: &mut [S], gamma: 
         let v23 = v2 * 4.0877399999999996e-5 + v14 * -0.00028240000000000003;
         let v24 = v22 * -1.635096e-6 + (v13 * v14 * 1.1296000000000002e-5 - v13 * v23 * -0.04);
         let v25 = v22 * -0.00028240000000000003 - v2 * v13 * -0.00028240000000000003;
-        let v26 = sc[11] * (qd[5] * v14 * -0.00028240000000000003 - v2 * v23) - sc[10] * v25;
-        let v27 = sc[6] * v21 + sc[7] * (v1 * v19 - qd[3] * v11 * 0.00028240000000000003);
-        let v28 = sc[2] * (qd[1] * v10 * 2.555e-5 - v0 * v16) + sc[3] * (v0 * v9 * 2.555e-5 - v15 * 2.555e-5);
-        let v29 = qd[0] * sc[0] * 0.007;
-        let v30 = qd[0] * sc[1] * 0.007;
+        let v26 = scf[11] * (qd[5] * v14 * -0.00028240000000000003 - v2 * v23) - scf[10] * v25;
+        let v27 = scf[6] * v21 + scf[7] * (v1 * v19 - qd[3] * v11 * 0.00028240000000000003);
+        let v28 = scf[2] * (qd[1] * v10 * 2.555e-5 - v0 * v16) + scf[3] * (v0 * v9 * 2.555e-5 - v15 * 2.555e-5);
+        let v29 = qd[0] * scf[0] * 0.007;
+        let v30 = qd[0] * scf[1] * 0.007;
         let v31 = qd[4] * (v6 + 0.00227);
         let v32 = qd[4] * (v5 + 0.06934);
         let v33 = qd[6] * (v8 + 0.00227);
         let v34 = qd[6] * (S::from(0.06934) - v7);
-        let v35 = v29 + v0 * (v4 + (sc[1] * sc[2] + sc[0] * sc[3]) * -0.028 - v4);
-        let v36 = v30 + v0 * (v3 + (sc[1] * sc[3] - sc[0] * sc[2]) * -0.028 - v3);
-        let v37 = qd[1] * (v30 - v36) - qd[0] * v36;
-        let v38 = qd[1] * (v29 - v35) - qd[0] * v35;
-        let v39 = qd[2] * (qd[2] * (S::from(0.03635) - (sc[4] * -0.035 + 0.03635)));
-        let v40 = v31 + v1 * (v6 + (sc[7] * sc[9] - sc[6] * sc[8]) * -0.02 - v6);
-        let v41 = v32 + v1 * (v5 - (sc[6] * sc[9] + sc[7] * sc[8]) * -0.02 - v5);
-        let v42 = v2 * (v7 + ((sc[11] * sc[13] - sc[10] * sc[12]) * 0.02 - v7));
-        let v43 = v33 + v2 * (v8 + (sc[10] * sc[13] + sc[11] * sc[12]) * 0.02 - v8);
-        let v44 = v34 + v42;
-        bias[0] = v17 + v28 * 0.007;
-        bias[1] = v17;
-        bias[2] = S::from(0.0);
-        bias[3] = v20;
-        bias[4] = v20 + v27 * 0.04;
-        bias[5] = v24;
-        bias[6] = v24 - v26 * -0.04;
-        gamma[0] = v37 + v39;
-        gamma[1] = v38 + qd[2] * (qd[2] * (sc[5] * -0.035 + 0.03273 - 0.03273));
-        gamma[2] = v37 - qd[3] * (v32 - v41) + qd[4] * v41;
-        gamma[3] = v38 - qd[3] * (v31 - v40) + qd[4] * v40;
-        gamma[4] = v37 - qd[5] * (v34 - v44) + qd[6] * v44;
-        gamma[5] = v38 - qd[5] * (v33 - v43) + qd[6] * v43;
+        let v35 = v0 * (v4 + (scf[1] * scf[2] + scf[0] * scf[3]) * -0.028 - v4);
+        let v36 = v0 * (v3 + (scf[1] * scf[3] - scf[0] * scf[2]) * -0.028 - v3);
+        let v37 = v29 + v35;
+        let v38 = v30 + v36;
+        let v39 = qd[1] * (v30 - v38) - qd[0] * v38;
+        let v40 = qd[1] * (v29 - v37) - qd[0] * v37;
+        let v41 = qd[2] * (qd[2] * (S::from(0.03635) - (scf[4] * -0.035 + 0.03635)));
+        let v42 = v40 + qd[2] * (qd[2] * (scf[5] * -0.035 + 0.03273 - 0.03273));
+        let v43 = v31 + v1 * (v6 + (scf[7] * scf[9] - scf[6] * scf[8]) * -0.02 - v6);
+        let v44 = v32 + v1 * (v5 - (scf[6] * scf[9] + scf[7] * scf[8]) * -0.02 - v5);
+        let v45 = v2 * (v8 + (scf[10] * scf[13] + scf[11] * scf[12]) * 0.02 - v8);
+        let v46 = v2 * (v7 + ((scf[11] * scf[13] - scf[10] * scf[12]) * 0.02 - v7));
+        let v47 = v33 + v45;
+        let v48 = v34 + v46;
+        ([v17 + v28 * 0.007, v17, S::from(0.0), v20, v20 + v27 * 0.04, v24, v24 - v26 * -0.04], [v39 + v41, v42, v39 - qd[3] * (v32 - v44) + qd[4] * v44, v40 - qd[3] * (v31 - v43) + qd[4] * v43, v39 - qd[5] * (v34 - v48) + qd[6] * v48, v40 - qd[5] * (v33 - v47) + qd[6] * v47])
+    }
+
+    fn g_times<S: Scalar>(g: &[[S; 7]; 6], x: &[S; 7]) -> [S; 6] {
+        [g[0][0] * x[0] + g[0][1] * x[1] + g[0][2] * x[2], g[1][0] * x[0] + g[1][1] * x[1] + g[1][2] * x[2], g[2][0] * x[0] + g[2][1] * x[1] + g[2][3] * x[3] + g[2][4] * x[4], g[3][0] * x[0] + g[3][1] * x[1] + g[3][3] * x[3] + g[3][4] * x[4], g[4][0] * x[0] + g[4][1] * x[1] + g[4][5] * x[5] + g[4][6] * x[6], g[5][0] * x[0] + g[5][1] * x[1] + g[5][5] * x[5] + g[5][6] * x[6]]
+    }
+
+    fn add_y_t_times<S: Scalar>(y: &[[S; 7]; 6], r: &[S; 6], x: &mut [S; 7]) {
+        x[0] += y[0][0] * r[0] + y[1][0] * r[1] + y[2][0] * r[2] + y[3][0] * r[3] + y[4][0] * r[4] + y[5][0] * r[5];
+        x[1] += y[0][1] * r[0] + y[1][1] * r[1] + y[2][1] * r[2] + y[3][1] * r[3] + y[4][1] * r[4] + y[5][1] * r[5];
+        x[2] += y[0][2] * r[0] + y[1][2] * r[1];
+        x[3] += y[2][3] * r[2] + y[3][3] * r[3];
+        x[4] += y[2][4] * r[2] + y[3][4] * r[3];
+        x[5] += y[4][5] * r[4] + y[5][5] * r[5];
+        x[6] += y[4][6] * r[4] + y[5][6] * r[5];
+    }
+
+    fn m_inv_times<S: Scalar>(m_inv: &[[S; 7]; 7], f: &[S; 7]) -> [S; 7] {
+        [m_inv[0][0] * f[0] + m_inv[0][1] * f[1], m_inv[1][0] * f[0] + m_inv[1][1] * f[1], m_inv[2][2] * f[2], m_inv[3][3] * f[3] + m_inv[3][4] * f[4], m_inv[4][3] * f[3] + m_inv[4][4] * f[4], m_inv[5][5] * f[5] + m_inv[5][6] * f[6], m_inv[6][5] * f[5] + m_inv[6][6] * f[6]]
+    }
 }
