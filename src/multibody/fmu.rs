@@ -1786,13 +1786,21 @@ impl<D: Declared> Lagrangian for Robot<D> {
     const TIME_IN_FORCES_OR_OUTPUTS: bool = false;
     /// One per loop-closure axis.
     const CONSTRAINTS: usize = D::CONSTRAINTS;
-    /// With closures f is the tree's M and bias with the closures' G, Ġq̇ and the
-    /// rank-revealing solve: measured 0.51 µs per state for AndrewsSqueezer (7.1 µs, 14
-    /// states) and 0.23 µs for FourBar (`mbfmu speed`), against 0.11 µs for
-    /// NonlinearBicycle, the costliest per state of the systems the doStep work bound was
-    /// set on (docs/methods.md): 0.51 / 0.11 rounded up. (It was 50 while closures ran on
-    /// automatic differentiation of T, ~7 µs per state.)
-    const EVALUATION_WEIGHT: u64 = if D::CONSTRAINTS > 0 { 5 } else { 1 };
+    /// What one f costs per state against NonlinearBicycle's 0.11 µs, the costliest per
+    /// state of the systems the doStep work bound was set on (docs/methods.md), rounded
+    /// up, by which path f runs: a tree, or closures on generated terms
+    /// ([`Declared::generated_closed`]: AndrewsSqueezer 0.3 µs for 14 states, 0.02 µs per
+    /// state, `mbfmu speed`), 1; closures on the interpreted path ([`closed::Factored`]),
+    /// 5: AndrewsSqueezer measured 0.51 µs per state there (7.1 µs), FourBar 0.23 µs (it
+    /// was 50 while closures ran on automatic differentiation of T, ~7 µs per state).
+    /// NFourBar measures 1.1 µs per state (177 µs, 162 states), which would be 10; it
+    /// keeps 5, with which its tests and reference runs were made. (A generated module
+    /// gone stale runs the interpreted path with 1: the regeneration test catches that.)
+    const EVALUATION_WEIGHT: u64 = if D::CONSTRAINTS > 0 && D::CLOSED_GENERATED_FROM.is_none() {
+        5
+    } else {
+        1
+    };
 
     /// A floating base's quaternion: 7 coordinates, 6 velocities.
     fn surplus_coordinates() -> usize {
