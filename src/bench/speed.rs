@@ -38,6 +38,9 @@ pub struct SpeedRow {
     pub jacobian_ns: f64,
     /// The hand-written floor's doStep and RHS, where the bench has one.
     pub floor: Option<(f64, f64)>,
+    /// A peer's evaluation of the same equations at the same state, measured in the same
+    /// run where asked ([`fortran_andrews`]).
+    pub peer_rhs_ns: Option<f64>,
 }
 
 /// An [`Export`] for any system, so the bench calls the same generic C-API function the
@@ -61,7 +64,7 @@ fn info<M: System>() -> &'static ModelInfo {
 }
 
 /// Best time per call (ns) of `f`, over `reps` loops of about 20 ms each.
-pub(crate) fn best_ns(reps: usize, mut f: impl FnMut()) -> f64 {
+pub fn best_ns(reps: usize, mut f: impl FnMut()) -> f64 {
     let probe = Instant::now();
     let mut calls = 0u64;
     while probe.elapsed().as_secs_f64() < 2e-3 {
@@ -152,7 +155,106 @@ pub fn measure<M: System>(reps: usize, floor: Option<FloorFn>) -> SpeedRow {
         rhs_ns,
         jacobian_ns,
         floor: floor.map(|f| f(&x, &p, reps)),
+        peer_rhs_ns: None,
     }
+}
+
+/// The Fortran `F` of the IVP test set's andrews problem (`SUBROUTINE
+/// F(NEQN,T,Y,DY,IPAR,RPAR,IERR)`), as gfortran exports it.
+type FortranF = unsafe extern "C" fn(
+    *const i32,
+    *const f64,
+    *const f64,
+    *mut f64,
+    *const i32,
+    *const f64,
+    *mut i32,
+) -> ();
+
+/// The peer of `mbfmu speed --fortran-andrews PATH`: the IVP test set's Fortran `F` for
+/// andrews, built by the user from the test set's source as a shared object exporting
+/// `f_` (not in this repository: third-party code), timed as the RHS rows are (best of
+/// `reps`) at the AndrewsSqueezer RHS row's state: the same q and q̇, with our q̈ and λ
+/// as its w and λ. It evaluates the index-3 DAE's residual (27 components: the velocities,
+/// `M w − f + Gᵀ λ`, g) and solves nothing; our RHS solves for q̈ and λ. Returns its ns
+/// and the largest `|M w − f + Gᵀ λ|` of the seven force rows over the largest
+/// `|M w − f|` (our accelerations and multipliers in its equations: rounding where both
+/// are the same mechanism).
+pub fn fortran_andrews(path: &std::path::Path, reps: usize) -> Result<(f64, f64), String> {
+    use crate::model::lagrangian::accelerations_and_multipliers_into;
+    use crate::systems::AndrewsSqueezer;
+    use std::ffi::CString;
+    let c_path = CString::new(path.to_string_lossy().as_bytes()).map_err(|e| e.to_string())?;
+    // SAFETY: dlopen of a path the user names, as a shared object; its symbol `f_` is
+    // called with the argument list of the test set's F (NEQN = 27 doubles in and out).
+    let f: FortranF = unsafe {
+        let handle = libc::dlopen(c_path.as_ptr(), libc::RTLD_NOW | libc::RTLD_LOCAL);
+        if handle.is_null() {
+            let err = std::ffi::CStr::from_ptr(libc::dlerror());
+            return Err(format!("{}: {}", path.display(), err.to_string_lossy()));
+        }
+        let sym = libc::dlsym(handle, c"f_".as_ptr());
+        if sym.is_null() {
+            return Err(format!(
+                "{}: no symbol f_ (the test set's F)",
+                path.display()
+            ));
+        }
+        std::mem::transmute::<*mut libc::c_void, FortranF>(sym)
+    };
+    let probe = started::<AndrewsSqueezer>();
+    let (x, u, p) = (
+        values(&probe, VarKind::State),
+        values(&probe, VarKind::Input),
+        values(&probe, VarKind::Parameter),
+    );
+    let (q, qd) = x.split_at(7);
+    let (mut qdd, mut lambda) = ([0.0; 7], [0.0; 6]);
+    accelerations_and_multipliers_into::<AndrewsSqueezer, f64>(
+        0.0,
+        q,
+        qd,
+        &u,
+        &p,
+        &mut qdd,
+        &mut lambda,
+    );
+    let mut y = [0.0f64; 27];
+    y[..7].copy_from_slice(q);
+    y[7..14].copy_from_slice(qd);
+    y[14..21].copy_from_slice(&qdd);
+    y[21..].copy_from_slice(&lambda);
+    let (neqn, t, ipar, rpar) = (27i32, 0.0f64, [0i32; 2], [0.0f64; 2]);
+    let mut dy = [0.0f64; 27];
+    let mut ierr = 0i32;
+    let mut call = |y: &[f64; 27], dy: &mut [f64; 27]| {
+        // SAFETY: the buffers are NEQN = 27 long, IPAR and RPAR 2, as F reads them.
+        unsafe {
+            f(
+                &neqn,
+                &t,
+                y.as_ptr(),
+                dy.as_mut_ptr(),
+                ipar.as_ptr(),
+                rpar.as_ptr(),
+                &mut ierr,
+            )
+        }
+    };
+    let ns = best_ns(reps, || {
+        call(black_box(&y), &mut dy);
+        black_box(&dy);
+    });
+    // The residual's scale: its force rows' terms, M w − f and Gᵀ λ (λ zeroed: M w − f).
+    let mut no_lambda = y;
+    no_lambda[21..].fill(0.0);
+    let mut inertial = [0.0f64; 27];
+    call(&no_lambda, &mut inertial);
+    let scale = inertial[14..21]
+        .iter()
+        .fold(f64::MIN_POSITIVE, |m, v| m.max(v.abs()));
+    let residual = dy[14..21].iter().fold(0.0f64, |m, v| m.max(v.abs())) / scale;
+    Ok((ns, residual))
 }
 
 /// Best ns of one `System::derivatives` and of one ∂f/∂x in kept dual-number buffers
@@ -207,7 +309,7 @@ pub fn floor_of(system: &str) -> Option<FloorFn> {
 }
 
 pub const CSV_HEADER: &str =
-    "system,states,dostep_ns,rhs_ns,jacobian_ns,jacobian_over_n_rhs,floor_dostep_ns,floor_rhs_ns,dostep_over_floor,rhs_over_floor\n";
+    "system,states,dostep_ns,rhs_ns,jacobian_ns,jacobian_over_n_rhs,floor_dostep_ns,floor_rhs_ns,dostep_over_floor,rhs_over_floor,peer_rhs_ns,rhs_over_peer\n";
 
 fn fmt_opt(v: Option<f64>) -> String {
     v.map_or(String::new(), |v| format!("{v:.3}"))
@@ -217,7 +319,7 @@ fn fmt_opt(v: Option<f64>) -> String {
 pub fn csv_line(r: &SpeedRow) -> String {
     let jac_ratio = r.jacobian_ns / (r.states as f64 * r.rhs_ns);
     format!(
-        "{},{},{:.1},{:.1},{:.1},{:.2},{},{},{},{}\n",
+        "{},{},{:.1},{:.1},{:.1},{:.2},{},{},{},{},{},{}\n",
         r.system,
         r.states,
         r.dostep_ns,
@@ -228,6 +330,8 @@ pub fn csv_line(r: &SpeedRow) -> String {
         fmt_opt(r.floor.map(|f| f.1)),
         fmt_opt(r.floor.map(|f| r.dostep_ns / f.0)),
         fmt_opt(r.floor.map(|f| r.rhs_ns / f.1)),
+        fmt_opt(r.peer_rhs_ns),
+        fmt_opt(r.peer_rhs_ns.map(|f| r.rhs_ns / f)),
     )
 }
 

@@ -214,6 +214,11 @@ struct SpeedArgs {
     /// example-robot-data: $MBFMU_PYTHON, else .venv/bin/python3, else python3)
     #[arg(long, conflicts_with_all = ["chain", "symbolic"])]
     robots: bool,
+    /// The IVP test set's Fortran F for andrews, built as a shared object exporting `f_`
+    /// (e.g. gfortran -O2 -fPIC -shared), timed beside AndrewsSqueezer's RHS in the same
+    /// run (columns peer_rhs_ns, rhs_over_peer; docs/benchmarks.md)
+    #[arg(long, value_name = "PATH.so", conflicts_with_all = ["chain", "symbolic", "robots"])]
+    fortran_andrews: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -875,6 +880,7 @@ fn speed(args: SpeedArgs) -> Result<(), String> {
         chain,
         symbolic,
         robots,
+        fortran_andrews,
     } = args;
     let out = out.unwrap_or_else(|| workspace_root().join("docs/bench"));
     std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
@@ -937,10 +943,23 @@ fn speed(args: SpeedArgs) -> Result<(), String> {
     println!("| system | states | doStep ns | floor doStep ns (ratio) | RHS ns | floor RHS ns (ratio) | Jacobian ns | Jacobian / (n RHS) |");
     println!("|---|---|---|---|---|---|---|---|");
     let mut csv = String::from(speed::CSV_HEADER);
+    let mut peer_lines = Vec::new();
     for e in &entries {
-        let row = (e.speed)(reps);
+        let mut row = (e.speed)(reps);
+        if let (Some(path), "AndrewsSqueezer") = (&fortran_andrews, row.system) {
+            let (ns, residual) = speed::fortran_andrews(path, reps)?;
+            row.peer_rhs_ns = Some(ns);
+            peer_lines.push(format!(
+                "AndrewsSqueezer: RHS {:.0} ns, the test set's Fortran F {ns:.0} ns at the same state ({:.2}×); its residual M w − f + Gᵀλ at our q̈ and λ: {residual:.1e} of the forces' scale",
+                row.rhs_ns,
+                row.rhs_ns / ns
+            ));
+        }
         println!("{}", speed::markdown_line(&row));
         csv.push_str(&speed::csv_line(&row));
+    }
+    for line in &peer_lines {
+        println!("{line}");
     }
     std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
     write(&out.join("speed.csv"), &csv)

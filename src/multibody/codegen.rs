@@ -975,5 +975,7 @@ pub fn robot_dynamics(
     Ok(Some(g))
 }
 
+pub mod loops;
+
 #[cfg(test)]
 pub(crate) mod tests;

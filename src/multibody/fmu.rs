@@ -153,6 +153,26 @@ pub trait Declared: 'static {
     /// [`Model::aba`] instead. `None` (the default): not checked.
     const GENERATED_FROM: Option<u64> = None;
 
+    /// A mechanism with loop closures: q̈ and λ as [`closed_accelerations`] computes them,
+    /// on the straight-line terms of [`codegen::loops`](super::codegen::loops)
+    /// ([`generated_closed_accelerations`], written by
+    /// [`generated_closed_terms!`](crate::generated_closed_terms)), returning `true`;
+    /// `false` (the default): none, the interpreted path runs ([`closed::Factored`]). Runs
+    /// only while [`Declared::CLOSED_GENERATED_FROM`] is the mechanism's
+    /// [`Built::closed_fingerprint`].
+    fn generated_closed<S: Scalar>(
+        _t: f64,
+        _x: (&[S], &[S], &[S], &[S]),
+        _qdd: &mut [S],
+        _lambda: &mut [S],
+    ) -> bool {
+        false
+    }
+
+    /// The [`closed_fingerprint`](super::codegen::loops::closed_fingerprint) the closed
+    /// terms were generated from (their `FINGERPRINT`); `None` (the default): none.
+    const CLOSED_GENERATED_FROM: Option<u64> = None;
+
     /// The scenes, given those made for every mechanism ([`Built::scenes`]): those by
     /// default; a declaration may add its own or replace them.
     fn scenes(generated: Vec<Scene>) -> Vec<Scene> {
@@ -201,6 +221,29 @@ macro_rules! mechanism_fmu {
                 BUILT.get_or_init($crate::multibody::fmu::Built::of::<$name>)
             }
             $($($item)*)?
+        }
+    };
+}
+
+/// The items of a [`Declared`] impl that run a mechanism's generated closed terms (a module
+/// written by [`codegen::loops`](super::codegen::loops), named by its path):
+/// `crate::generated_closed_terms!(crate::systems::generated::andrews_squeezer)` in the
+/// braces of [`mechanism_fmu!`](crate::mechanism_fmu).
+#[macro_export]
+macro_rules! generated_closed_terms {
+    ($($code:ident)::+) => {
+        const CLOSED_GENERATED_FROM: Option<u64> = Some($($code)::+::FINGERPRINT);
+        fn generated_closed<S: $crate::model::Scalar>(
+            t: f64,
+            x: (&[S], &[S], &[S], &[S]),
+            qdd: &mut [S],
+            lambda: &mut [S],
+        ) -> bool {
+            use $($code)::+ as code;
+            $crate::multibody::fmu::generated_closed_accelerations::<Self, S, code::Code, { code::N }, { code::K }>(
+                t, x, qdd, lambda,
+            );
+            true
         }
     };
 }
@@ -257,6 +300,10 @@ pub struct Built {
     /// [`codegen::fingerprint`](super::codegen::fingerprint) of `model`: generated code
     /// runs only on the model it was generated from ([`Declared::GENERATED_FROM`]).
     pub fingerprint: u64,
+    /// [`closed_fingerprint`](super::codegen::loops::closed_fingerprint) of `model` and
+    /// `order` for a mechanism with loop closures (0 without): the generated closed terms
+    /// run only on it ([`Declared::CLOSED_GENERATED_FROM`]).
+    pub closed_fingerprint: u64,
     /// The tree's and the closures' sparsity in coordinate order, for [`closed::solve`].
     pub structure: closed::Structure,
 }
@@ -936,6 +983,11 @@ impl Built {
             damping,
             friction,
             fingerprint: super::codegen::fingerprint(&model),
+            closed_fingerprint: if model.closures.is_empty() {
+                0
+            } else {
+                super::codegen::loops::closed_fingerprint(&model, &order)
+            },
             structure: closed::Structure::of(&model, &order),
             model,
             mechanism,
@@ -1560,6 +1612,22 @@ fn closed_accelerations<D: Declared, S: Scalar>(
     qdd: &mut [S],
     lambda: &mut [S],
 ) {
+    if D::CLOSED_GENERATED_FROM.is_some_and(|f| f == D::built().closed_fingerprint)
+        && D::generated_closed(t, (q, qd, u, p), qdd, lambda)
+    {
+        return;
+    }
+    interpreted_closed_accelerations::<D, S>(t, (q, qd, u, p), qdd, lambda);
+}
+
+/// [`closed_accelerations`] by the interpreted algorithms (a mechanism without generated
+/// closed terms; the oracle of those that have them).
+pub(crate) fn interpreted_closed_accelerations<D: Declared, S: Scalar>(
+    t: f64,
+    (q, qd, u, p): (&[S], &[S], &[S], &[S]),
+    qdd: &mut [S],
+    lambda: &mut [S],
+) {
     let b = D::built();
     let n = b.order.len();
     let qm = b.positions_to_model(q);
@@ -1583,6 +1651,40 @@ fn closed_accelerations<D: Declared, S: Scalar>(
     let c: Vec<S> = curvature.into_iter().map(|x| -x).collect();
     let mut mu = vec![S::zero(); g.len()];
     factored.accelerations(&f, &c, qdd, &mut mu);
+    for (l, m) in lambda.iter_mut().zip(&mu) {
+        *l = -*m;
+    }
+}
+
+/// [`closed_accelerations`] on generated terms ([`Declared::generated_closed`]): the same
+/// steps (q̇ onto `G q̇ = 0`, then the bias, springs and γ at that velocity, the
+/// rank-revealing solve) on the generated module's [`closed::Code`], in [`closed::Terms`]
+/// of the mechanism's fixed sizes on the stack: no allocation.
+pub fn generated_closed_accelerations<
+    D: Declared,
+    S: Scalar,
+    C: closed::Code<N, K>,
+    const N: usize,
+    const K: usize,
+>(
+    t: f64,
+    (q, qd, u, p): (&[S], &[S], &[S], &[S]),
+    qdd: &mut [S],
+    lambda: &mut [S],
+) {
+    let mut terms = C::position(q);
+    terms.factor();
+    let mut v: [S; N] = qd[..N].try_into().expect("N velocities");
+    terms.tangent::<C>(&mut v);
+    (terms.bias, terms.gamma) = C::velocity(q, &terms.sc, &v);
+    let mut f = [S::zero(); N];
+    <Robot<D> as Lagrangian>::forces(t, q, &v, u, p, &mut f);
+    for ((f, &b), &s) in f.iter_mut().zip(&terms.bias).zip(&terms.springs) {
+        *f -= b + s;
+    }
+    let mut a = [S::zero(); N];
+    let mu = terms.accelerations::<C>(&f, &mut a);
+    qdd[..N].copy_from_slice(&a);
     for (l, m) in lambda.iter_mut().zip(&mu) {
         *l = -*m;
     }
@@ -1705,13 +1807,21 @@ impl<D: Declared> Lagrangian for Robot<D> {
     const TIME_IN_FORCES_OR_OUTPUTS: bool = false;
     /// One per loop-closure axis.
     const CONSTRAINTS: usize = D::CONSTRAINTS;
-    /// With closures f is the tree's M and bias with the closures' G, Ġq̇ and the
-    /// rank-revealing solve: measured 0.51 µs per state for AndrewsSqueezer (7.1 µs, 14
-    /// states) and 0.23 µs for FourBar (`mbfmu speed`), against 0.11 µs for
-    /// NonlinearBicycle, the costliest per state of the systems the doStep work bound was
-    /// set on (docs/methods.md): 0.51 / 0.11 rounded up. (It was 50 while closures ran on
-    /// automatic differentiation of T, ~7 µs per state.)
-    const EVALUATION_WEIGHT: u64 = if D::CONSTRAINTS > 0 { 5 } else { 1 };
+    /// What one f costs per state against NonlinearBicycle's 0.11 µs, the costliest per
+    /// state of the systems the doStep work bound was set on (docs/methods.md), rounded
+    /// up, by which path f runs: a tree, or closures on generated terms
+    /// ([`Declared::generated_closed`]: AndrewsSqueezer 0.3 µs for 14 states, 0.02 µs per
+    /// state, `mbfmu speed`), 1; closures on the interpreted path ([`closed::Factored`]),
+    /// 5: AndrewsSqueezer measured 0.51 µs per state there (7.1 µs), FourBar 0.23 µs (it
+    /// was 50 while closures ran on automatic differentiation of T, ~7 µs per state).
+    /// NFourBar measures 1.1 µs per state (177 µs, 162 states), which would be 10; it
+    /// keeps 5, with which its tests and reference runs were made. (A generated module
+    /// gone stale runs the interpreted path with 1: the regeneration test catches that.)
+    const EVALUATION_WEIGHT: u64 = if D::CONSTRAINTS > 0 && D::CLOSED_GENERATED_FROM.is_none() {
+        5
+    } else {
+        1
+    };
     const DEFAULT_METHOD: crate::integrators::Method = D::DEFAULT_METHOD;
 
     /// A floating base's quaternion: 7 coordinates, 6 velocities.

@@ -174,6 +174,7 @@ crate::mechanism_fmu!(
         const DESCRIPTION: &'static str =
             "Andrews' squeezing mechanism, the seven-body benchmark of Hairer and Wanner, declared as bodies, joints, three loop closures and a spring";
         const DEFAULT_EXPERIMENT: (f64, f64, f64) = (END, 1e-8, 1e-3);
+        crate::generated_closed_terms!(crate::systems::generated::andrews_squeezer);
 
         fn scenes(_generated: Vec<Scene>) -> Vec<Scene> {
             let at_start = |mut s: Scene| {
@@ -203,3 +204,178 @@ crate::mechanism_fmu!(
 
 /// The squeezer as a model: a [`Robot`] of its declaration.
 pub type AndrewsSqueezer = Robot<AndrewsMechanism>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::lagrangian::Lagrangian;
+    use crate::multibody::codegen::tests::Rng;
+    use crate::multibody::fmu::{interpreted_closed_accelerations, Declared};
+    use num_dual::Dual64;
+
+    /// `|a − b| ≤ tol · max |b|` elementwise.
+    fn close(a: &[f64], b: &[f64], tol: f64, what: &str) {
+        let scale = b.iter().fold(f64::MIN_POSITIVE, |m, x| m.max(x.abs()));
+        for (i, (x, y)) in a.iter().zip(b).enumerate() {
+            assert!(
+                (x - y).abs() <= tol * scale,
+                "{what}[{i}]: {x} vs {y} (scale {scale:e})"
+            );
+        }
+    }
+
+    /// The generated closed terms run (their fingerprint is the declaration's) and give
+    /// the interpreted path's q̈ and λ to 1e-12 of their scale at random states (off the
+    /// closures, at large velocities: the formulas hold anywhere), and through dual
+    /// numbers the same directional derivatives.
+    #[test]
+    fn generated_closed_terms_equal_the_interpreted_path() {
+        let b = AndrewsMechanism::built();
+        assert_eq!(
+            AndrewsMechanism::CLOSED_GENERATED_FROM,
+            Some(b.closed_fingerprint)
+        );
+        let p: Vec<f64> = <AndrewsSqueezer as Lagrangian>::parameters()
+            .iter()
+            .map(|v| v.start)
+            .collect();
+        let mut rng = Rng(0x5eed_1234_abcd);
+        for _ in 0..20 {
+            let q: Vec<f64> = START.iter().map(|&s| s + rng.uniform(-1.0, 1.0)).collect();
+            let qd: Vec<f64> = (0..7).map(|_| rng.uniform(-100.0, 100.0)).collect();
+            let u: Vec<f64> = (0..7).map(|_| rng.uniform(-0.05, 0.05)).collect();
+            let mut out = Vec::new();
+            for generated in [true, false] {
+                let (mut qdd, mut lambda) = (vec![0.0; 7], vec![0.0; 6]);
+                let args = (&q[..], &qd[..], &u[..], &p[..]);
+                if generated {
+                    assert!(AndrewsMechanism::generated_closed::<f64>(
+                        0.0,
+                        args,
+                        &mut qdd,
+                        &mut lambda
+                    ));
+                } else {
+                    interpreted_closed_accelerations::<AndrewsMechanism, f64>(
+                        0.0,
+                        args,
+                        &mut qdd,
+                        &mut lambda,
+                    );
+                }
+                out.push((qdd, lambda));
+            }
+            close(&out[0].0, &out[1].0, 1e-12, "q̈");
+            close(&out[0].1, &out[1].1, 1e-12, "λ");
+            // ∂/∂q_j and ∂/∂q̇_j along one direction each, by dual numbers.
+            let j = (rng.uniform(0.0, 7.0) as usize).min(6);
+            let dual = |v: &[f64], seed: bool| -> Vec<Dual64> {
+                v.iter()
+                    .enumerate()
+                    .map(|(i, &x)| Dual64::new(x, (seed && i == j) as u8 as f64))
+                    .collect()
+            };
+            let (pd, ud) = (dual(&p, false), dual(&u, false));
+            for along_q in [true, false] {
+                let (qx, qdx) = (dual(&q, along_q), dual(&qd, !along_q));
+                let mut eps = Vec::new();
+                for generated in [true, false] {
+                    let (mut qdd, mut lambda) =
+                        (vec![Dual64::from(0.0); 7], vec![Dual64::from(0.0); 6]);
+                    let args = (&qx[..], &qdx[..], &ud[..], &pd[..]);
+                    if generated {
+                        assert!(AndrewsMechanism::generated_closed::<Dual64>(
+                            0.0,
+                            args,
+                            &mut qdd,
+                            &mut lambda,
+                        ));
+                    } else {
+                        interpreted_closed_accelerations::<AndrewsMechanism, Dual64>(
+                            0.0,
+                            args,
+                            &mut qdd,
+                            &mut lambda,
+                        );
+                    }
+                    eps.push(
+                        qdd.iter()
+                            .chain(&lambda)
+                            .map(|d| d.eps)
+                            .collect::<Vec<f64>>(),
+                    );
+                }
+                close(&eps[0], &eps[1], 1e-10, "derivative");
+            }
+        }
+    }
+
+    /// Where the right-hand side's time goes (`cargo test --release --lib
+    /// andrews_squeezer::tests::parts -- --ignored --nocapture`): ns of each step of the
+    /// generated path, best of 5.
+    #[test]
+    #[ignore]
+    fn parts() {
+        use crate::bench::speed::best_ns;
+        use crate::multibody::closed::Code as _;
+        use crate::systems::generated::andrews_squeezer::Code;
+        use std::hint::black_box;
+        let q = START;
+        let qd = [1.0, -2.0, 3.0, 0.5, -0.5, 2.0, 1.5];
+        let ns = |name: &str, v: f64| println!("{name}: {v:.1} ns");
+        let mut t = Code::position(&q);
+        ns(
+            "position",
+            best_ns(5, || {
+                t = Code::position(black_box(&q));
+            }),
+        );
+        let s0 = t.s;
+        ns(
+            "factor",
+            best_ns(5, || {
+                t.s = s0;
+                black_box(t.factor());
+            }),
+        );
+        let mut v = qd;
+        ns(
+            "tangent",
+            best_ns(5, || {
+                v = qd;
+                t.tangent::<Code>(black_box(&mut v));
+            }),
+        );
+        ns(
+            "velocity",
+            best_ns(5, || {
+                (t.bias, t.gamma) = Code::velocity(&q, &t.sc, black_box(&v));
+            }),
+        );
+        let f = [0.01; 7];
+        let mut qdd = [0.0; 7];
+        ns(
+            "accelerations",
+            best_ns(5, || {
+                black_box(t.accelerations::<Code>(black_box(&f), &mut qdd));
+            }),
+        );
+        let p: Vec<f64> = <AndrewsSqueezer as Lagrangian>::parameters()
+            .iter()
+            .map(|v| v.start)
+            .collect();
+        let u = [p::MOM, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let mut mu = [0.0; 6];
+        ns(
+            "whole",
+            best_ns(5, || {
+                AndrewsMechanism::generated_closed::<f64>(
+                    0.0,
+                    (black_box(&q), &qd, &u, &p),
+                    &mut qdd,
+                    &mut mu,
+                );
+            }),
+        );
+    }
+}
