@@ -315,3 +315,16 @@ fn the_linearisation_is_at_the_steady_spin_and_stable() {
     );
     assert!((linear_period / run_period - 1.0).abs() < 0.1);
 }
+
+/// RATTLE through the instance: refused with one line that names what it needs (states q
+/// and q̇ alone: E_dissipated is neither).
+#[test]
+fn rattle_is_refused_naming_the_states_it_needs() {
+    let info: &'static ModelInfo = Box::leak(Box::new(ModelInfo::of::<FlyballGovernor>()));
+    let mut inst = Instance::<FlyballGovernor>::new(info, Logger::silent("flyball"));
+    let solver = info.layout.vr_of("solver").unwrap();
+    let error = inst
+        .set_integer(&[solver], &[Method::Rattle.code()])
+        .expect_err("refused");
+    assert!(error.contains("q and q̇ alone"), "{error}");
+}

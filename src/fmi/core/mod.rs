@@ -893,7 +893,7 @@ fn check_method<M: System>(method: Method, u: &[f64], p: &[f64], lti: bool) -> R
     }
     if method.needs_mechanics() && M::mechanics(u, p).is_none() {
         return Err(format!(
-            "solver {name} needs a system written as a Lagrangian with time-independent and non-redundant holonomic constraints only; {} is not",
+            "solver {name} needs a system written as a Lagrangian whose states are q and q̇ alone with time-independent and non-redundant holonomic constraints only; {} is not",
             M::name()
         ));
     }
