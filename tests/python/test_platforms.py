@@ -54,6 +54,12 @@ QEMU = "qemu-aarch64"
 # differ in the last bit of sin, cos, exp, pow; over these runs that moves the results by
 # a few 1e-15 relative (printed), far below it.
 RELATIVE = 1e-12
+# AndrewsSqueezer's q̈ comes out of M's and the closures' Schur complement S = G M⁻¹ Gᵀ
+# solves, cond(M) ≈ 1e2 and cond(S) ≈ 3e2 along its run (the test set's formulas, at t = 0
+# and 0.03 s): a last-bit difference of sin or cos is amplified up to ~3e4 in each q̈
+# before the integration carries it. Measured on its generated closed terms: Windows
+# 1.23e-12 of the column's scale (aarch64 bit-identical).
+RELATIVE_OF = {"AndrewsSqueezer": 1e-11}
 
 
 def machine(binary: bytes) -> tuple[str, int]:
@@ -211,7 +217,7 @@ def run_everywhere(drivers: Drivers, fmu: pathlib.Path, version: str, tmp: pathl
         differ = int((got != reference).sum())
         print(f"{fmu.stem} {version} {folder}: {differ} of {got.size} values differ from x86_64 Linux's,"
               f" by at most {error:.1e} of their column's scale")
-        assert error <= RELATIVE, f"{folder}: {error:.3g}"
+        assert error <= RELATIVE_OF.get(fmu.stem, RELATIVE), f"{folder}: {error:.3g}"
         if folder == "aarch64-linux":
             # The same glibc libm, no fused multiply-adds (Rust never contracts): the same bits.
             assert differ == 0, f"{fmu.stem}: aarch64 differs in {differ} values"
