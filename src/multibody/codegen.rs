@@ -687,6 +687,16 @@ pub fn leaf_lengths(model: &Model) -> [usize; 3] {
 /// `roots` with the leaves `map` names replaced (the others kept), rebuilt node by node
 /// in the current recording (so the constructors simplify again).
 pub fn substitute(roots: &[Expr], map: &dyn Fn(Arg, usize) -> Option<Expr>) -> Vec<Expr> {
+    rebuild(roots, &|node| match node {
+        Node::Input(arg, k) => map(arg, k as usize),
+        _ => None,
+    })
+}
+
+/// `roots` rebuilt node by node in the current recording (so the constructors simplify
+/// again), each node reached replaced by what `swap` gives for it (from the original
+/// operands), else rebuilt from its rebuilt operands.
+pub fn rebuild(roots: &[Expr], swap: &dyn Fn(Node) -> Option<Expr>) -> Vec<Expr> {
     let ids: Vec<Id> = roots.iter().map(|r| r.id()).collect();
     let top = ids.iter().map(|&i| i as usize + 1).max().unwrap_or(0);
     let seen = with_graph(|g| g.reachable(&ids));
@@ -697,9 +707,9 @@ pub fn substitute(roots: &[Expr], map: &dyn Fn(Arg, usize) -> Option<Expr>) -> V
         }
         let e = |i: Id| new[i as usize].expect("operands first");
         let z = Expr::from_id(id as Id);
-        new[id] = Some(match z.node() {
-            Node::Const(_) => z,
-            Node::Input(arg, k) => map(arg, k as usize).unwrap_or(z),
+        let node = z.node();
+        new[id] = Some(swap(node).unwrap_or_else(|| match node {
+            Node::Const(_) | Node::Input(..) => z,
             Node::Neg(a) => -e(a),
             Node::Add(a, b) => e(a) + e(b),
             Node::Sub(a, b) => e(a) - e(b),
@@ -709,7 +719,7 @@ pub fn substitute(roots: &[Expr], map: &dyn Fn(Arg, usize) -> Option<Expr>) -> V
             Node::Powi(a, k) => Expr::int_power(e(a), k),
             Node::Powf(a, k) => Expr::real_power(e(a), f64::from_bits(k)),
             Node::Atan2(y, x) => Expr::arctan2(e(y), e(x)),
-        });
+        }));
     }
     ids.iter()
         .map(|&i| new[i as usize].expect("reached"))

@@ -22,7 +22,6 @@
 
 use super::{fingerprint, ldl_factor, ldl_solve};
 use crate::model::symbolic::emit::straight_line;
-use crate::model::symbolic::expr::with_graph;
 use crate::model::symbolic::{record, Arg, Expr, Fun, Graph, Id, Node};
 use crate::multibody::dynamics::Model;
 use num_dual::Dual;
@@ -54,38 +53,16 @@ struct Traced {
 
 /// `roots` rebuilt with `sin q_k` and `cos q_k` read from the leaves `P[2k]`, `P[2k + 1]`.
 fn sin_cos_as_leaves(roots: &[Expr]) -> Vec<Expr> {
-    let ids: Vec<Id> = roots.iter().map(|r| r.id()).collect();
-    let top = ids.iter().map(|&i| i as usize + 1).max().unwrap_or(0);
-    let seen = with_graph(|g| g.reachable(&ids));
-    let mut new: Vec<Option<Expr>> = vec![None; top];
-    for id in 0..top {
-        if !seen[id] {
-            continue;
-        }
-        let e = |i: Id| new[i as usize].expect("operands first");
-        let z = Expr::from_id(id as Id);
-        new[id] = Some(match z.node() {
-            Node::Const(_) | Node::Input(..) => z,
-            Node::Neg(a) => -e(a),
-            Node::Add(a, b) => e(a) + e(b),
-            Node::Sub(a, b) => e(a) - e(b),
-            Node::Mul(a, b) => e(a) * e(b),
-            Node::Div(a, b) => e(a) / e(b),
-            Node::Fun(f @ (Fun::Sin | Fun::Cos), a) => match Expr::from_id(a).node() {
-                Node::Input(Arg::Q, k) => {
-                    Expr::input(Arg::P, 2 * k as usize + (f == Fun::Cos) as usize)
-                }
-                _ => Expr::fun(f, e(a)),
-            },
-            Node::Fun(f, a) => Expr::fun(f, e(a)),
-            Node::Powi(a, k) => Expr::int_power(e(a), k),
-            Node::Powf(a, k) => Expr::real_power(e(a), f64::from_bits(k)),
-            Node::Atan2(y, x) => Expr::arctan2(e(y), e(x)),
-        });
-    }
-    ids.iter()
-        .map(|&i| new[i as usize].expect("reached"))
-        .collect()
+    super::rebuild(roots, &|node| match node {
+        Node::Fun(f @ (Fun::Sin | Fun::Cos), a) => match Expr::from_id(a).node() {
+            Node::Input(Arg::Q, k) => Some(Expr::input(
+                Arg::P,
+                2 * k as usize + (f == Fun::Cos) as usize,
+            )),
+            _ => None,
+        },
+        _ => None,
+    })
 }
 
 /// `∂V_springs/∂q_i` (model order) by a dual number along q_i.
