@@ -77,24 +77,26 @@ fn a_cheap_system_takes_its_steps() {
     assert!(work < DOSTEP_WORK);
 }
 
-/// A model whose evaluations cost more per state ([`System::EVALUATION_WEIGHT`]: FourBar's
-/// closed loop on the interpreted path, weight 5) gets the bound divided by that weight,
-/// and its Discard names the bound it applied, not the unweighted one. (AndrewsSqueezer,
-/// here before, runs generated closed terms at 0.02 µs per state: weight 1.)
+/// A model whose evaluations cost more per state ([`System::EVALUATION_WEIGHT`]: a closed
+/// loop on the interpreted path, weight 5: the four-bar as HeldFourBar declares it, which
+/// has no generated terms) gets the bound divided by that weight, and its Discard names the
+/// bound it applied, not the unweighted one. (AndrewsSqueezer and FourBar, here before, run
+/// generated closed terms: weight 1.)
 #[test]
 fn a_costly_model_is_bounded_by_its_weighted_work_and_says_so() {
-    type A = mbfmu::systems::FourBar;
+    type A = mbfmu::multibody::fmu::Robot<mbfmu::systems::four_bar::HeldFourBar>;
     assert_eq!(
         <mbfmu::systems::AndrewsSqueezer as System>::EVALUATION_WEIGHT,
         1
     );
+    assert_eq!(<mbfmu::systems::FourBar as System>::EVALUATION_WEIGHT, 1);
     let weight = <A as System>::EVALUATION_WEIGHT;
     assert!(weight > 1);
     let bound = DOSTEP_WORK / weight;
     // Gauss6 with 30 000 fixed steps of 1 µs over 0.03 s.
     let mut inst = started::<A>(8, 1e-6, 1e-13);
     let (work, outcome, seconds) = step(&mut inst, 0.03);
-    println!("METRIC FourBar Gauss6 h 1e-6: doStep of 0.03 s: {work} state-component evaluations in {seconds:.3} s ({outcome:?})");
+    println!("METRIC HeldFourBar Gauss6 h 1e-6: doStep of 0.03 s: {work} state-component evaluations in {seconds:.3} s ({outcome:?})");
     let n = A::states().len() as u64;
     let one_step = n * (6 * n + 3 * 50 + 1);
     assert!(work <= bound + one_step, "{work} > {bound}");

@@ -209,105 +209,19 @@ pub type AndrewsSqueezer = Robot<AndrewsMechanism>;
 mod tests {
     use super::*;
     use crate::model::lagrangian::Lagrangian;
-    use crate::multibody::codegen::tests::Rng;
-    use crate::multibody::fmu::{interpreted_closed_accelerations, Declared};
-    use num_dual::Dual64;
+    use crate::multibody::fmu::Declared;
 
-    /// `|a − b| ≤ tol · max |b|` elementwise.
-    fn close(a: &[f64], b: &[f64], tol: f64, what: &str) {
-        let scale = b.iter().fold(f64::MIN_POSITIVE, |m, x| m.max(x.abs()));
-        for (i, (x, y)) in a.iter().zip(b).enumerate() {
-            assert!(
-                (x - y).abs() <= tol * scale,
-                "{what}[{i}]: {x} vs {y} (scale {scale:e})"
-            );
-        }
-    }
-
-    /// The generated closed terms run (their fingerprint is the declaration's) and give
-    /// the interpreted path's q̈ and λ to 1e-12 of their scale at random states (off the
-    /// closures, at large velocities: the formulas hold anywhere), and through dual
-    /// numbers the same directional derivatives.
+    /// The generated closed terms against the interpreted path
+    /// ([`crate::systems::check_generated_closed`]) at random states (off the closures,
+    /// at large velocities: the formulas hold anywhere).
     #[test]
     fn generated_closed_terms_equal_the_interpreted_path() {
-        let b = AndrewsMechanism::built();
-        assert_eq!(
-            AndrewsMechanism::CLOSED_GENERATED_FROM,
-            Some(b.closed_fingerprint)
+        crate::systems::check_generated_closed::<AndrewsMechanism>(
+            &[(START.to_vec(), 1.0)],
+            100.0,
+            0.05,
+            1.0,
         );
-        let p: Vec<f64> = <AndrewsSqueezer as Lagrangian>::parameters()
-            .iter()
-            .map(|v| v.start)
-            .collect();
-        let mut rng = Rng(0x5eed_1234_abcd);
-        for _ in 0..20 {
-            let q: Vec<f64> = START.iter().map(|&s| s + rng.uniform(-1.0, 1.0)).collect();
-            let qd: Vec<f64> = (0..7).map(|_| rng.uniform(-100.0, 100.0)).collect();
-            let u: Vec<f64> = (0..7).map(|_| rng.uniform(-0.05, 0.05)).collect();
-            let mut out = Vec::new();
-            for generated in [true, false] {
-                let (mut qdd, mut lambda) = (vec![0.0; 7], vec![0.0; 6]);
-                let args = (&q[..], &qd[..], &u[..], &p[..]);
-                if generated {
-                    assert!(AndrewsMechanism::generated_closed::<f64>(
-                        0.0,
-                        args,
-                        &mut qdd,
-                        &mut lambda
-                    ));
-                } else {
-                    interpreted_closed_accelerations::<AndrewsMechanism, f64>(
-                        0.0,
-                        args,
-                        &mut qdd,
-                        &mut lambda,
-                    );
-                }
-                out.push((qdd, lambda));
-            }
-            close(&out[0].0, &out[1].0, 1e-12, "q̈");
-            close(&out[0].1, &out[1].1, 1e-12, "λ");
-            // ∂/∂q_j and ∂/∂q̇_j along one direction each, by dual numbers.
-            let j = (rng.uniform(0.0, 7.0) as usize).min(6);
-            let dual = |v: &[f64], seed: bool| -> Vec<Dual64> {
-                v.iter()
-                    .enumerate()
-                    .map(|(i, &x)| Dual64::new(x, (seed && i == j) as u8 as f64))
-                    .collect()
-            };
-            let (pd, ud) = (dual(&p, false), dual(&u, false));
-            for along_q in [true, false] {
-                let (qx, qdx) = (dual(&q, along_q), dual(&qd, !along_q));
-                let mut eps = Vec::new();
-                for generated in [true, false] {
-                    let (mut qdd, mut lambda) =
-                        (vec![Dual64::from(0.0); 7], vec![Dual64::from(0.0); 6]);
-                    let args = (&qx[..], &qdx[..], &ud[..], &pd[..]);
-                    if generated {
-                        assert!(AndrewsMechanism::generated_closed::<Dual64>(
-                            0.0,
-                            args,
-                            &mut qdd,
-                            &mut lambda,
-                        ));
-                    } else {
-                        interpreted_closed_accelerations::<AndrewsMechanism, Dual64>(
-                            0.0,
-                            args,
-                            &mut qdd,
-                            &mut lambda,
-                        );
-                    }
-                    eps.push(
-                        qdd.iter()
-                            .chain(&lambda)
-                            .map(|d| d.eps)
-                            .collect::<Vec<f64>>(),
-                    );
-                }
-                close(&eps[0], &eps[1], 1e-10, "derivative");
-            }
-        }
     }
 
     /// Where the right-hand side's time goes (`cargo test --release --lib

@@ -138,6 +138,7 @@ crate::mechanism_fmu!(
     {
         const DESCRIPTION: &'static str =
             "Planar four-bar linkage (Grashof crank-rocker) declared as bodies, joints and one loop closure, with gravity and a crank torque";
+        crate::generated_closed_terms!(crate::systems::generated::four_bar);
 
         /// The linkage held at rest at θ2 = CRANK_START by its holding torques
         /// (HeldFourBar's start values, the dependent positions from their closed form): a
@@ -216,4 +217,23 @@ pub fn freudenstein_rocker(theta2: f64) -> f64 {
     let q = -2.0 * s;
     let r = k1 - (k2 + 1.0) * c + k3;
     2.0 * ((-q - (q * q - 4.0 * p * r).sqrt()) / (2.0 * p)).atan()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::multibody::fmu::Declared;
+
+    /// The generated closed terms against the interpreted path
+    /// ([`crate::systems::check_generated_closed`]) on and off the closures.
+    #[test]
+    fn generated_closed_terms_equal_the_interpreted_path() {
+        let start = FourBarMechanism::built().start.clone();
+        crate::systems::check_generated_closed::<FourBarMechanism>(
+            &[(start.clone(), 0.0), (start, 1.0)],
+            20.0,
+            1.0,
+            1.0,
+        );
+    }
 }

@@ -50,10 +50,123 @@ pub use whipple_bicycle::WhippleBicycle;
 /// ([`generated`]): the module name and the declaration's model and coordinate order.
 pub fn closed_generated() -> Vec<(&'static str, &'static crate::multibody::fmu::Built)> {
     use crate::multibody::fmu::Declared;
-    vec![(
-        "andrews_squeezer",
-        andrews_squeezer::AndrewsMechanism::built(),
-    )]
+    vec![
+        (
+            "andrews_squeezer",
+            andrews_squeezer::AndrewsMechanism::built(),
+        ),
+        ("bricard", bricard::BricardMechanism::built()),
+        ("four_bar", four_bar::FourBarMechanism::built()),
+    ]
+}
+
+/// The check every mechanism with generated closed terms passes: they run (their
+/// fingerprint is the declaration's) and give the interpreted path's q̈ and λ to 1e-12 of
+/// their scale, and through dual numbers the same directional derivatives (1e-10), at
+/// states near each of `points` (q, and how far to move each coordinate at random: 0 keeps
+/// it on the closures, where a redundant mechanism's G loses rank and what is unique is
+/// compared), at random velocities within ±`speed` and inputs within ±`torque`; `floor`,
+/// the least scale of a compared vector (the mechanism's accelerations', where the values
+/// compared may be 0 but for rounding).
+#[cfg(test)]
+pub(crate) fn check_generated_closed<D: crate::multibody::fmu::Declared>(
+    points: &[(Vec<f64>, f64)],
+    speed: f64,
+    torque: f64,
+    floor: f64,
+) {
+    use crate::model::lagrangian::Lagrangian;
+    use crate::multibody::codegen::tests::Rng;
+    use crate::multibody::fmu::{interpreted_closed_accelerations, Robot};
+    use num_dual::Dual64;
+    let close = |a: &[f64], b: &[f64], tol: f64, what: &str| {
+        let scale = b.iter().fold(floor, |m, x| m.max(x.abs()));
+        for (i, (x, y)) in a.iter().zip(b).enumerate() {
+            assert!(
+                (x - y).abs() <= tol * scale,
+                "{}: {what}[{i}]: {x} vs {y} (scale {scale:e})",
+                D::NAME
+            );
+        }
+    };
+    let b = D::built();
+    assert_eq!(
+        D::CLOSED_GENERATED_FROM,
+        Some(b.closed_fingerprint),
+        "{}",
+        D::NAME
+    );
+    let (n, k) = (b.order.len(), D::CONSTRAINTS);
+    let p: Vec<f64> = <Robot<D> as Lagrangian>::parameters()
+        .iter()
+        .map(|v| v.start)
+        .collect();
+    // Both paths at (q, q̇, u) in the scalar S: (q̈, λ).
+    fn both<D: crate::multibody::fmu::Declared, S: crate::model::Scalar>(
+        args: (&[S], &[S], &[S], &[S]),
+        n: usize,
+        k: usize,
+    ) -> [(Vec<S>, Vec<S>); 2] {
+        let mut generated = (vec![S::zero(); n], vec![S::zero(); k]);
+        assert!(D::generated_closed::<S>(
+            0.0,
+            args,
+            &mut generated.0,
+            &mut generated.1
+        ));
+        let mut interpreted = (vec![S::zero(); n], vec![S::zero(); k]);
+        interpreted_closed_accelerations::<D, S>(0.0, args, &mut interpreted.0, &mut interpreted.1);
+        [generated, interpreted]
+    }
+    let mut rng = Rng(0x5eed_1234_abcd);
+    for (at, (q0, spread)) in points.iter().enumerate() {
+        for _ in 0..20 {
+            let q: Vec<f64> = q0
+                .iter()
+                .map(|&s| s + spread * rng.uniform(-1.0, 1.0))
+                .collect();
+            let qd: Vec<f64> = (0..n).map(|_| rng.uniform(-speed, speed)).collect();
+            let u: Vec<f64> = (0..n).map(|_| rng.uniform(-torque, torque)).collect();
+            let [g, i] = both::<D, f64>((&q, &qd, &u, &p), n, k);
+            close(&g.0, &i.0, 1e-12, &format!("q̈ at point {at}"));
+            // On the closures, where G may lose rank (Bricard), λ is not unique (which
+            // dependent row is dropped is a tie rounding may break either way, e.g. by
+            // the symmetry of Bricard's start), nor is q̈ differentiable along q across
+            // them (the rank changes there: measured at Bricard's start, the two paths'
+            // one-sided derivatives −2.655 and −2.879, their mean the central difference):
+            // there q̈ and its derivatives along q̇ are compared, which are unique.
+            let off = *spread > 0.0;
+            if off {
+                close(&g.1, &i.1, 1e-12, &format!("λ at point {at}"));
+            }
+            // ∂/∂q_j and ∂/∂q̇_j along one direction each, by dual numbers.
+            let j = (rng.uniform(0.0, n as f64) as usize).min(n - 1);
+            let dual = |v: &[f64], seed: bool| -> Vec<Dual64> {
+                v.iter()
+                    .enumerate()
+                    .map(|(i, &x)| Dual64::new(x, (seed && i == j) as u8 as f64))
+                    .collect()
+            };
+            let (pd, ud) = (dual(&p, false), dual(&u, false));
+            for along_q in [true, false].into_iter().filter(|&a| off || !a) {
+                let (qx, qdx) = (dual(&q, along_q), dual(&qd, !along_q));
+                let eps = both::<D, Dual64>((&qx, &qdx, &ud, &pd), n, k).map(|(qdd, lambda)| {
+                    let lambda = if off { &lambda[..] } else { &[] };
+                    qdd.iter()
+                        .chain(lambda)
+                        .map(|d| d.eps)
+                        .collect::<Vec<f64>>()
+                });
+                let along = if along_q { "q" } else { "q̇" };
+                close(
+                    &eps[0],
+                    &eps[1],
+                    1e-10,
+                    &format!("derivative at point {at} along {along} {j}"),
+                );
+            }
+        }
+    }
 }
 
 /// Every module of [`generated`] and its `mod.rs`: (file name, source).
