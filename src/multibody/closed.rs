@@ -465,7 +465,7 @@ pub struct Terms<S, const N: usize, const K: usize> {
     pub g: [[S; N]; K],
     /// `(M⁻¹ Gᵀ)ᵀ`: row i is M⁻¹ gᵢ.
     pub y: [[S; N]; K],
-    /// `G M⁻¹ Gᵀ`; [`Terms::factor`] factors it in place.
+    /// `G M⁻¹ Gᵀ` ([`Terms::factor`] leaves it as it is).
     pub s: [[S; K]; K],
     /// `∂V_springs/∂q`.
     pub springs: [S; N],
@@ -473,8 +473,6 @@ pub struct Terms<S, const N: usize, const K: usize> {
     pub bias: [S; N],
     /// `γ = Ġ q̇`.
     pub gamma: [S; K],
-    perm: [usize; K],
-    rank: usize,
     /// S⁺ ([`Terms::factor`]).
     w: [[S; K]; K],
     /// S⁺ r of the last [`Terms::correct`].
@@ -518,8 +516,6 @@ impl<S: Scalar, const N: usize, const K: usize> Terms<S, N, K> {
             springs,
             bias: [z; N],
             gamma: [z; K],
-            perm: [0; K],
-            rank: 0,
             w: [[z; K]; K],
             r: [z; K],
         }
@@ -542,13 +538,10 @@ impl<S: Scalar, const N: usize, const K: usize> Terms<S, N, K> {
     pub fn factor(&mut self) -> usize {
         if let Some(w) = certain_inverse(&self.s) {
             self.w = w;
-            self.perm = std::array::from_fn(|i| i);
-            self.rank = K;
             return K;
         }
-        let s = &mut self.s;
-        let perm = &mut self.perm;
-        *perm = std::array::from_fn(|i| i);
+        let mut s = self.s;
+        let mut perm: [usize; K] = std::array::from_fn(|i| i);
         let mut largest = 0.0;
         let mut rank = 0;
         let mut d_inv = [S::zero(); K];
@@ -588,7 +581,6 @@ impl<S: Scalar, const N: usize, const K: usize> Terms<S, N, K> {
                 s[pa][pj] = l;
             }
         }
-        self.rank = rank;
         // L in pivot order, then S⁺ on the rank found.
         let l: [[S; K]; K] = std::array::from_fn(|i| std::array::from_fn(|m| s[perm[i]][perm[m]]));
         let w = inverse_of_ldl(&l, &d_inv, rank);
