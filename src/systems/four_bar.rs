@@ -233,7 +233,7 @@ mod tests {
             &[(start.clone(), 0.0), (start, 1.0)],
             20.0,
             1.0,
-            1.0,
+            f64::MIN_POSITIVE,
         );
     }
 }

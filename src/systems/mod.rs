@@ -66,8 +66,8 @@ pub fn closed_generated() -> Vec<(&'static str, &'static crate::multibody::fmu::
 /// states near each of `points` (q, and how far to move each coordinate at random: 0 keeps
 /// it on the closures, where a redundant mechanism's G loses rank and what is unique is
 /// compared), at random velocities within ±`speed` and inputs within ±`torque`; `floor`,
-/// the least scale of a compared vector (the mechanism's accelerations', where the values
-/// compared may be 0 but for rounding).
+/// the least scale of a compared vector (`f64::MIN_POSITIVE`: none; the mechanism's
+/// accelerations', where the values compared may be 0 but for rounding).
 #[cfg(test)]
 pub(crate) fn check_generated_closed<D: crate::multibody::fmu::Declared>(
     points: &[(Vec<f64>, f64)],
