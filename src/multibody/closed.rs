@@ -73,8 +73,11 @@ pub fn kinematics<S: Scalar>(
     }
     let mut k = 0;
     for c in &model.closures {
+        let axes = k..k + c.axes.len();
+        for row in &mut g[axes.clone()] {
+            row.fill(S::zero());
+        }
         let mut sep = zero;
-        let mut rows = vec![zero; n];
         let mut rate = zero;
         for (body, point, sign) in [(c.body_a, &c.point_a, 1.0), (c.body_b, &c.point_b, -1.0)] {
             let Some(b) = body else {
@@ -98,17 +101,16 @@ pub fn kinematics<S: Scalar>(
                     &cross(&omega[i], v),
                 );
                 for a in 0..3 {
-                    rows[i][a] += column[a] * sign;
                     rate[a] += turn[a] * (qd[i] * sign);
+                }
+                for (row, &axis) in g[axes.clone()].iter_mut().zip(&c.axes) {
+                    row[i] += column[axis] * sign;
                 }
                 j = model.parent[i];
             }
         }
         for &axis in &c.axes {
             phi[k] = sep[axis];
-            for (gj, row) in g[k].iter_mut().zip(&rows) {
-                *gj = row[axis];
-            }
             curvature[k] = rate[axis];
             k += 1;
         }
@@ -134,22 +136,68 @@ pub const RANK_TOLERANCE: f64 = 1e-8;
 /// What [`solve`] exploits, fixed per mechanism: each coordinate's parent in the tree
 /// (parents before children), so that `M[i][j] ≠ 0` only where one is the other's
 /// ancestor and its factorisation `M = Lᵀ D L` from the leaves up (Featherstone's LTDL)
-/// fills nothing else: O(Σ depth²) and each solve O(Σ depth), against n³/6 and n²; and per
+/// fills nothing else: O(Σ depth²) and each solve O(Σ depth), against n³/6 and n²; per
 /// row of G the columns that can be nonzero (the joints on the closure's two paths to the
-/// base), so that `G M⁻¹ Gᵀ` costs k² times a path's length, not k² n.
+/// base), so that `G M⁻¹ Gᵀ` costs k² times a path's length, not k² n; and what follows
+/// from those two: where `M⁻¹ gᵢ` can be nonzero (`support`) and `S = G M⁻¹ Gᵀ`'s
+/// envelope (`first`), in which its LDLᵀ in its own order stays (the N four-bar's S is
+/// block-tridiagonal: 80 × 80, about 5 entries a row).
 #[derive(Clone, Debug)]
 pub struct Structure {
     pub parent: Vec<Option<usize>>,
     pub columns: Vec<Vec<usize>>,
+    /// Per row i of G, the coordinates (ascending) where `M⁻¹ gᵢ` can be nonzero: the
+    /// subtrees of the base's children that hold the row's columns (`M⁻¹ = L⁻¹ D⁻¹ L⁻ᵀ`
+    /// couples two coordinates iff they share an ancestor).
+    pub support: Vec<Vec<usize>>,
+    /// Per row i of S, the first column j ≤ i where `S_ij` can be nonzero (row j's
+    /// support meets row i's columns).
+    pub first: Vec<usize>,
 }
 
 impl Structure {
     /// No structure: every coordinate the previous one's child (the factorisation is then
     /// the dense one), every column in every row.
     pub fn dense(n: usize, k: usize) -> Self {
+        let parent = (0..n).map(|i| i.checked_sub(1)).collect();
+        Structure::completed(parent, vec![(0..n).collect(); k])
+    }
+
+    /// The supports and the envelope of `parent` (parents before children) and `columns`.
+    fn completed(parent: Vec<Option<usize>>, columns: Vec<Vec<usize>>) -> Self {
+        let n = parent.len();
+        let support: Vec<Vec<usize>> = columns
+            .iter()
+            .map(|cols| {
+                let mut held = vec![false; n];
+                for &c in cols {
+                    let mut j = Some(c);
+                    while let Some(i) = j {
+                        held[i] = true;
+                        j = parent[i];
+                    }
+                }
+                // Then every descendant of those (a parent comes before its children).
+                for x in 0..n {
+                    held[x] = held[x] || parent[x].is_some_and(|p| held[p]);
+                }
+                (0..n).filter(|&x| held[x]).collect()
+            })
+            .collect();
+        let first = columns
+            .iter()
+            .enumerate()
+            .map(|(i, cols)| {
+                (0..i)
+                    .find(|&j| cols.iter().any(|c| support[j].binary_search(c).is_ok()))
+                    .unwrap_or(i)
+            })
+            .collect();
         Structure {
-            parent: (0..n).map(|i| i.checked_sub(1)).collect(),
-            columns: vec![(0..n).collect(); k],
+            parent,
+            columns,
+            support,
+            first,
         }
     }
 
@@ -188,7 +236,7 @@ impl Structure {
             let cols: Vec<usize> = (0..n).filter(|&k| on_path[k]).collect();
             columns.extend(c.axes.iter().map(|_| cols.clone()));
         }
-        Structure { parent, columns }
+        Structure::completed(parent, columns)
     }
 }
 
@@ -238,6 +286,131 @@ fn tree_solve<S: Scalar>(m: &[S], parent: &[Option<usize>], x: &mut [S]) {
     }
 }
 
+/// [`tree_solve`] for a `b` that is 0 but on the ancestors of `support` (ascending, closed
+/// under ancestors and descendants: a [`Structure::support`]), where `x` is then nonzero:
+/// the same operations on those coordinates only.
+fn tree_solve_on<S: Scalar>(m: &[S], parent: &[Option<usize>], support: &[usize], x: &mut [S]) {
+    let n = parent.len();
+    for &k in support.iter().rev() {
+        let mut i = parent[k];
+        while let Some(a) = i {
+            let t = m[k * n + a] * x[k];
+            x[a] -= t;
+            i = parent[a];
+        }
+    }
+    for &k in support {
+        x[k] /= m[k * n + k];
+    }
+    for &k in support {
+        let mut i = parent[k];
+        while let Some(a) = i {
+            let t = m[k * n + a] * x[a];
+            x[k] -= t;
+            i = parent[a];
+        }
+    }
+}
+
+/// S's factorisation: in its own order within its envelope where that certifies full
+/// rank ([`Envelope`]), else the pivoted dense LDLᵀ ([`pivoted_factor`]).
+enum Schur<S> {
+    Envelope(Envelope<S>),
+    Pivoted {
+        s: Vec<S>,
+        perm: Vec<usize>,
+        rank: usize,
+    },
+}
+
+/// `S = L D Lᵀ` in S's own order, row i of L over the envelope's columns `first[i]..i`
+/// (packed from `start[i]`), D on the diagonal slots.
+struct Envelope<S> {
+    start: Vec<usize>,
+    ld: Vec<S>,
+}
+
+impl<S: Scalar> Envelope<S> {
+    /// Factors S given by its envelope (`s` packed as `start`), where that proves S of
+    /// full rank by a margin, as [`certain_inverse`] does for the generated terms:
+    /// `λ_min(S) ≥ 1/‖S⁻¹‖∞ > 2 ×` [`RANK_TOLERANCE`] `× max diag S`, with ‖S⁻¹‖∞ bounded by
+    /// `‖L⁻ᵀ‖∞ ‖D⁻¹‖∞ ‖L⁻¹‖∞` and each ‖L⁻¹‖ by its comparison matrix's (`|L⁻¹| ≤ ⟨L⟩⁻¹`,
+    /// whose norms are one substitution each). Then the pivoted factorisation keeps every
+    /// row too (see [`certain_inverse`]) and the solution is the same to rounding. `None`
+    /// where it cannot tell (a pivot not positive, a NaN, or the bound too large).
+    fn certified(first: &[usize], start: Vec<usize>, mut ld: Vec<S>) -> Option<Self> {
+        let k = first.len();
+        let at = |i: usize, j: usize| start[i] + j - first[i];
+        let largest = (0..k).fold(0.0f64, |m, i| m.max(ld[at(i, i)].re()));
+        let mut u = vec![S::zero(); k];
+        for i in 0..k {
+            let fi = first[i];
+            // u_j = l_ij d_j, then l_ij; d_i = s_ii − Σ u_j l_ij.
+            for j in fi..i {
+                let lo = fi.max(first[j]);
+                let mut v = ld[at(i, j)];
+                for m in lo..j {
+                    v -= u[m] * ld[at(j, m)];
+                }
+                u[j] = v;
+                ld[at(i, j)] = v / ld[at(j, j)];
+            }
+            let mut d = ld[at(i, i)];
+            for j in fi..i {
+                d -= u[j] * ld[at(i, j)];
+            }
+            if !(d.re() > 0.0 && d.re().is_finite()) {
+                return None;
+            }
+            ld[at(i, i)] = d;
+        }
+        // ‖L⁻¹‖∞ and ‖L⁻¹‖₁ = ‖L⁻ᵀ‖∞ from X = L⁻¹ (in f64), row by row: row i of X is
+        // eᵢ − Σ_m l_im (row m of X), over the envelope's m: whole-row updates, which vectorise.
+        let mut x = vec![0.0f64; k * k];
+        let (mut rows, mut columns) = (vec![0.0f64; k], vec![0.0f64; k]);
+        let mut d_inv = 0.0f64;
+        for i in 0..k {
+            let (done, row) = x.split_at_mut(i * k);
+            let row = &mut row[..=i];
+            row[i] = 1.0;
+            for m in first[i]..i {
+                let l = ld[at(i, m)].re();
+                for (v, &w) in row[..=m].iter_mut().zip(&done[m * k..=m * k + m]) {
+                    *v -= l * w;
+                }
+            }
+            rows[i] = row.iter().map(|v| v.abs()).sum();
+            for (c, v) in columns.iter_mut().zip(row.iter()) {
+                *c += v.abs();
+            }
+            d_inv = d_inv.max(1.0 / ld[at(i, i)].re());
+        }
+        let norm = |v: &[f64]| v.iter().fold(0.0f64, |m, &x| m.max(x));
+        let bound = norm(&columns) * d_inv * norm(&rows);
+        (bound * RANK_TOLERANCE * largest < 0.5).then_some(Envelope { start, ld })
+    }
+
+    /// Solves `L D Lᵀ x = r` in place.
+    fn substitute(&self, first: &[usize], r: &mut [S]) {
+        let at = |i: usize, j: usize| self.start[i] + j - first[i];
+        for i in 0..r.len() {
+            for j in first[i]..i {
+                let t = self.ld[at(i, j)] * r[j];
+                r[i] -= t;
+            }
+        }
+        for (i, v) in r.iter_mut().enumerate() {
+            *v /= self.ld[at(i, i)];
+        }
+        for i in (0..r.len()).rev() {
+            for j in first[i]..i {
+                let t = self.ld[at(i, j)] * r[i];
+                r[j] -= t;
+            }
+        }
+    }
+}
+
 /// `M` and `S = G M⁻¹ Gᵀ` factored for one configuration: what [`Factored::accelerations`]
 /// and [`Factored::tangent`] solve with.
 pub struct Factored<'a, S> {
@@ -245,48 +418,86 @@ pub struct Factored<'a, S> {
     g: &'a [Vec<S>],
     /// M's `Lᵀ D L` ([`tree_factor`]).
     m: Vec<S>,
-    /// `Y = M⁻¹ Gᵀ`, one column per row of G.
+    /// `Y = M⁻¹ Gᵀ`, one column per row of G, on that row's support only.
     y: Vec<Vec<S>>,
-    /// S's pivoted LDLᵀ ([`pivoted_factor`]), its permutation and rank.
-    schur: Vec<S>,
-    perm: Vec<usize>,
-    rank: usize,
+    schur: Schur<S>,
 }
 
 impl<'a, S: Scalar> Factored<'a, S> {
     /// Factors `m` (M, n × n row-major, symmetric positive definite) and the Schur
-    /// complement of the k rows `g` of G, with their sparsity `structure`.
+    /// complement of the k rows `g` of G, with their sparsity `structure`: S over its
+    /// envelope, factored in its own order where that certifies full rank ([`Envelope`]),
+    /// else densely by LDLᵀ with diagonal pivoting (near a singular position, a
+    /// redundant G).
     pub fn new(mut m: Vec<S>, structure: &'a Structure, g: &'a [Vec<S>]) -> Self {
-        let (parent, k) = (&structure.parent, g.len());
+        let (parent, k, n) = (&structure.parent, g.len(), structure.parent.len());
         tree_factor(&mut m, parent);
-        let y: Vec<Vec<S>> = g
-            .iter()
-            .map(|row| {
-                let mut col = row.clone();
-                tree_solve(&m, parent, &mut col);
-                col
+        let mut x = vec![S::zero(); n];
+        let y: Vec<Vec<S>> = (0..k)
+            .map(|i| {
+                for &c in &structure.columns[i] {
+                    x[c] = g[i][c];
+                }
+                let support = &structure.support[i];
+                tree_solve_on(&m, parent, support, &mut x);
+                support
+                    .iter()
+                    .map(|&c| std::mem::replace(&mut x[c], S::zero()))
+                    .collect()
             })
             .collect();
-        let mut f = Factored {
+        // S over its envelope: S_ij = gᵢ · yⱼ over gᵢ's columns (scattered into x).
+        let first = &structure.first;
+        let mut start = Vec::with_capacity(k);
+        let mut s = Vec::new();
+        for i in 0..k {
+            start.push(s.len());
+            for &c in &structure.columns[i] {
+                x[c] = g[i][c];
+            }
+            let envelope = structure.support[first[i]..=i].iter().zip(&y[first[i]..=i]);
+            for (support, yj) in envelope {
+                let sj = support.iter().zip(yj);
+                s.push(sj.fold(S::zero(), |a, (&c, &v)| a + x[c] * v));
+            }
+            for &c in &structure.columns[i] {
+                x[c] = S::zero();
+            }
+        }
+        let schur = match Envelope::certified(first, start.clone(), s.clone()) {
+            Some(envelope) => Schur::Envelope(envelope),
+            None => {
+                let mut dense = vec![S::zero(); k * k];
+                for i in 0..k {
+                    for j in first[i]..=i {
+                        let v = s[start[i] + j - first[i]];
+                        dense[i * k + j] = v;
+                        dense[j * k + i] = v;
+                    }
+                }
+                let (perm, rank) = pivoted_factor(&mut dense, k);
+                Schur::Pivoted {
+                    s: dense,
+                    perm,
+                    rank,
+                }
+            }
+        };
+        Factored {
             structure,
             g,
             m,
             y,
-            schur: Vec::new(),
-            perm: Vec::new(),
-            rank: 0,
-        };
-        f.schur = (0..k * k)
-            .map(|ij| f.row_dot(ij / k, &f.y[ij % k]))
-            .collect();
-        let (perm, rank) = pivoted_factor(&mut f.schur, k);
-        (f.perm, f.rank) = (perm, rank);
-        f
+            schur,
+        }
     }
 
     /// The rank found for G.
     pub fn rank(&self) -> usize {
-        self.rank
+        match &self.schur {
+            Schur::Envelope(_) => self.g.len(),
+            Schur::Pivoted { rank, .. } => *rank,
+        }
     }
 
     /// Row i of G against `b`, over the row's columns only.
@@ -302,10 +513,13 @@ impl<'a, S: Scalar> Factored<'a, S> {
         let mut r: Vec<S> = (0..k)
             .map(|i| c.map_or(S::zero(), |c| c[i]) - self.row_dot(i, x))
             .collect();
-        pivoted_substitute(&self.schur, k, (&self.perm, self.rank), &mut r);
-        for (yi, &mi) in self.y.iter().zip(&r) {
-            for (a, &v) in x.iter_mut().zip(yi) {
-                *a += v * mi;
+        match &self.schur {
+            Schur::Envelope(e) => e.substitute(&self.structure.first, &mut r),
+            Schur::Pivoted { s, perm, rank } => pivoted_substitute(s, k, (perm, *rank), &mut r),
+        }
+        for ((yi, support), &mi) in self.y.iter().zip(&self.structure.support).zip(&r) {
+            for (&c, &v) in support.iter().zip(yi) {
+                x[c] += v * mi;
             }
         }
         r
@@ -807,6 +1021,89 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// [`Envelope`] on banded S = A Aᵀ (each row of A nonzero on three neighbouring
+    /// columns: S's envelope is two below the diagonal), from well conditioned to rank
+    /// deficient (row 5 moved towards rows 4 and 6's span by a factor down to 0): where it
+    /// certifies, the pivoted factorisation keeps every row and the true ‖S⁻¹‖∞ meets the
+    /// certificate's claim (1/‖S⁻¹‖∞ > 2 × RANK_TOLERANCE × max diag S), and the envelope's
+    /// substitution equals the pivoted one; an exactly dependent row is refused.
+    #[test]
+    fn the_envelope_certifies_only_what_the_pivots_keep() {
+        let (k, cols) = (8, 10);
+        // (Row 5 becomes a combination of rows 4 and 6, columns 4 to 8: it meets row 2.)
+        let mut first: Vec<usize> = (0..k).map(|i: usize| i.saturating_sub(2)).collect();
+        first[5] = 2;
+        let mut rng = Rng(0xe17e);
+        let (mut certified, mut refused) = (0, 0);
+        for case in 0..60 {
+            let mut a = vec![vec![0.0; cols]; k];
+            for (i, row) in a.iter_mut().enumerate() {
+                for v in &mut row[i..i + 3] {
+                    *v = rng.uniform(-1.0, 1.0);
+                }
+            }
+            // Row 5 towards the span of rows 4 and 6: independent by a factor 10^-(case/10).
+            let independent = if case == 59 {
+                0.0
+            } else {
+                10f64.powi(-(case / 10))
+            };
+            let (c4, c6) = (rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0));
+            a[5] = (0..cols)
+                .map(|c| c4 * a[4][c] + c6 * a[6][c] + independent * a[5][c])
+                .collect();
+            let s: Vec<Vec<f64>> = (0..k)
+                .map(|i| {
+                    (0..k)
+                        .map(|j| (0..cols).map(|m| a[i][m] * a[j][m]).sum())
+                        .collect()
+                })
+                .collect();
+            let (mut start, mut packed) = (Vec::new(), Vec::new());
+            for i in 0..k {
+                start.push(packed.len());
+                packed.extend((first[i]..=i).map(|j| s[i][j]));
+            }
+            let mut flat: Vec<f64> = s.iter().flatten().copied().collect();
+            let (perm, rank) = pivoted_factor(&mut flat, k);
+            let unit = |j: usize| (0..k).map(|i| (i == j) as usize as f64).collect::<Vec<_>>();
+            let Some(envelope) = Envelope::certified(&first, start, packed) else {
+                refused += 1;
+                continue;
+            };
+            assert!(independent > 0.0, "an exactly dependent row certified");
+            certified += 1;
+            assert_eq!(rank, k, "case {case}: certified, yet the pivots drop a row");
+            let inverse: Vec<Vec<f64>> = (0..k)
+                .map(|j| {
+                    let mut e = unit(j);
+                    pivoted_substitute(&flat, k, (&perm, rank), &mut e);
+                    e
+                })
+                .collect();
+            let norm = inverse
+                .iter()
+                .fold(0.0f64, |m, c| m.max(c.iter().map(|v| v.abs()).sum()));
+            let largest = (0..k).fold(0.0f64, |m, i| m.max(s[i][i]));
+            assert!(
+                norm * RANK_TOLERANCE * largest < 0.5,
+                "case {case}: ‖S⁻¹‖∞ {norm:e}"
+            );
+            for (j, column) in inverse.iter().enumerate() {
+                let mut e = unit(j);
+                envelope.substitute(&first, &mut e);
+                for (x, y) in e.iter().zip(column) {
+                    assert!((x - y).abs() <= 1e-9 * norm, "case {case}: {x} vs {y}");
+                }
+            }
+        }
+        // Measured: 23 certified, 37 refused (both paths exercised).
+        assert!(
+            certified >= 15 && refused >= 15,
+            "{certified} certified, {refused} refused"
+        );
     }
 
     /// A full-rank system against the augmented KKT solve of `crate::model::lagrangian`:

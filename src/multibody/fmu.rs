@@ -1573,6 +1573,9 @@ fn coordinate_mass<S: Scalar>(b: &Built, q: &[S]) -> Vec<S> {
     let qm = b.positions_to_model(q);
     let mut full = vec![S::zero(); n * n];
     with_workspace(&b.model, |data| b.model.crba_in(data, &qm, &mut full));
+    if b.natural_order {
+        return full;
+    }
     let mut m = vec![S::zero(); n * n];
     for (k, &i) in b.order.iter().enumerate() {
         for (l, &j) in b.order.iter().enumerate() {
@@ -1592,6 +1595,9 @@ fn coordinate_closures<S: Scalar>(b: &Built, qm: &[S], qdm: &[S]) -> (Vec<S>, Ve
         vec![S::zero(); k],
     );
     closed::kinematics(&b.model, qm, qdm, &mut phi, &mut g, &mut curvature);
+    if b.natural_order {
+        return (phi, g, curvature);
+    }
     let g = g
         .iter()
         .map(|row| b.order.iter().map(|&i| row[i]).collect())
