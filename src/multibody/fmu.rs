@@ -1813,23 +1813,6 @@ impl<D: Declared> Lagrangian for Robot<D> {
     const TIME_IN_FORCES_OR_OUTPUTS: bool = false;
     /// One per loop-closure axis.
     const CONSTRAINTS: usize = D::CONSTRAINTS;
-    /// What one f costs per state against NonlinearBicycle's 0.11 µs, the costliest per
-    /// state of the systems the doStep work bound was set on (docs/methods.md), rounded
-    /// up, by which path f runs: a tree, or closures on generated terms
-    /// ([`Declared::generated_closed`], `mbfmu speed`: AndrewsSqueezer 0.24 µs for 14
-    /// states, FourBar 0.10 µs for 6, Bricard 0.48 µs for 10: at most 0.05 µs per state),
-    /// 1; closures on the interpreted path ([`closed::Factored`]: NFourBar, a mechanism
-    /// loaded at run time), 5: AndrewsSqueezer measured 0.51 µs per state there (7.1 µs),
-    /// FourBar 0.23 µs (it was 50 while closures ran on automatic differentiation of T, ~7
-    /// µs per state). NFourBar measures 1.1 µs per state (177 µs, 162 states), which would
-    /// be 10; it keeps 5, with which its tests and reference runs were made. (A generated
-    /// module gone stale runs the interpreted path with 1: the regeneration test catches
-    /// that.)
-    const EVALUATION_WEIGHT: u64 = if D::CONSTRAINTS > 0 && D::CLOSED_GENERATED_FROM.is_none() {
-        5
-    } else {
-        1
-    };
     const DEFAULT_METHOD: crate::integrators::Method = D::DEFAULT_METHOD;
 
     /// A floating base's quaternion: 7 coordinates, 6 velocities.
