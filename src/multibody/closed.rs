@@ -289,9 +289,9 @@ fn tree_solve<S: Scalar>(m: &[S], parent: &[Option<usize>], x: &mut [S]) {
     }
 }
 
-/// [`tree_solve`] for a `b` that is 0 but on the ancestors of `support` (ascending, closed
-/// under ancestors and descendants: a [`Structure::support`]), where `x` is then nonzero:
-/// the same operations on those coordinates only.
+/// [`tree_solve`] for a `b` that is 0 outside `support` (ascending, closed under ancestors
+/// and descendants: a [`Structure::support`]), outside which `x` then stays 0: the same
+/// operations on those coordinates only.
 fn tree_solve_on<S: Scalar>(m: &[S], parent: &[Option<usize>], support: &[usize], x: &mut [S]) {
     let n = parent.len();
     for &k in support.iter().rev() {
@@ -337,10 +337,12 @@ impl<S: Scalar> Envelope<S> {
     /// Factors S given by its envelope (`s` packed as `start`), where that proves S of
     /// full rank by a margin, as [`certain_inverse`] does for the generated terms:
     /// `λ_min(S) ≥ 1/‖S⁻¹‖∞ > 2 ×` [`RANK_TOLERANCE`] `× max diag S`, with ‖S⁻¹‖∞ bounded by
-    /// `‖L⁻ᵀ‖∞ ‖D⁻¹‖∞ ‖L⁻¹‖∞` and each ‖L⁻¹‖ by its comparison matrix's (`|L⁻¹| ≤ ⟨L⟩⁻¹`,
-    /// whose norms are one substitution each). Then the pivoted factorisation keeps every
-    /// row too (see [`certain_inverse`]) and the solution is the same to rounding. `None`
-    /// where it cannot tell (a pivot not positive, a NaN, or the bound too large).
+    /// `‖L⁻ᵀ‖∞ ‖D⁻¹‖∞ ‖L⁻¹‖∞`, the norms of L⁻¹ itself (its comparison matrix ⟨L⟩⁻¹, one
+    /// substitution, bounds them too, but grows like 1.5⁸⁰ along the N four-bar's 40
+    /// windows: it certified almost nothing). Then the pivoted factorisation keeps every row
+    /// too (see [`certain_inverse`]; the factor 2 covers rounding) and the solution is the
+    /// same to rounding. `None` where it cannot tell (a pivot not positive, a NaN, or the
+    /// bound too large).
     fn certified(first: &[usize], start: Vec<usize>, mut ld: Vec<S>) -> Option<Self> {
         let k = first.len();
         let at = |i: usize, j: usize| start[i] + j - first[i];
