@@ -135,8 +135,11 @@ fn dense(call: &mut Call, (t, x): (&mut f64, &mut [f64])) -> Result<(), Failure>
             Ok(())
         }
         Err(e) => {
+            // The last good point, unless it lies past `t_out` (a step that covered `t_out`
+            // was accepted, then f failed at its projected end): the doStep's own end bounds
+            // what it may report (fmi2LastSuccessfulTime ≤ t + h), so it stays at its start.
             let (_, t_ahead, x_ahead) = ahead.span();
-            if t_ahead > *t {
+            if t_ahead > *t && t_ahead <= call.t_out {
                 *t = t_ahead;
                 x.copy_from_slice(x_ahead);
             }

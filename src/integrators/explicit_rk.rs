@@ -799,6 +799,43 @@ mod tests {
         }
     }
 
+    /// A step that covers the requested time is accepted, then f fails at its projected end
+    /// (NaN past t = 0.25, the time asked for): the failure reports a last good point no
+    /// later than that time, not the step's end past it (fmi2LastSuccessfulTime ≤ t + h;
+    /// a random call sequence of Bricard found it reported past).
+    #[test]
+    fn a_failure_past_the_requested_time_reports_no_point_past_it() {
+        for method in [
+            crate::integrators::Method::Dopri5,
+            crate::integrators::Method::Dop853,
+        ] {
+            let mut rhs = |_: f64, y: &[f64], d: &mut [f64]| d[0] = -y[0];
+            let mut problem = crate::integrators::problem::Problem::new(&mut rhs);
+            let mut project = |t: f64, x: &mut [f64]| {
+                if t > 0.25 {
+                    x[0] = f64::NAN;
+                }
+            };
+            let settings = crate::integrators::test_support::adaptive(method, 1e-8, 1, 10.0);
+            let mut memory = Memory::default();
+            let (mut t, mut x) = (0.0, [1.0]);
+            let r = crate::integrators::advance_dense(
+                &mut problem,
+                &mut project,
+                (&mut t, &mut x),
+                (0.25, 10.0),
+                &settings,
+                &mut memory,
+                &mut crate::integrators::Workspace::default(),
+            );
+            assert!(
+                matches!(r, Err(Failure::NonFinite { t }) if t > 0.25),
+                "{r:?}"
+            );
+            assert!(x[0].is_finite() && t <= 0.25, "{t} {x:?}");
+        }
+    }
+
     /// Measured on the manifold with nothing to project, each pair's error is the one it
     /// measures raw (the estimates and their norm are the same sums written twice: this
     /// keeps them one); it is large enough here that a lost term would show.
