@@ -766,6 +766,36 @@ mod tests {
         (raw, through)
     }
 
+    /// `advance_dense` of ẏ = −y from y(0) = 1 to `ends` by `method`, with a projection
+    /// that gives NaN past `breaks`: its result and the point it leaves.
+    fn dense_with_projection_breaking_after(
+        method: crate::integrators::Method,
+        breaks: f64,
+        error_on_manifold: bool,
+        ends: (f64, f64),
+    ) -> (Result<(), Failure>, f64, [f64; 1]) {
+        let mut rhs = |_: f64, y: &[f64], d: &mut [f64]| d[0] = -y[0];
+        let mut problem = crate::integrators::problem::Problem::new(&mut rhs);
+        problem.error_on_manifold = error_on_manifold;
+        let mut project = |t: f64, x: &mut [f64]| {
+            if t > breaks {
+                x[0] = f64::NAN;
+            }
+        };
+        let settings = crate::integrators::test_support::adaptive(method, 1e-8, 1, 10.0);
+        let (mut t, mut x) = (0.0, [1.0]);
+        let r = crate::integrators::advance_dense(
+            &mut problem,
+            &mut project,
+            (&mut t, &mut x),
+            ends,
+            &settings,
+            &mut Memory::default(),
+            &mut crate::integrators::Workspace::default(),
+        );
+        (r, t, x)
+    }
+
     /// A projection that breaks down (NaN after t = 0.5) stops DOPRI5 and DOP853 as a NaN
     /// derivative does: NonFinite, the state left at the last step accepted, finite.
     #[test]
@@ -774,26 +804,7 @@ mod tests {
             crate::integrators::Method::Dopri5,
             crate::integrators::Method::Dop853,
         ] {
-            let mut rhs = |_: f64, y: &[f64], d: &mut [f64]| d[0] = -y[0];
-            let mut problem = crate::integrators::problem::Problem::new(&mut rhs);
-            problem.error_on_manifold = true;
-            let mut project = |t: f64, x: &mut [f64]| {
-                if t > 0.5 {
-                    x[0] = f64::NAN;
-                }
-            };
-            let settings = crate::integrators::test_support::adaptive(method, 1e-8, 1, 10.0);
-            let mut memory = Memory::default();
-            let (mut t, mut x) = (0.0, [1.0]);
-            let r = crate::integrators::advance_dense(
-                &mut problem,
-                &mut project,
-                (&mut t, &mut x),
-                (1.0, 1.0),
-                &settings,
-                &mut memory,
-                &mut crate::integrators::Workspace::default(),
-            );
+            let (r, t, x) = dense_with_projection_breaking_after(method, 0.5, true, (1.0, 1.0));
             assert!(matches!(r, Err(Failure::NonFinite { .. })), "{r:?}");
             assert!(x[0].is_finite() && t <= 0.5, "{t} {x:?}");
         }
@@ -809,25 +820,7 @@ mod tests {
             crate::integrators::Method::Dopri5,
             crate::integrators::Method::Dop853,
         ] {
-            let mut rhs = |_: f64, y: &[f64], d: &mut [f64]| d[0] = -y[0];
-            let mut problem = crate::integrators::problem::Problem::new(&mut rhs);
-            let mut project = |t: f64, x: &mut [f64]| {
-                if t > 0.25 {
-                    x[0] = f64::NAN;
-                }
-            };
-            let settings = crate::integrators::test_support::adaptive(method, 1e-8, 1, 10.0);
-            let mut memory = Memory::default();
-            let (mut t, mut x) = (0.0, [1.0]);
-            let r = crate::integrators::advance_dense(
-                &mut problem,
-                &mut project,
-                (&mut t, &mut x),
-                (0.25, 10.0),
-                &settings,
-                &mut memory,
-                &mut crate::integrators::Workspace::default(),
-            );
+            let (r, t, x) = dense_with_projection_breaking_after(method, 0.25, false, (0.25, 10.0));
             assert!(
                 matches!(r, Err(Failure::NonFinite { t }) if t > 0.25),
                 "{r:?}"
