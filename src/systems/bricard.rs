@@ -17,8 +17,9 @@
 //! five residuals have rank four at every configuration (one of them is redundant, and
 //! not always the same one), so initialisation solves them for four dependent joints
 //! (`J2` … `J5`) by least squares, exact since the fifth equation follows from the
-//! others, and the dynamics solve Gauss's principle with a pivoted factorisation of
-//! G M⁻¹ Gᵀ that drops the dependent row (`multibody::closed`). On the motion
+//! others, and the dynamics solve Gauss's principle with an LDLᵀ factorisation of
+//! G M⁻¹ Gᵀ in the residuals' order that drops the row dependent on those before it
+//! (`multibody::closed`). On the motion
 //! `J1 = J3 = J5` runs from 0 to π and back (the cube and its mirror image in x = 0, where
 //! the mechanism is at rest again), `J2 = J4` between 0 and −π/6; period 4.9917 s. The
 //! stable equilibrium is half way, J1 = J3 = J5 = π/2, J2 = J4 = −π/6 (the potential's
@@ -175,8 +176,8 @@ mod tests {
 
     /// The generated closed terms against the interpreted path
     /// ([`crate::systems::check_generated_closed`]) on the closures, at the start and at
-    /// the equilibrium, where the five residuals have rank 4 (the pivoted factorisation
-    /// decides, as on the interpreted path). Not off them: there the residuals have rank 5
+    /// the equilibrium, where the five residuals have rank 4 (the factorisation drops a
+    /// row, as on the interpreted path). Not off them: there the residuals have rank 5
     /// on five coordinates, no motion is left (q̇ is taken to 0, q̈ is 0 but for rounding
     /// amplified by S's conditioning), nothing to compare.
     #[test]

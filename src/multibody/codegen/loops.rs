@@ -9,7 +9,8 @@
 //! nonzeros, which the trace knows (Andrews: 22 of G's 42 entries, 13 of M⁻¹'s 49). All of
 //! it as the mechanism's [`closed::Code`](super::super::closed::Code); only the
 //! rank-revealing factorisation of S is left to run time
-//! ([`closed::Terms`](super::super::closed::Terms)): its pivots depend on the values.
+//! ([`closed::Terms`](super::super::closed::Terms)): which rows it drops depends on the
+//! values.
 //!
 //! Two functions, not one, because the velocity is taken onto `G q̇ = 0` between them
 //! (with G and S of the first); the second reads the first's `sin qᵢ`, `cos qᵢ` (`sc`)
