@@ -93,9 +93,6 @@ pub trait Lagrangian: 'static {
     /// ([`System::explicit_time`]).
     const TIME_IN_FORCES_OR_OUTPUTS: bool = true;
 
-    /// See [`System::EVALUATION_WEIGHT`].
-    const EVALUATION_WEIGHT: u64 = 1;
-
     /// See [`System::DEFAULT_METHOD`].
     const DEFAULT_METHOD: crate::integrators::Method = crate::integrators::Method::Dopri5;
 
@@ -908,7 +905,6 @@ impl<L: Lagrangian> System for L {
     const NAME: &'static str = <L as Lagrangian>::NAME;
     const DESCRIPTION: &'static str = <L as Lagrangian>::DESCRIPTION;
     const EQUATIONS: &'static [&'static str] = <L as Lagrangian>::EQUATIONS;
-    const EVALUATION_WEIGHT: u64 = L::EVALUATION_WEIGHT;
     const DEFAULT_METHOD: crate::integrators::Method = L::DEFAULT_METHOD;
 
     /// `(q, q̇)` halves unless there are surplus coordinates or integrals.

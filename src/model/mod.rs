@@ -301,13 +301,6 @@ pub trait System: 'static {
         false
     }
 
-    /// What one evaluation of f costs per state, relative to the systems doStep's work bound
-    /// was measured on (≤ 0.2 µs per state: `mbfmu speed`): the bound on one doStep's work
-    /// is divided by it. 1 (the default) for equations generated or written by hand; larger
-    /// for a model whose f is costlier per state (a closed-loop mechanism:
-    /// AndrewsSqueezer measured 0.51 µs per state).
-    const EVALUATION_WEIGHT: u64 = 1;
-
     /// The `solver` start value: DOPRI5 (the default) for smooth, non-stiff motion; a
     /// stiff system's own choice (RADAU5 for the flyball governor's stiff dampers), so
     /// that its default experiment runs as it should without a setting.

@@ -1813,26 +1813,6 @@ impl<D: Declared> Lagrangian for Robot<D> {
     const TIME_IN_FORCES_OR_OUTPUTS: bool = false;
     /// One per loop-closure axis.
     const CONSTRAINTS: usize = D::CONSTRAINTS;
-    /// What one f costs per state against NonlinearBicycle's 0.11 µs, the costliest per
-    /// state of the systems the doStep work bound was set on (docs/methods.md), rounded
-    /// up, by which path f runs: a tree, or closures on generated terms
-    /// ([`Declared::generated_closed`], `mbfmu speed`: AndrewsSqueezer 0.24 µs for 14
-    /// states, FourBar 0.10 µs for 6, Bricard 0.48 µs for 10: at most 0.05 µs per state),
-    /// 1; closures on the interpreted path ([`closed::Factored`]: NFourBar, a compiled
-    /// mechanism without generated terms; the run-time loader refuses closures), 5: an
-    /// interpreted AndrewsSqueezer measures 0.49 µs per state, HeldFourBar 0.22 (it was 50
-    /// while closures ran on automatic differentiation of T, ~7 µs per state). NFourBar
-    /// measures 0.19 µs per state where S's envelope factorisation is certified, but 0.86
-    /// within about 0.03 rad of a passage, where the dense pivoted LDLᵀ runs, and its dual
-    /// Jacobian there costs more still: with weight 1 a random call sequence's doStep of
-    /// NFourBar (tests/python/test_random_calls.py) ran past the 10 s hang limit. (A
-    /// generated module gone stale runs the interpreted path with 1: the regeneration test
-    /// catches that.)
-    const EVALUATION_WEIGHT: u64 = if D::CONSTRAINTS > 0 && D::CLOSED_GENERATED_FROM.is_none() {
-        5
-    } else {
-        1
-    };
     const DEFAULT_METHOD: crate::integrators::Method = D::DEFAULT_METHOD;
 
     /// A floating base's quaternion: 7 coordinates, 6 velocities.

@@ -60,11 +60,6 @@ impl From<integrators::ImplicitFailure> for Stop {
 /// with its Jacobian costs a hundred evaluations of f).
 pub const DOSTEP_WORK: u64 = 5_000_000;
 
-/// [`DOSTEP_WORK`] for `M`, divided by what its evaluations cost ([`System::EVALUATION_WEIGHT`]).
-fn work_bound<M: System>() -> u64 {
-    DOSTEP_WORK / M::EVALUATION_WEIGHT.max(1)
-}
-
 /// How a doStep ended when it did not fail on its arguments.
 #[derive(Debug, PartialEq)]
 pub enum StepOutcome {
@@ -173,7 +168,7 @@ impl<M: System> Instance<M> {
         let done = self.stats().work(self.data.x.len()) - before;
         self.logger.debug(&format!(
             "work {done} state-component evaluations (bound {})",
-            work_bound::<M>()
+            DOSTEP_WORK
         ));
     }
 
@@ -237,7 +232,7 @@ impl<M: System> Instance<M> {
         let d = &mut self.data;
         let work = self.work.get_mut();
         let stats = &mut d.memory.stats;
-        stats.work_limit = stats.work(d.x.len()).saturating_add(work_bound::<M>());
+        stats.work_limit = stats.work(d.x.len()).saturating_add(DOSTEP_WORK);
         let (u, p) = (&d.u, &d.params);
         let (mut t, x) = (current, copied(&mut work.x, &d.x));
         let result = if d.method == Method::Rk4 && M::event_indicator(t, x, u, p).is_none() {
@@ -703,13 +698,7 @@ fn settle_state<M: System>(
         d.time = t_end;
         return StepOutcome::Completed;
     }
-    failed_step(
-        d,
-        layout,
-        (t_end, work_bound::<M>()),
-        (t, x, result),
-        finite,
-    )
+    failed_step(d, layout, t_end, (t, x, result), finite)
 }
 
 /// [`settle_state`] when the integration failed or the outputs are not finite.
@@ -718,7 +707,7 @@ fn settle_state<M: System>(
 fn failed_step(
     d: &mut Snapshot,
     layout: &Layout,
-    (t_end, bound): (f64, u64),
+    t_end: f64,
     (t, x, result): (f64, &[f64], Result<(), Stop>),
     finite: bool,
 ) -> StepOutcome {
@@ -735,8 +724,7 @@ fn failed_step(
     if stop.work_limit {
         let n = d.x.len() as u64;
         why += &format!(
-            " (the bound on one doStep's work: {bound:e} state-component evaluations{}, where an evaluation of f counts n = {n} and a Jacobian {}; about half a second on the costliest systems here); shorten the communication step or choose a cheaper solver",
-            if bound == DOSTEP_WORK { String::new() } else { format!(" ({DOSTEP_WORK:e} divided by this model's cost of an evaluation, {})", DOSTEP_WORK / bound) },
+            " (the bound on one doStep's work: {DOSTEP_WORK:e} state-component evaluations, where an evaluation of f counts n = {n} and a Jacobian {}; about half a second on the costliest systems here); shorten the communication step or choose a cheaper solver",
             integrators::JACOBIAN_EVALS * n * n
         );
     }
