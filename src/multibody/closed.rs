@@ -622,6 +622,14 @@ impl<S: Scalar, const N: usize, const K: usize> Terms<S, N, K> {
         C::add_y_t_times(&self.y, &self.r, x);
     }
 
+    /// `x` of least kinetic metric with `G x = c` (`M x = Gᵀ μ`): a Newton step of
+    /// [`project`] for `c = −Φ`.
+    pub fn solve<C: Code<N, K>>(&mut self, c: &[S; K]) -> [S; N] {
+        let mut x = [S::zero(); N];
+        self.correct::<C>(Some(c), &mut x);
+        x
+    }
+
     /// [`Factored::tangent`]: `q̇` onto `G q̇ = 0`.
     pub fn tangent<C: Code<N, K>>(&mut self, qd: &mut [S; N]) {
         self.correct::<C>(None, qd);
