@@ -21,8 +21,9 @@
 //! search S's envelope keeps (no fill outside it), and a singular position or a
 //! redundant closure costs what a regular one does. (Diagonal pivoting, as LAPACK's
 //! pstrf, picks the best conditioned rows; it ran here until the N four-bar needed S's
-//! envelope, and measured the same on A02 and Bricard.) The decisions look at the
-//! values' real parts only, so dual numbers follow the f64 path.
+//! envelope all along. Bricard measured the same with both; A02's passages moved: see
+//! [`RANK_TOLERANCE`].) The decisions look at the values' real parts only, so dual
+//! numbers follow the f64 path.
 //!
 //! M is factored from the leaves up along the tree, G's rows are multiplied over their
 //! closures' paths only ([`Structure`]), and the velocity is taken onto `G q̇ = 0` before
@@ -137,10 +138,12 @@ pub fn kinematics<S: Scalar>(
 /// 4.2e-7 at 1e-10, 2.6e-8 at 1e-11, 1.6e-8 at 3e-12, and DOP853 at 1e-12 is unchanged
 /// (2.9e-8 m, energy 8.1e-11). What a passage leaves moves with rounding and with which
 /// rows are dropped: in S's own order (now), 4.3e-7 m at 1e-10, 4.1e-8 at 1e-11, DOP853 at
-/// 1e-12 6.3e-9 m and 9.4e-11 of E; DOP853 at 1e-10 loses 1.0e-5 of E (3.7e-9 and 2.2e-8
-/// with pivoting): a long step with a stage inside the dropped zone takes the extra
-/// freedoms' acceleration (the constraint force along the dropped direction, ~1e-4 of
-/// it, left out) into the step's whole length.
+/// 1e-12 6.3e-9 m and 9.4e-11 of E; DOP853 at 1e-10 shows 1.0e-5 of E (3.7e-9 and 2.2e-8
+/// with pivoting), but in single samples (the dense output of a step across a passage:
+/// 1.0e-5 at t = 17.0 s, 6.2e-8 at the next) over lasting kicks of 4e-9 to 6e-8 at some
+/// passages. Both come from stages off the closures beside a passage (moving each
+/// stage's q onto them first took DOP853 at 1e-10 to 8.0e-10, but at 3e-11 a sample
+/// still showed 2.8e-8: not kept).
 pub const RANK_TOLERANCE: f64 = 1e-8;
 
 /// What [`solve`] exploits, fixed per mechanism: each coordinate's parent in the tree
@@ -646,8 +649,9 @@ impl<S: Scalar, const N: usize, const K: usize> Terms<S, N, K> {
 }
 
 /// LDLᵀ of `s` in its own order: L below the diagonal of the result, D⁻¹ and the count of
-/// pivots kept (above `floor`, or NaN). With `drop`, a row whose pivot is not above `floor` is dropped
-/// (its D⁻¹ 0, its L column 0: [`Terms::factor`]); without, every pivot is inverted.
+/// pivots kept (above `floor`, or NaN). With `drop`, a row whose pivot is not above
+/// `floor` is dropped (its D⁻¹ 0, its L column 0: [`Terms::factor`]); without, every pivot
+/// is inverted.
 #[inline(always)]
 #[allow(clippy::needless_range_loop)] // triangular index arithmetic reads best as indices
 fn in_order_ldl<S: Scalar, const K: usize>(
