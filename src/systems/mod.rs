@@ -62,8 +62,8 @@ pub fn closed_generated() -> Vec<(&'static str, &'static crate::multibody::fmu::
 
 /// The check every mechanism with generated closed terms passes: they run (their
 /// fingerprint is the declaration's) and give the interpreted path's q̈ and λ, and its
-/// projection onto the closures, to 1e-12 of their scale, and through dual numbers the same directional derivatives (1e-10), at
-/// states near each of `points` (q, and how far to move each coordinate at random: 0 keeps
+/// projection onto the closures, to 1e-12 of their scale, and through dual numbers the
+/// same directional derivatives (1e-10), at states near each of `points` (q, and how far to move each coordinate at random: 0 keeps
 /// it on the closures, where a redundant mechanism's G loses rank and what is unique is
 /// compared), at random velocities within ±`speed` and inputs within ±`torque`; `floor`,
 /// the least scale of a compared vector (`f64::MIN_POSITIVE`: none; the mechanism's
