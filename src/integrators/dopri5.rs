@@ -9,7 +9,9 @@
 
 use super::blob::{put_f64s, Reader};
 use super::buffers::sized;
-use super::explicit_rk::{self, eval, hermite_blocks, step_past, Pair, PiGains, Point, Stages};
+use super::explicit_rk::{
+    self, eval, hermite_blocks, rms_norm, step_past, Pair, PiGains, Point, Stages,
+};
 use super::problem::DenseCall;
 use super::{Failure, Memory, Settings, Stats};
 
@@ -117,13 +119,7 @@ impl Pair for Dopri5 {
     }
 
     fn error_of(x: &[f64], y: &[f64], e: &[Vec<f64>], settings: &Settings) -> f64 {
-        let sum: f64 = (e[0].iter().enumerate())
-            .map(|(i, e)| {
-                let sk = settings.atol[i] + settings.rtol * x[i].abs().max(y[i].abs());
-                (e / sk).powi(2)
-            })
-            .sum();
-        (sum / x.len().max(1) as f64).sqrt()
+        rms_norm(x, y, &e[0], settings)
     }
 
     fn accepted(memory: &mut Memory, hs: f64, t_new: f64, w: &Stages) {

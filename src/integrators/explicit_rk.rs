@@ -275,6 +275,18 @@ pub(super) trait Pair {
     fn record(x: &[f64], w: &Stages, k1: &[f64], f_end: &[f64], hs: f64, record: &mut Vec<f64>);
 }
 
+/// Hairer's weighted root-mean-square norm of `e` (a difference of states) for the step
+/// `x → y`: each entry against `atol + rtol·max(|x|, |y|)`.
+pub(super) fn rms_norm(x: &[f64], y: &[f64], e: &[f64], settings: &Settings) -> f64 {
+    let sum: f64 = (e.iter().enumerate())
+        .map(|(i, e)| {
+            let sk = settings.atol[i] + settings.rtol * x[i].abs().max(y[i].abs());
+            (e / sk).powi(2)
+        })
+        .sum();
+    (sum / x.len().max(1) as f64).sqrt()
+}
+
 /// The most stages a [`Pair`] has (DOP853: 12).
 const MAX_STAGES: usize = 12;
 
@@ -298,16 +310,25 @@ struct OnManifold {
     embedded: Vec<f64>,
     /// `y − ŷ` per embedded solution, then `P(y) − P(ŷ)`.
     estimates: Vec<Vec<f64>>,
+    /// The defect of the step's start, whether it is known for the current start, and
+    /// whether the system measured one there.
+    start_defect: Vec<f64>,
+    start_known: bool,
+    start_measured: bool,
 }
 
 impl OnManifold {
     /// The error norm of the step `x → y` (stages `k`) between the projected solution and
-    /// each projected embedded one: the error the projection after the step leaves. P(y)
-    /// stays in `projected` for the step's end.
+    /// each projected embedded one: the error the projection after the step leaves; with
+    /// a `defect`, at least the norm of what the step added to it (how far the step
+    /// itself left the constraints). P(y) stays in `projected` for the step's end.
     #[allow(clippy::too_many_arguments)]
     fn error<P: Pair>(
         &mut self,
-        project: &mut dyn FnMut(f64, &mut [f64]),
+        (project, defect): (
+            &mut dyn FnMut(f64, &mut [f64]),
+            Option<&mut dyn FnMut(f64, &[f64], &mut [f64]) -> bool>,
+        ),
         t_new: f64,
         (x, y): (&[f64], &[f64]),
         k: &[&[f64]],
@@ -333,7 +354,23 @@ impl OnManifold {
                 .zip(self.projected.iter().zip(&*embedded))
                 .for_each(|(v, (a, b))| *v = a - b);
         }
-        P::error_of(x, y, &self.estimates, settings)
+        let err = P::error_of(x, y, &self.estimates, settings);
+        let Some(defect) = defect else {
+            return err;
+        };
+        // What the step added to the defect its start had (the projection leaves some at
+        // a singular position), the start's kept while the step is retried. (`embedded` is
+        // free again: the end's defect goes there.)
+        if !self.start_known {
+            let t0 = t_new - hs;
+            self.start_measured = defect(t0, x, sized(&mut self.start_defect, n));
+            self.start_known = true;
+        }
+        if !self.start_measured || !defect(t_new, y, embedded) {
+            return err;
+        }
+        (embedded.iter_mut().zip(&self.start_defect)).for_each(|(e, s)| *e -= s);
+        err.max(rms_norm(x, y, embedded, settings))
     }
 }
 
@@ -596,7 +633,9 @@ pub(super) fn step_past<P: Pair>(
         (err_prev > 0.0).then_some(err_prev),
     );
     let steps = (&mut work.stages, &mut work.record);
-    let project = Some((project, problem.error_on_manifold));
+    // (the cast shortens the trait object's lifetime to the borrow's)
+    let defect = (problem.defect.as_deref_mut()).map(|d| d as &mut dyn FnMut(_, &_, &mut _) -> _);
+    let project = Some((project, problem.error_on_manifold, defect));
     let rhs = &mut *problem.rhs;
     let result = run::<P>(rhs, (t, x), f, ends, project, settings, memory, steps);
     if result.is_err() {
@@ -605,9 +644,14 @@ pub(super) fn step_past<P: Pair>(
     result.map(Some)
 }
 
-/// The map onto the constraints applied after every accepted step, and whether the
-/// step's error is measured after it ([`Problem::error_on_manifold`]).
-type Projection<'p> = (&'p mut dyn FnMut(f64, &mut [f64]), bool);
+/// The map onto the constraints applied after every accepted step, whether the step's
+/// error is measured after it ([`Problem::error_on_manifold`]) and the defect the step's
+/// end is measured by besides ([`Problem::defect`]).
+type Projection<'p, 'd> = (
+    &'p mut dyn FnMut(f64, &mut [f64]),
+    bool,
+    Option<&'d mut dyn FnMut(f64, &[f64], &mut [f64]) -> bool>,
+);
 
 /// The stepping loop of both modes. `k1` holds f(t, x) on entry. Landing mode evaluates f
 /// at the start of a step when no stage gave it (so the last step of a call does not pay
@@ -636,6 +680,7 @@ fn run<P: Pair>(
     let stats = &mut memory.stats;
     w.size(P::STAGES.len(), n);
     let carried = memory.h > 0.0 && memory.h.is_finite();
+    w.manifold.start_known = false;
     let mut h = if carried {
         memory.h.min(h_max)
     } else {
@@ -663,10 +708,14 @@ fn run<P: Pair>(
         }
         w.take_stages::<P>(rhs, k1, (t0, t_new), x, hs, stats)?;
         let (err, on_manifold) = match project.as_mut() {
-            Some((project, true)) => {
+            Some((project, true, defect)) => {
                 let k = stages(k1, &w.k);
                 let (xy, k) = ((&x[..], &w.y[..]), &k[..=P::STAGES.len()]);
-                let err = w.manifold.error::<P>(*project, t_new, xy, k, hs, settings);
+                let defect = defect
+                    .as_mut()
+                    .map(|d| &mut **d as &mut dyn FnMut(_, &_, &mut _) -> _);
+                let maps = (&mut **project as &mut dyn FnMut(_, &mut _), defect);
+                let err = w.manifold.error::<P>(maps, t_new, xy, k, hs, settings);
                 if err.is_nan() {
                     // A projection that broke down: nothing to judge, nothing accepted.
                     return Err(Failure::NonFinite { t: t0 });
@@ -694,6 +743,7 @@ fn run<P: Pair>(
             P::record(x, w, k1, f_end, hs, record);
         }
         x.copy_from_slice(&w.y);
+        w.manifold.start_known = false;
         if fsal {
             std::mem::swap(k1, &mut w.k[last]);
         } else if dense {
@@ -702,7 +752,7 @@ fn run<P: Pair>(
             k1_fresh = false;
         }
         *t = t_new;
-        if let Some((project, _)) = project.as_mut() {
+        if let Some((project, _, _)) = project.as_mut() {
             if on_manifold {
                 x.copy_from_slice(&w.manifold.projected);
             } else {
@@ -756,7 +806,7 @@ mod tests {
         // Through the manifold path with a projection that moves nothing.
         let k = stages(&k1, &w.k);
         let through = w.manifold.error::<P>(
-            &mut |_, _| {},
+            (&mut |_, _| {}, None),
             hs,
             (&x, &w.y),
             &k[..=P::STAGES.len()],
@@ -826,6 +876,70 @@ mod tests {
                 "{r:?}"
             );
             assert!(x[0].is_finite() && t <= 0.25, "{t} {x:?}");
+        }
+    }
+
+    /// A step of `P` measured through a projection that sends every state to the origin
+    /// (so the projected solutions always agree), with the defect `z ↦ z` when
+    /// `with_defect`: the error it measures, and the norm of `y − x` (what the step added
+    /// to the defect).
+    fn error_collapsed<P: Pair>(with_defect: bool) -> (f64, f64) {
+        let mut rhs = |_: f64, x: &[f64], dx: &mut [f64]| {
+            dx[0] = x[1];
+            dx[1] = -9.81 * x[0].sin();
+        };
+        let settings = crate::integrators::test_support::adaptive(
+            crate::integrators::Method::Dop853,
+            1e-9,
+            2,
+            1.0,
+        );
+        let x = [1.1, -0.4];
+        let mut k1 = [0.0; 2];
+        rhs(0.0, &x, &mut k1);
+        let mut w = Stages::default();
+        w.size(P::STAGES.len(), 2);
+        let hs = 0.2;
+        let mut stats = Stats::default();
+        w.take_stages::<P>(&mut rhs, &k1, (0.0, hs), &x, hs, &mut stats)
+            .unwrap();
+        let k = stages(&k1, &w.k);
+        let mut defect = |_: f64, z: &[f64], d: &mut [f64]| {
+            d.copy_from_slice(z);
+            true
+        };
+        let defect = with_defect.then_some(&mut defect as &mut dyn FnMut(_, &_, &mut _) -> _);
+        w.manifold.start_known = false;
+        let err = w.manifold.error::<P>(
+            (&mut |_, z: &mut [f64]| z.fill(0.0), defect),
+            hs,
+            (&x, &w.y),
+            &k[..=P::STAGES.len()],
+            hs,
+            &settings,
+        );
+        let added = [w.y[0] - x[0], w.y[1] - x[1]];
+        (err, rms_norm(&x, &w.y, &added, &settings))
+    }
+
+    /// Projected solutions that agree do not pass a step that left the constraints: with
+    /// a defect, the error is at least what the step added to it (here all of it, as the
+    /// step moved the state by far more than the tolerance).
+    #[test]
+    fn a_step_off_the_constraints_is_not_passed_by_its_projections_agreeing() {
+        for (blind, (err, added)) in [
+            (
+                error_collapsed::<Dopri5>(false).0,
+                error_collapsed::<Dopri5>(true),
+            ),
+            (
+                error_collapsed::<Dop853>(false).0,
+                error_collapsed::<Dop853>(true),
+            ),
+        ] {
+            assert_eq!(blind, 0.0);
+            assert!(added > 1e6, "{added}");
+            assert_eq!(err, added);
         }
     }
 

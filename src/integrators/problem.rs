@@ -98,6 +98,13 @@ pub struct Problem<'a> {
     /// the projected embedded one (the error the projection leaves), not off the manifold
     /// where the projection removes it anyway.
     pub error_on_manifold: bool,
+    /// With `error_on_manifold`: how far a state is off the constraints, written as a
+    /// displacement of the state (zero on them) that does not invert the constraints'
+    /// Gram matrix, so it stays what the residuals are at a singular position where the
+    /// projection's own correction carries rounding amplified by 1/distance². A step
+    /// that adds more than the tolerance to it is rejected: its projected solutions can
+    /// agree while the step itself went astray (the N four-bar's passages).
+    pub defect: Option<&'a mut dyn FnMut(f64, &[f64], &mut [f64]) -> bool>,
 }
 
 impl<'a> Problem<'a> {
@@ -110,6 +117,7 @@ impl<'a> Problem<'a> {
             mechanics: None,
             inputs_move: false,
             error_on_manifold: false,
+            defect: None,
         }
     }
 

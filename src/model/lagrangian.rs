@@ -823,6 +823,44 @@ pub fn project_onto_constraints<L: Lagrangian>(t: f64, x: &mut [f64], p: &[f64])
     }
 }
 
+/// How far `x` is off the holonomic constraints, as a displacement of the state into
+/// `defect` (zero on them): `Σᵢ Φᵢ gᵢ / max‖gᵢ‖²` over the positions and `Σᵢ (gᵢ·q̇) gᵢ /
+/// max‖gᵢ‖²` over the velocities (gᵢ the rows of G). It reads the residuals without
+/// inverting the constraints' Gram matrix, so at a singular position it stays their size,
+/// where the projection's correction carries rounding amplified by 1/distance²
+/// ([`crate::integrators::Problem::defect`]). Each row is scaled by the largest row's
+/// norm, not its own: rows that vanish at a singular position (the N four-bar's vertical
+/// closure rows when its rods lie flat) would divide their residuals' rounding by their
+/// vanishing norm. `false` (nothing written) for what closed loops on a tree do not have:
+/// time in the constraints, velocity constraints, surplus coordinates.
+pub fn constraint_defect<L: Lagrangian>(t: f64, x: &[f64], p: &[f64], defect: &mut [f64]) -> bool {
+    if L::RHEONOMIC || L::VELOCITY_CONSTRAINTS > 0 || L::surplus_coordinates() > 0 {
+        return false;
+    }
+    let n = split::<L>(x.len());
+    let (q, qd) = (&x[..n], &x[n..2 * n]);
+    let m = L::CONSTRAINTS;
+    let (mut phi, mut g) = (vec![0.0; m], vec![0.0; m * n]);
+    if !L::constraint_rows_by_algorithm(q, p, &mut phi, &mut g) {
+        phi = constraint_values::<L, f64>(t, q, p);
+        for (i, row) in constraint_jacobian::<L, f64>(t, q, p).iter().enumerate() {
+            g[i * n..(i + 1) * n].copy_from_slice(row);
+        }
+    }
+    defect.fill(0.0);
+    let norm2 = (g.chunks(n)).fold(0.0f64, |m, row| m.max(row.iter().map(|v| v * v).sum()));
+    if norm2 > 0.0 {
+        for (row, &phi) in g.chunks(n).zip(&phi) {
+            let rate: f64 = row.iter().zip(qd).map(|(a, b)| a * b).sum();
+            for (j, &gj) in row.iter().enumerate() {
+                defect[j] += phi * gj / norm2;
+                defect[n + j] += rate * gj / norm2;
+            }
+        }
+    }
+    true
+}
+
 /// Mechanical energy `E = T + V` at time t.
 pub fn energy<L: Lagrangian, S: Scalar>(t: f64, q: &[S], qd: &[S], p: &[S]) -> S {
     L::kinetic(S::from(t), q, qd, p) + L::potential(S::from(t), q, p)
@@ -914,6 +952,10 @@ impl<L: Lagrangian> System for L {
 
     fn error_on_manifold() -> bool {
         <L as Lagrangian>::error_on_manifold()
+    }
+
+    fn constraint_defect(t: f64, p: &[f64], x: &[f64], defect: &mut [f64]) -> bool {
+        <L as Lagrangian>::error_on_manifold() && constraint_defect::<L>(t, x, p, defect)
     }
 
     fn name() -> &'static str {

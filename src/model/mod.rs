@@ -301,6 +301,14 @@ pub trait System: 'static {
         false
     }
 
+    /// With [`System::error_on_manifold`]: how far `x` is off the constraints, as a
+    /// displacement of the state written into `defect` (zero on them), which the adaptive
+    /// methods hold each step's end to ([`crate::integrators::Problem::defect`]). `false`
+    /// (the default): not measured.
+    fn constraint_defect(_t: f64, _p: &[f64], _x: &[f64], _defect: &mut [f64]) -> bool {
+        false
+    }
+
     /// The `solver` start value: DOPRI5 (the default) for smooth, non-stiff motion; a
     /// stiff system's own choice (RADAU5 for the flyball governor's stiff dampers), so
     /// that its default experiment runs as it should without a setting.

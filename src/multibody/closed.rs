@@ -138,12 +138,11 @@ pub fn kinematics<S: Scalar>(
 /// 4.2e-7 at 1e-10, 2.6e-8 at 1e-11, 1.6e-8 at 3e-12, and DOP853 at 1e-12 is unchanged
 /// (2.9e-8 m, energy 8.1e-11). What a passage leaves moves with rounding and with which
 /// rows are dropped: in S's own order (now), 4.3e-7 m at 1e-10, 4.1e-8 at 1e-11, DOP853 at
-/// 1e-12 6.3e-9 m and 9.4e-11 of E; DOP853 at 1e-10 shows 1.0e-5 of E (3.7e-9 and 2.2e-8
-/// with pivoting), but in single samples (the dense output of a step across a passage:
-/// 1.0e-5 at t = 17.0 s, 6.2e-8 at the next) over lasting kicks of 4e-9 to 6e-8 at some
-/// passages. Both come from stages off the closures beside a passage (moving each
-/// stage's q onto them first took DOP853 at 1e-10 to 8.0e-10, but at 3e-11 a sample
-/// still showed 2.8e-8: not kept).
+/// 1e-12 6.3e-9 m and 9.4e-11 of E; DOP853 at 1e-10 showed 1.0e-5 of E in single samples
+/// over lasting kicks of 4e-9 to 6e-8. Those came from steps that straddled a passage and
+/// ended up to 1e-4 m off the closures while their projected solutions agreed; held to
+/// the closures' defect as well (`integrators::Problem::defect`), DOP853 at 1e-10 keeps
+/// E to 9.4e-10, at 1e-12 to 1.3e-11 (B0 1.4e-9 m).
 pub const RANK_TOLERANCE: f64 = 1e-8;
 
 /// What [`solve`] exploits, fixed per mechanism: each coordinate's parent in the tree

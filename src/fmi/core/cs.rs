@@ -458,6 +458,7 @@ fn integrate_general<M: System>(
     } else {
         M::mechanics(u, p)
     };
+    let mut defect = |t: f64, x: &[f64], out: &mut [f64]| M::constraint_defect(t, p, x, out);
     let n = d.x.len();
     let mut problem = Problem {
         rhs: &mut rhs,
@@ -467,6 +468,7 @@ fn integrate_general<M: System>(
         mechanics: mechanics.as_deref_mut().map(|m| m as &mut dyn Mechanics),
         inputs_move: inputs.moving(),
         error_on_manifold: M::error_on_manifold(),
+        defect: M::error_on_manifold().then_some(&mut defect),
     };
     let memory = &mut d.memory;
     // Dense output runs past the communication point with this step's f: with moving
