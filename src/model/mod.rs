@@ -302,9 +302,9 @@ pub trait System: 'static {
     }
 
     /// With [`System::error_on_manifold`]: how far `x` is off the constraints, as a
-    /// displacement of the state written into `defect` (zero on them), which the adaptive
-    /// methods hold each step's end to ([`crate::integrators::Problem::defect`]). `false`
-    /// (the default): not measured.
+    /// displacement of the state written into `defect` (zero on them); the adaptive methods
+    /// hold what a step adds to it to the tolerance ([`crate::integrators::Problem::defect`]).
+    /// `false` (the default): not measured.
     fn constraint_defect(_t: f64, _p: &[f64], _x: &[f64], _defect: &mut [f64]) -> bool {
         false
     }
