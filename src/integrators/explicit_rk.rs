@@ -779,13 +779,31 @@ mod tests {
     use super::super::dopri5::Dopri5;
     use super::*;
 
-    /// One attempted step of `P` on a pendulum with a weak spring (no symmetry that zeroes
-    /// an error term) from a generic state.
-    fn error_both_ways<P: Pair>() -> (f64, f64) {
-        let mut rhs = |_: f64, x: &[f64], dx: &mut [f64]| {
+    /// The start `x`, `k1 = f(x)` and the stages of one step of `P` (size [`HS`]) on a
+    /// pendulum with a weak spring (no symmetry that zeroes an error term) from a generic
+    /// state.
+    fn one_step<P: Pair>() -> ([f64; 2], [f64; 2], Stages) {
+        let rhs = |_: f64, x: &[f64], dx: &mut [f64]| {
             dx[0] = x[1];
             dx[1] = -9.81 * x[0].sin() - 0.3 * x[0] + 0.05 * x[1] * x[1];
         };
+        let x = [1.1, -0.4];
+        let mut k1 = [0.0; 2];
+        rhs(0.0, &x, &mut k1);
+        let mut w = Stages::default();
+        w.size(P::STAGES.len(), 2);
+        let mut stats = Stats::default();
+        w.take_stages::<P>(&mut { rhs }, &k1, (0.0, HS), &x, HS, &mut stats)
+            .unwrap();
+        (x, k1, w)
+    }
+
+    /// The step size of [`one_step`].
+    const HS: f64 = 0.2;
+
+    /// One step of `P` ([`one_step`]): its error measured raw and through the manifold
+    /// path with a projection that moves nothing.
+    fn error_both_ways<P: Pair>() -> (f64, f64) {
         let settings = Settings {
             method: crate::integrators::Method::Dopri5,
             rtol: 1e-9,
@@ -793,17 +811,9 @@ mod tests {
             step: 0.0,
             max_steps: crate::integrators::MAX_STEPS,
         };
-        let x = [1.1, -0.4];
-        let mut k1 = [0.0; 2];
-        rhs(0.0, &x, &mut k1);
-        let mut w = Stages::default();
-        w.size(P::STAGES.len(), 2);
-        let hs = 0.2;
-        let mut stats = Stats::default();
-        let raw = w
-            .attempt::<P>(&mut rhs, &k1, (0.0, hs), &x, hs, &settings, &mut stats)
-            .unwrap();
-        // Through the manifold path with a projection that moves nothing.
+        let (x, k1, mut w) = one_step::<P>();
+        let hs = HS;
+        let raw = w.raw_error::<P>(&k1, &x, hs, &settings, 0.0).unwrap();
         let k = stages(&k1, &w.k);
         let through = w.manifold.error::<P>(
             (&mut |_, _| {}, None),
@@ -879,30 +889,19 @@ mod tests {
         }
     }
 
-    /// A step of `P` measured through a projection that sends every state to the origin
+    /// A step of `P` ([`one_step`]) measured through a projection that sends every state to the origin
     /// (so the projected solutions always agree), with the defect `z ↦ z` when
     /// `with_defect`: the error it measures, and the norm of `y − x` (what the step added
     /// to the defect).
     fn error_collapsed<P: Pair>(with_defect: bool) -> (f64, f64) {
-        let mut rhs = |_: f64, x: &[f64], dx: &mut [f64]| {
-            dx[0] = x[1];
-            dx[1] = -9.81 * x[0].sin();
-        };
         let settings = crate::integrators::test_support::adaptive(
             crate::integrators::Method::Dop853,
             1e-9,
             2,
             1.0,
         );
-        let x = [1.1, -0.4];
-        let mut k1 = [0.0; 2];
-        rhs(0.0, &x, &mut k1);
-        let mut w = Stages::default();
-        w.size(P::STAGES.len(), 2);
-        let hs = 0.2;
-        let mut stats = Stats::default();
-        w.take_stages::<P>(&mut rhs, &k1, (0.0, hs), &x, hs, &mut stats)
-            .unwrap();
+        let (x, k1, mut w) = one_step::<P>();
+        let hs = HS;
         let k = stages(&k1, &w.k);
         let mut defect = |_: f64, z: &[f64], d: &mut [f64]| {
             d.copy_from_slice(z);

@@ -641,17 +641,21 @@ impl<L: Lagrangian> Mechanics for LagrangianMechanics<'_, L> {
     }
 
     fn constraints(&mut self, q: &[f64], g: &mut [f64], jac: &mut [f64]) {
-        if L::constraint_rows_by_algorithm(q, self.p, g, jac) {
-            return;
-        }
-        let n = q.len();
-        g.copy_from_slice(&constraint_values::<L, f64>(0.0, q, self.p));
-        for (i, row) in constraint_jacobian::<L, f64>(0.0, q, self.p)
-            .iter()
-            .enumerate()
-        {
-            jac[i * n..(i + 1) * n].copy_from_slice(row);
-        }
+        constraint_rows::<L>(q, self.p, g, jac);
+    }
+}
+
+/// `g(q)` and `G = ∂g/∂q` (row-major, m × n) of time-independent constraints: by the
+/// system's own algorithm ([`Lagrangian::constraint_rows_by_algorithm`]) where it has one,
+/// else by automatic differentiation (at t = 0).
+fn constraint_rows<L: Lagrangian>(q: &[f64], p: &[f64], g: &mut [f64], jac: &mut [f64]) {
+    if L::constraint_rows_by_algorithm(q, p, g, jac) {
+        return;
+    }
+    let n = q.len();
+    g.copy_from_slice(&constraint_values::<L, f64>(0.0, q, p));
+    for (i, row) in constraint_jacobian::<L, f64>(0.0, q, p).iter().enumerate() {
+        jac[i * n..(i + 1) * n].copy_from_slice(row);
     }
 }
 
@@ -833,7 +837,7 @@ pub fn project_onto_constraints<L: Lagrangian>(t: f64, x: &mut [f64], p: &[f64])
 /// closure rows when its rods lie flat) would divide their residuals' rounding by their
 /// vanishing norm. `false` (nothing written) for what closed loops on a tree do not have:
 /// time in the constraints, velocity constraints, surplus coordinates.
-pub fn constraint_defect<L: Lagrangian>(t: f64, x: &[f64], p: &[f64], defect: &mut [f64]) -> bool {
+pub fn constraint_defect<L: Lagrangian>(x: &[f64], p: &[f64], defect: &mut [f64]) -> bool {
     if L::RHEONOMIC || L::VELOCITY_CONSTRAINTS > 0 || L::surplus_coordinates() > 0 {
         return false;
     }
@@ -841,12 +845,7 @@ pub fn constraint_defect<L: Lagrangian>(t: f64, x: &[f64], p: &[f64], defect: &m
     let (q, qd) = (&x[..n], &x[n..2 * n]);
     let m = L::CONSTRAINTS;
     let (mut phi, mut g) = (vec![0.0; m], vec![0.0; m * n]);
-    if !L::constraint_rows_by_algorithm(q, p, &mut phi, &mut g) {
-        phi = constraint_values::<L, f64>(t, q, p);
-        for (i, row) in constraint_jacobian::<L, f64>(t, q, p).iter().enumerate() {
-            g[i * n..(i + 1) * n].copy_from_slice(row);
-        }
-    }
+    constraint_rows::<L>(q, p, &mut phi, &mut g);
     defect.fill(0.0);
     let norm2 = (g.chunks(n)).fold(0.0f64, |m, row| m.max(row.iter().map(|v| v * v).sum()));
     if norm2 > 0.0 {
@@ -954,8 +953,8 @@ impl<L: Lagrangian> System for L {
         <L as Lagrangian>::error_on_manifold()
     }
 
-    fn constraint_defect(t: f64, p: &[f64], x: &[f64], defect: &mut [f64]) -> bool {
-        <L as Lagrangian>::error_on_manifold() && constraint_defect::<L>(t, x, p, defect)
+    fn constraint_defect(_t: f64, p: &[f64], x: &[f64], defect: &mut [f64]) -> bool {
+        <L as Lagrangian>::error_on_manifold() && constraint_defect::<L>(x, p, defect)
     }
 
     fn name() -> &'static str {
